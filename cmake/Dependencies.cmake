@@ -1,0 +1,55 @@
+# Every system dependency of the project, found once here. All are Debian packages; the list
+# that installs them is scripts/setup (keep the two in step).
+include_guard(GLOBAL)
+find_package(PkgConfig REQUIRED)
+
+# Messaging: Cyclone DDS C API and its IDL compiler (cyclonedds-dev, cyclonedds-tools).
+find_package(CycloneDDS REQUIRED CONFIG)
+find_program(AUTODRIVE_IDLC idlc REQUIRED)
+
+# Background traffic: SUMO's libsumo and libtraci C++ libraries (package sumo).
+find_path(SUMO_INCLUDE_DIR libsumo/Simulation.h PATHS /usr/include REQUIRED)
+find_library(SUMO_LIBSUMOCPP sumocpp REQUIRED)
+find_library(SUMO_LIBTRACICPP tracicpp REQUIRED)
+find_program(SUMO_NETCONVERT netconvert REQUIRED)
+add_library(sumo::libsumo SHARED IMPORTED GLOBAL)
+set_target_properties(sumo::libsumo PROPERTIES IMPORTED_LOCATION ${SUMO_LIBSUMOCPP}
+                      INTERFACE_SYSTEM_INCLUDE_DIRECTORIES ${SUMO_INCLUDE_DIR})
+add_library(sumo::libtraci SHARED IMPORTED GLOBAL)
+set_target_properties(sumo::libtraci PROPERTIES IMPORTED_LOCATION ${SUMO_LIBTRACICPP}
+                      INTERFACE_SYSTEM_INCLUDE_DIRECTORIES ${SUMO_INCLUDE_DIR})
+
+# Maths and geometry.
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(CGAL REQUIRED)
+
+# Vehicle dynamics: ODE (libode-dev), through pkg-config.
+pkg_check_modules(ODE REQUIRED IMPORTED_TARGET GLOBAL ode)
+
+# The Eye: OpenCV and AprilTag (libapriltag-dev ships apriltag and apriltag-utils).
+find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d)
+find_package(apriltag REQUIRED CONFIG)
+
+# Helper libraries: config, logging, CLI, persistence, HTTP, tests, benchmarks.
+find_package(yaml-cpp REQUIRED CONFIG)
+find_package(spdlog REQUIRED CONFIG)
+find_package(fmt REQUIRED CONFIG)
+find_package(CLI11 CONFIG QUIET)
+if(NOT CLI11_FOUND)
+  find_path(CLI11_INCLUDE_DIR CLI/CLI.hpp REQUIRED)
+  add_library(CLI11::CLI11 INTERFACE IMPORTED GLOBAL)
+  set_target_properties(CLI11::CLI11 PROPERTIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES ${CLI11_INCLUDE_DIR})
+endif()
+find_package(SQLite3 REQUIRED)
+find_path(HTTPLIB_INCLUDE_DIR httplib.h REQUIRED)
+find_package(Threads REQUIRED)
+if(AUTODRIVE_BUILD_TESTS)
+  find_package(GTest REQUIRED CONFIG)
+endif()
+if(AUTODRIVE_BUILD_BENCHMARKS)
+  find_package(benchmark REQUIRED CONFIG)
+endif()
+
+message(STATUS "AutoDRIVE dependencies: CycloneDDS ${CycloneDDS_VERSION}, idlc ${AUTODRIVE_IDLC}, "
+               "libsumocpp ${SUMO_LIBSUMOCPP}, Eigen ${Eigen3_VERSION}, CGAL ${CGAL_VERSION}, "
+               "ODE ${ODE_VERSION}, OpenCV ${OpenCV_VERSION}, apriltag ${apriltag_VERSION}")

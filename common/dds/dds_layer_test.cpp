@@ -1,0 +1,274 @@
+// The C++ DDS layer in one process: typed write/take of nested messages, borrowed and owned
+// memory, listener and waitset delivery, errors, conversions, the /clock subscriber.
+// Cross-process behaviour is tested in tests/dds_two_process_test.cpp.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <thread>
+
+#include "common/dds/clock_subscriber.h"
+#include "common/dds/conversions.h"
+#include "common/dds/reader.h"
+#include "common/dds/topics.h"
+#include "common/dds/writer.h"
+#include "common/error.h"
+
+namespace autodrive::dds {
+namespace {
+
+using namespace std::chrono_literals;
+
+// Each test gets its own partition, so concurrent test processes never see each other.
+ParticipantOptions Isolated() {
+  static std::atomic<int> counter{0};
+  ParticipantOptions o;
+  o.partition = "dds_layer_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++);
+  return o;
+}
+
+template <typename Pred>
+bool Eventually(Pred pred, std::chrono::milliseconds timeout = 5s) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(2ms);
+  }
+  return true;
+}
+
+TEST(DdsLayer, NestedMessageWithStringsAndSequencesRoundTrips) {
+  Participant p(Isolated());
+  Writer<msg::MapData> writer(p, topics::Map());
+  Reader<msg::MapData> reader(p, topics::Map());
+  ASSERT_TRUE(writer.WaitForReaders(1, 5s));
+
+  Message<msg::MapData> map;
+  SetString(map->city, "driving_school");
+  SetString(map->header.frame_id, "map");
+  map->revision = 7;
+  ResizeSequence(map->intersections, 2);
+  auto& x = Elements(map->intersections)[1];
+  x.intersection_id = 42;
+  SetString(x.name, "main_and_first");
+  ResizeSequence(x.lanes, 1);
+  auto& lane = Elements(x.lanes)[0];
+  SetString(lane.map_lane_id, "r3c4/in/0");
+  ResizeSequence(lane.centreline, 3);
+  Elements(lane.centreline)[2].y = 1.25;
+  ResizeSequence(lane.connections, 1);
+  Elements(lane.connections)[0].signal_group = 5;
+  writer.Write(map);
+
+  ASSERT_TRUE(reader.WaitForData(5s));
+  auto got = reader.TakeOne();
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ(View((*got)->city), "driving_school");
+  EXPECT_EQ((*got)->revision, 7u);
+  ASSERT_EQ((*got)->intersections._length, 2u);
+  const auto& gx = Elements((*got)->intersections)[1];
+  EXPECT_EQ(gx.intersection_id, 42u);
+  EXPECT_EQ(View(gx.name), "main_and_first");
+  EXPECT_EQ(View(Elements(gx.lanes)[0].map_lane_id), "r3c4/in/0");
+  EXPECT_DOUBLE_EQ(Elements(Elements(gx.lanes)[0].centreline)[2].y, 1.25);
+  EXPECT_EQ(Elements(Elements(gx.lanes)[0].connections)[0].signal_group, 5u);
+  EXPECT_EQ(View(Elements((*got)->intersections)[0].name), "");  // null string reads as ""
+  EXPECT_FALSE(reader.TakeOne().has_value());
+}
+
+TEST(DdsLayer, BorrowedMemoryIsWrittenAndReusedMessagesReadEachSample) {
+  Participant p(Isolated());
+  const auto spec = topics::Lidar(VehicleId(1));
+  Writer<msg::LaserScan> writer(p, spec);
+  Reader<msg::LaserScan> reader(p, spec.name, Qos::Command());  // keep several
+  ASSERT_TRUE(writer.WaitForReaders(1, 5s));
+
+  std::vector<float> ranges(360);
+  for (std::size_t i = 0; i < ranges.size(); ++i) ranges[i] = 0.15f + 0.01f * static_cast<float>(i);
+  msg::LaserScan scan{};
+  BorrowString(scan.header.frame_id, "lidar");
+  BorrowSequence(scan.ranges, std::span<const float>(ranges));
+  for (int k = 0; k < 3; ++k) {
+    scan.range_max = static_cast<float>(10 + k);
+    writer.Write(scan);
+  }
+  Message<msg::LaserScan> received;  // reused for every take
+  std::vector<float> maxima;
+  ASSERT_TRUE(Eventually([&] {
+    while (reader.TakeOne(received)) maxima.push_back(received->range_max);
+    return maxima.size() == 3;
+  }));
+  EXPECT_EQ(maxima, (std::vector<float>{10, 11, 12}));
+  ASSERT_EQ(received->ranges._length, 360u);
+  EXPECT_FLOAT_EQ(Elements(received->ranges)[359], ranges[359]);
+  EXPECT_EQ(View(received->header.frame_id), "lidar");
+}
+
+TEST(DdsLayer, ListenerDeliversEverySampleAndCountsExceptionsWithoutDying) {
+  Participant p(Isolated());
+  Writer<msg::Int32> writer(p, "rt/test/listener", Qos::Command());
+  Reader<msg::Int32> reader(p, "rt/test/listener", Qos::Command());
+  std::atomic<int> sum{0};
+  reader.OnDataAvailable([&](Reader<msg::Int32>& r) {
+    Message<msg::Int32> m;
+    while (r.TakeOne(m)) {
+      sum += m->data;
+      if (m->data == 100) throw InputError("bad sample");
+    }
+  });
+  ASSERT_TRUE(writer.WaitForReaders(1, 5s));
+  for (int i = 1; i <= 5; ++i) writer.Write(msg::Int32{i});
+  EXPECT_TRUE(Eventually([&] { return sum.load() == 15; })) << sum.load();
+  writer.Write(msg::Int32{100});
+  EXPECT_TRUE(Eventually([&] { return reader.callback_errors() == 1; }));
+  writer.Write(msg::Int32{1});
+  EXPECT_TRUE(Eventually([&] { return sum.load() == 116; })) << "listener stopped after a throw";
+}
+
+TEST(DdsLayer, ListenerSetAfterDataArrivedStillDeliversIt) {
+  Participant p(Isolated());
+  Writer<msg::Int32> writer(p, "rt/test/late_listener", Qos::Command());
+  Reader<msg::Int32> reader(p, "rt/test/late_listener", Qos::Command());
+  ASSERT_TRUE(writer.WaitForReaders(1, 5s));
+  writer.Write(msg::Int32{9});
+  ASSERT_TRUE(reader.WaitForData(5s));
+  std::atomic<int> got{0};
+  reader.OnDataAvailable([&](Reader<msg::Int32>& r) {
+    if (auto m = r.TakeOne()) got = (*m)->data;
+  });
+  EXPECT_TRUE(Eventually([&] { return got.load() == 9; }));
+}
+
+TEST(DdsLayer, WaitSetReturnsTheReaderWithDataAndWakesOnRequest) {
+  Participant p(Isolated());
+  Writer<msg::Float32> writer(p, "rt/test/ws_a", Qos::Stream());
+  Reader<msg::Float32> a(p, "rt/test/ws_a", Qos::Stream());
+  Reader<msg::Float32> b(p, "rt/test/ws_b", Qos::Stream());
+  WaitSet ws(p);
+  ws.Attach(a);
+  ws.Attach(b);
+  EXPECT_TRUE(ws.Wait(20ms).empty());
+  ASSERT_TRUE(writer.WaitForReaders(1, 5s));
+  writer.Write(msg::Float32{0.5f});
+  const auto ready = ws.Wait(5s);
+  ASSERT_EQ(ready.size(), 1u);
+  EXPECT_EQ(ready[0], a.handle());
+  ASSERT_TRUE(a.TakeOne().has_value());
+
+  std::thread waker([&] {
+    std::this_thread::sleep_for(20ms);
+    ws.Wake();
+  });
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_TRUE(ws.Wait(30s).empty());
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 10s);
+  waker.join();
+  EXPECT_TRUE(ws.Wait(10ms).empty()) << "the wake-up must be consumed";
+}
+
+TEST(DdsLayer, TransientLocalLateJoinerGetsTheLatchedSample) {
+  Participant p(Isolated());
+  Writer<msg::Int32> writer(p, topics::SignalCommand(SignalHeadId(4)));
+  writer.Write(msg::Int32{2});
+  writer.Write(msg::Int32{3});
+  Reader<msg::Int32> late(p, topics::SignalCommand(SignalHeadId(4)));
+  ASSERT_TRUE(late.WaitForData(5s));
+  const auto all = late.TakeAll();
+  ASSERT_EQ(all.size(), 1u) << "keep last 1: only the newest command is latched";
+  EXPECT_EQ(all[0]->data, 3);
+}
+
+TEST(DdsLayer, ATopicNameUsedWithTwoTypesIsAnErrorNamingTopicAndTypes) {
+  Participant p(Isolated());
+  Writer<msg::Float32> writer(p, "rt/test/clash", Qos::Stream());
+  try {
+    Reader<msg::Int32> reader(p, "rt/test/clash", Qos::Stream());
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "topic 'rt/test/clash' already carries std_msgs::msg::dds_::Float32_ in this "
+                 "participant; it cannot also carry std_msgs::msg::dds_::Int32_");
+  }
+  // The same type again is fine, with another profile too.
+  EXPECT_NO_THROW(Reader<msg::Float32>(p, "rt/test/clash", Qos::Command()));
+}
+
+TEST(DdsLayer, CycloneErrorsBecomeDdsErrorsWithCallAndCode) {
+  try {
+    internal::ThrowIfError(DDS_RETCODE_BAD_PARAMETER, "dds_something(x)");
+    FAIL();
+  } catch (const DdsError& e) {
+    EXPECT_STREQ(e.what(), "dds_something(x) failed: Bad Parameter (-3)");
+    EXPECT_EQ(e.code(), DDS_RETCODE_BAD_PARAMETER);
+  }
+  EXPECT_EQ(internal::ThrowIfError(5, "ok"), 5);
+}
+
+TEST(DdsLayer, BadRosDomainIdIsRejectedWithTheValueSeen) {
+  const char* old = std::getenv("ROS_DOMAIN_ID");
+  const std::string saved = old ? old : "";
+  ::setenv("ROS_DOMAIN_ID", "lab7", 1);
+  try {
+    Participant p;
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "ROS_DOMAIN_ID must be an integer in [0, 232], got 'lab7'");
+  }
+  if (old)
+    ::setenv("ROS_DOMAIN_ID", saved.c_str(), 1);
+  else
+    ::unsetenv("ROS_DOMAIN_ID");
+}
+
+TEST(DdsLayer, TimeConversionsMatchRos2Semantics) {
+  const Time t(Duration(1'700'000'000'123'456'789));
+  const msg::Time m = ToMsg(t);
+  EXPECT_EQ(m.sec, 1'700'000'000);
+  EXPECT_EQ(m.nanosec, 123'456'789u);
+  EXPECT_EQ(FromMsg(m), t);
+  // Before the epoch the seconds floor and nanoseconds stay positive, as in rclcpp.
+  const msg::Time neg = ToMsg(Time(Duration(-1'500'000'000)));
+  EXPECT_EQ(neg.sec, -2);
+  EXPECT_EQ(neg.nanosec, 500'000'000u);
+  EXPECT_EQ(FromMsg(neg), Time(Duration(-1'500'000'000)));
+  EXPECT_EQ(FromMsg(ToMsg(Duration(2'500'000'000))), Duration(2'500'000'000));
+  try {
+    (void)FromMsg(msg::Time{1, 1'000'000'000u});
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "builtin_interfaces/Time has nanosec 1000000000, which must be below 1000000000");
+  }
+  EXPECT_THROW((void)ToMsg(Time(std::chrono::hours(24 * 365 * 100))), InputError);
+}
+
+TEST(DdsLayer, PoseConversionsRoundTripAndRejectAZeroQuaternion) {
+  const RigidTransform3 X_WV({1.0, -2.0, 0.5}, RollPitchYaw{0.1, -0.2, 2.5});
+  const msg::Pose pose = ToMsg(X_WV);
+  EXPECT_DOUBLE_EQ(pose.position.y, -2.0);
+  EXPECT_TRUE(FromMsg(pose).IsNearlyEqualTo(X_WV, 1e-12));
+  // ROS's identity quaternion has w = 1 in the last field.
+  const msg::Pose identity{{0, 0, 0}, {0, 0, 0, 1}};
+  EXPECT_TRUE(FromMsg(identity).IsNearlyEqualTo(RigidTransform3::Identity(), 0));
+  EXPECT_THROW((void)FromMsg(msg::Pose{}), InputError);  // all-zero quaternion
+}
+
+TEST(DdsLayer, SimClockFollowsClockMessagesAndIgnoresBackwardOnes) {
+  Participant p(Isolated());
+  SimClock clock;
+  SimClockSubscriber subscriber(p, clock);
+  Writer<msg::Clock> writer(p, topics::Clock());
+  ASSERT_TRUE(writer.WaitForReaders(1, 5s));
+  writer.Write(msg::Clock{ToMsg(TimeFromSeconds(12.5))});
+  ASSERT_TRUE(Eventually([&] { return clock.Now() == TimeFromSeconds(12.5); }));
+  writer.Write(msg::Clock{ToMsg(TimeFromSeconds(3))});
+  ASSERT_TRUE(Eventually([&] { return subscriber.rejected() == 1; }));
+  EXPECT_EQ(clock.Now(), TimeFromSeconds(12.5));
+  writer.Write(msg::Clock{msg::Time{20, 2'000'000'000u}});  // malformed
+  ASSERT_TRUE(Eventually([&] { return subscriber.rejected() == 2; }));
+  EXPECT_EQ(subscriber.received(), 3u);
+}
+
+}  // namespace
+}  // namespace autodrive::dds

@@ -1,0 +1,152 @@
+#pragma once
+/// @file
+/// Typed DDS reader with waitset and listener delivery.
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/dds/entity.h"
+#include "common/dds/message.h"
+#include "common/dds/participant.h"
+#include "common/dds/qos.h"
+#include "common/dds/writer.h"
+
+namespace autodrive::dds {
+
+/// What DDS says about a received sample.
+struct SampleInfo {
+  /// When the writer wrote it, by the writer's wall clock (DDS source timestamp), ns since
+  /// the Unix epoch. Diagnostic only: message timestamps in the system clock are in the data.
+  std::int64_t source_timestamp_ns = 0;
+  /// Identifies the writer (unique in this process).
+  dds_instance_handle_t publication_handle = 0;
+};
+
+namespace internal {
+/// Shared, type-erased part of Reader: waiting, listener plumbing.
+class ReaderBase {
+ public:
+  ReaderBase(const Participant& participant, const dds_topic_descriptor_t* descriptor,
+             const std::string& topic_name, const Qos& qos);
+  ReaderBase(const ReaderBase&) = delete;
+  ReaderBase& operator=(const ReaderBase&) = delete;
+  ~ReaderBase();
+
+  /// Blocks until data is available or `timeout` passes (steady clock). True when data is.
+  bool WaitForData(std::chrono::steady_clock::duration timeout);
+  /// Calls `callback` from a Cyclone thread whenever data arrives. Exceptions it throws are
+  /// logged and counted, never propagated into Cyclone. Replaces any earlier callback; an
+  /// empty function removes it.
+  void SetOnDataAvailable(std::function<void()> callback);
+  /// Exceptions thrown by the listener callback so far.
+  [[nodiscard]] std::uint64_t callback_errors() const { return callback_errors_.load(); }
+  /// Writers currently matched.
+  [[nodiscard]] std::uint32_t matched_writers() const;
+  [[nodiscard]] dds_entity_t handle() const { return reader_.handle(); }
+  [[nodiscard]] const std::string& topic_name() const { return topic_name_; }
+  /// Takes at most one valid sample into `sample`; skips invalid (lifecycle-only) samples.
+  bool TakeInto(void* sample, SampleInfo* info);
+
+ private:
+  static void OnDataAvailable(dds_entity_t reader, void* arg);
+  std::string topic_name_;
+  Entity topic_;
+  Entity reader_;
+  Entity waitset_;
+  Entity read_condition_;
+  std::mutex callback_mutex_;
+  std::unique_ptr<std::function<void()>> callback_;
+  std::atomic<std::uint64_t> callback_errors_{0};
+};
+}  // namespace internal
+
+/// Reads samples of `T` from one topic. Not movable (a listener may refer to it); hold it in
+/// a `std::unique_ptr` to move it around. Deleting it waits for a running listener callback.
+template <MessageType T>
+class Reader {
+ public:
+  /// Creates the topic (if needed) and the reader; see `Writer` for the arguments.
+  Reader(const Participant& participant, const std::string& topic_name, const Qos& qos)
+      : base_(participant, MessageTraits<T>::descriptor(), topic_name, qos) {}
+  /// A reader for a topic of the catalogue (common/dds/topics.h).
+  Reader(const Participant& participant, const TopicSpec<T>& spec)
+      : Reader(participant, spec.name, spec.qos) {}
+
+  /// Takes the next valid sample into `message` (reusing its memory). False when none is
+  /// waiting. Never blocks.
+  bool TakeOne(Message<T>& message, SampleInfo* info = nullptr) {
+    return base_.TakeInto(&message.get(), info);
+  }
+  /// Takes the next valid sample, if any.
+  std::optional<Message<T>> TakeOne() {
+    Message<T> m;
+    if (!TakeOne(m)) {
+      return std::nullopt;
+    }
+    return m;
+  }
+  /// Takes every waiting valid sample, at most `max`.
+  std::vector<Message<T>> TakeAll(std::size_t max = 1024) {
+    std::vector<Message<T>> out;
+    Message<T> m;
+    while (out.size() < max && TakeOne(m)) {
+      out.push_back(std::move(m));
+    }
+    return out;
+  }
+  /// Blocks until data is available or `timeout` passes. True when data is.
+  bool WaitForData(std::chrono::steady_clock::duration timeout) {
+    return base_.WaitForData(timeout);
+  }
+  /// Listener delivery: `callback(*this)` runs on a Cyclone thread when data arrives; it
+  /// should take the samples. Exceptions are logged and counted (`callback_errors`).
+  void OnDataAvailable(std::function<void(Reader&)> callback) {
+    if (!callback) {
+      base_.SetOnDataAvailable({});
+      return;
+    }
+    base_.SetOnDataAvailable([this, cb = std::move(callback)] { cb(*this); });
+  }
+  [[nodiscard]] std::uint64_t callback_errors() const { return base_.callback_errors(); }
+  [[nodiscard]] std::uint32_t matched_writers() const { return base_.matched_writers(); }
+  [[nodiscard]] const std::string& topic_name() const { return base_.topic_name(); }
+  [[nodiscard]] dds_entity_t handle() const { return base_.handle(); }
+
+ private:
+  internal::ReaderBase base_;
+};
+
+/// Waits on several readers at once and on a wake-up call: the loop of a daemon that serves
+/// many topics from one thread. Not movable.
+class WaitSet {
+ public:
+  explicit WaitSet(const Participant& participant);
+  WaitSet(const WaitSet&) = delete;
+  WaitSet& operator=(const WaitSet&) = delete;
+
+  /// Adds a reader; `Wait` returns it when it has data. The reader must outlive the waitset
+  /// or be detached first.
+  template <MessageType T>
+  void Attach(const Reader<T>& reader) {
+    AttachEntity(reader.handle());
+  }
+  /// Blocks until a reader has data, `Wake()` is called, or `timeout` passes (steady clock).
+  /// Returns the handles of the readers with data (empty on timeout or wake).
+  std::vector<dds_entity_t> Wait(std::chrono::steady_clock::duration timeout);
+  /// Makes a concurrent or the next `Wait` return at once (thread-safe).
+  void Wake();
+
+ private:
+  void AttachEntity(dds_entity_t reader);
+  Entity waitset_;
+  Entity guard_;
+  std::vector<Entity> conditions_;
+};
+
+}  // namespace autodrive::dds

@@ -1,0 +1,181 @@
+#include "common/dds/topics.h"
+
+#include "common/error.h"
+
+namespace autodrive::dds::topics {
+namespace {
+
+constexpr std::size_t kMaxRosNameLength = 247;
+constexpr std::string_view kDdsPrefix = "rt";
+
+bool IsNameChar(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+template <MessageType T>
+TopicSpec<T> Spec(std::string_view ros_name, Qos qos) {
+  return TopicSpec<T>{ToDds(ros_name), qos};
+}
+
+std::string Vehicle(VehicleId v, VehicleTopic t) { return VehicleTopicName(v, t); }
+
+std::string SignalTopicName(SignalHeadId s, std::string_view leaf) {
+  return ToDds("/autodrive/" + SignalHeadName(s) + "/" + std::string(leaf));
+}
+
+}  // namespace
+
+void ValidateRosName(std::string_view name) {
+  const auto fail = [&](std::string_view why) {
+    throw InputError("invalid ROS topic name '" + std::string(name) + "': " + std::string(why));
+  };
+  if (name.empty() || name.front() != '/') fail("must start with '/'");
+  if (name.size() == 1) fail("must have at least one token after '/'");
+  if (name.size() > kMaxRosNameLength) fail("longer than 247 characters");
+  if (name.back() == '/') fail("must not end with '/'");
+  bool token_start = true;
+  for (std::size_t i = 1; i < name.size(); ++i) {
+    const char c = name[i];
+    if (c == '/') {
+      if (token_start) fail("must not contain '//'");
+      token_start = true;
+      continue;
+    }
+    if (!IsNameChar(c)) {
+      fail(std::string("character '") + c + "' is not allowed (only A-Z a-z 0-9 _ /)");
+    }
+    if (token_start && c >= '0' && c <= '9') fail("a token must not start with a digit");
+    token_start = false;
+  }
+}
+
+std::string ToDds(std::string_view ros_name) {
+  ValidateRosName(ros_name);
+  return std::string(kDdsPrefix) + std::string(ros_name);
+}
+
+std::string ToRos(std::string_view dds_name) {
+  AUTODRIVE_THROW_UNLESS(dds_name.starts_with("rt/"),
+                         "DDS topic '" << dds_name << "' is not a ROS topic (no 'rt/' prefix)");
+  std::string ros(dds_name.substr(kDdsPrefix.size()));
+  ValidateRosName(ros);
+  return ros;
+}
+
+std::string_view LeafName(VehicleTopic topic) {
+  switch (topic) {
+    case VehicleTopic::kThrottle:
+      return "throttle";
+    case VehicleTopic::kSteering:
+      return "steering";
+    case VehicleTopic::kLeftEncoder:
+      return "left_encoder";
+    case VehicleTopic::kRightEncoder:
+      return "right_encoder";
+    case VehicleTopic::kIps:
+      return "ips";
+    case VehicleTopic::kImu:
+      return "imu";
+    case VehicleTopic::kLidar:
+      return "lidar";
+    case VehicleTopic::kFrontCamera:
+      return "front_camera";
+    case VehicleTopic::kRearCamera:
+      return "rear_camera";
+    case VehicleTopic::kThrottleCommand:
+      return "throttle_command";
+    case VehicleTopic::kSteeringCommand:
+      return "steering_command";
+    case VehicleTopic::kHeadlightsCommand:
+      return "headlights_command";
+    case VehicleTopic::kIndicatorsCommand:
+      return "indicators_command";
+  }
+  AUTODRIVE_CHECK(false, "unknown VehicleTopic " << static_cast<int>(topic));
+}
+
+std::string VehicleTopicName(VehicleId vehicle, VehicleTopic topic) {
+  return ToDds("/autodrive/" + VehicleName(vehicle) + "/" + std::string(LeafName(topic)));
+}
+
+TopicSpec<msg::Float32> Throttle(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kThrottle), Qos::Stream()};
+}
+TopicSpec<msg::Float32> Steering(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kSteering), Qos::Stream()};
+}
+TopicSpec<msg::JointState> LeftEncoder(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kLeftEncoder), Qos::Stream()};
+}
+TopicSpec<msg::JointState> RightEncoder(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kRightEncoder), Qos::Stream()};
+}
+TopicSpec<msg::Point> Ips(VehicleId v) { return {Vehicle(v, VehicleTopic::kIps), Qos::Stream()}; }
+TopicSpec<msg::Imu> Imu(VehicleId v) { return {Vehicle(v, VehicleTopic::kImu), Qos::Stream()}; }
+TopicSpec<msg::LaserScan> Lidar(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kLidar), Qos::Stream()};
+}
+TopicSpec<msg::Image> FrontCamera(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kFrontCamera), Qos::Stream()};
+}
+TopicSpec<msg::Image> RearCamera(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kRearCamera), Qos::Stream()};
+}
+TopicSpec<msg::Float32> ThrottleCommand(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kThrottleCommand), Qos::Stream()};
+}
+TopicSpec<msg::Float32> SteeringCommand(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kSteeringCommand), Qos::Stream()};
+}
+TopicSpec<msg::Int32> HeadlightsCommand(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kHeadlightsCommand), Qos::Stream()};
+}
+TopicSpec<msg::Int32> IndicatorsCommand(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kIndicatorsCommand), Qos::Stream()};
+}
+
+TopicSpec<msg::Int32> SignalCommand(SignalHeadId s) {
+  return {SignalTopicName(s, "command"), Qos::LatchedState()};
+}
+TopicSpec<msg::Int32> SignalState(SignalHeadId s) {
+  return {SignalTopicName(s, "state"), Qos::LatchedState()};
+}
+
+TopicSpec<msg::Spat> Spat() { return Spec<msg::Spat>("/autodrive/scm/spat", Qos::Stream()); }
+TopicSpec<msg::MapData> Map() {
+  return Spec<msg::MapData>("/autodrive/scm/map", Qos::LatchedState());
+}
+TopicSpec<msg::SignRegistry> Signs() {
+  return Spec<msg::SignRegistry>("/autodrive/scm/signs", Qos::LatchedState());
+}
+TopicSpec<msg::FleetState> Fleet() {
+  return Spec<msg::FleetState>("/autodrive/scm/fleet", Qos::Stream());
+}
+TopicSpec<msg::TrafficObjects> Traffic() {
+  return Spec<msg::TrafficObjects>("/autodrive/scm/traffic", Qos::Stream());
+}
+TopicSpec<msg::Event> Events() {
+  return Spec<msg::Event>("/autodrive/scm/events", Qos::LatchedState(100));
+}
+TopicSpec<msg::DeviceStatus> Devices() {
+  return Spec<msg::DeviceStatus>("/autodrive/scm/devices", Qos::LatchedState());
+}
+TopicSpec<msg::Heartbeat> Heartbeat() {
+  return Spec<msg::Heartbeat>("/autodrive/scm/heartbeat", Qos::Stream());
+}
+TopicSpec<msg::SignalRequest> SignalRequests() {
+  return Spec<msg::SignalRequest>("/autodrive/scm/signal_request", Qos::Command());
+}
+TopicSpec<msg::SignalRequestStatus> SignalRequestStatus() {
+  return Spec<msg::SignalRequestStatus>("/autodrive/scm/signal_request_status", Qos::Command());
+}
+TopicSpec<msg::OperatorRequest> OperatorRequests() {
+  return Spec<msg::OperatorRequest>("/autodrive/scm/operator/request", Qos::Command());
+}
+TopicSpec<msg::OperatorReply> OperatorReplies() {
+  return Spec<msg::OperatorReply>("/autodrive/scm/operator/reply", Qos::Command());
+}
+
+TopicSpec<msg::Clock> Clock() { return Spec<msg::Clock>("/clock", Qos::BestEffortStream(1)); }
+
+}  // namespace autodrive::dds::topics

@@ -1,0 +1,95 @@
+#pragma once
+/// @file
+/// Topic names and the catalogue of the system's topics: each topic's name, type and QoS are
+/// decided here and nowhere else (see docs/messaging.md).
+///
+/// DDS topic names are ROS 2 names with the `rt` prefix, as rmw_cyclonedds maps them: the ROS
+/// topic `/autodrive/nigel_1/lidar` is the DDS topic `rt/autodrive/nigel_1/lidar`.
+
+#include <string>
+#include <string_view>
+
+#include "common/dds/messages.h"
+#include "common/dds/qos.h"
+#include "common/dds/topic_spec.h"
+#include "common/ids.h"
+
+namespace autodrive::dds {
+
+namespace topics {
+
+/// Throws `InputError` naming the rule broken unless `ros_name` is a valid fully-qualified
+/// ROS 2 topic name: starts with '/', tokens of [A-Za-z0-9_] separated by single '/', no
+/// token starting with a digit, no trailing '/', at most 247 characters (rmw's limit).
+void ValidateRosName(std::string_view ros_name);
+/// "/a/b" -> "rt/a/b", after `ValidateRosName`.
+[[nodiscard]] std::string ToDds(std::string_view ros_name);
+/// "rt/a/b" -> "/a/b". Throws `InputError` when `dds_name` has no `rt/` prefix or the rest is
+/// not a valid ROS name.
+[[nodiscard]] std::string ToRos(std::string_view dds_name);
+
+/// The devkit topics of one vehicle, `/autodrive/nigel_<n>/<leaf>`.
+enum class VehicleTopic {
+  kThrottle,           ///< std_msgs/Float32, published: throttle feedback in [-1, 1]
+  kSteering,           ///< std_msgs/Float32, published: steering feedback (rad)
+  kLeftEncoder,        ///< sensor_msgs/JointState, published
+  kRightEncoder,       ///< sensor_msgs/JointState, published
+  kIps,                ///< geometry_msgs/Point, published
+  kImu,                ///< sensor_msgs/Imu, published
+  kLidar,              ///< sensor_msgs/LaserScan, published
+  kFrontCamera,        ///< sensor_msgs/Image (rgb8), published
+  kRearCamera,         ///< sensor_msgs/Image (rgb8), published
+  kThrottleCommand,    ///< std_msgs/Float32, subscribed, normalised [-1, 1]
+  kSteeringCommand,    ///< std_msgs/Float32, subscribed, normalised [-1, 1], + = left
+  kHeadlightsCommand,  ///< std_msgs/Int32, subscribed: 0 off, 1 low, 2 high
+  kIndicatorsCommand,  ///< std_msgs/Int32, subscribed: 0 off, 1 left, 2 right, 3 hazard
+};
+/// The devkit leaf name, e.g. "throttle_command".
+[[nodiscard]] std::string_view LeafName(VehicleTopic topic);
+/// "rt/autodrive/nigel_<n>/<leaf>".
+[[nodiscard]] std::string VehicleTopicName(VehicleId vehicle, VehicleTopic topic);
+
+// --- Vehicles (AutoDRIVE devkit) ---------------------------------------------------------
+TopicSpec<msg::Float32> Throttle(VehicleId v);
+TopicSpec<msg::Float32> Steering(VehicleId v);
+TopicSpec<msg::JointState> LeftEncoder(VehicleId v);
+TopicSpec<msg::JointState> RightEncoder(VehicleId v);
+TopicSpec<msg::Point> Ips(VehicleId v);
+TopicSpec<msg::Imu> Imu(VehicleId v);
+TopicSpec<msg::LaserScan> Lidar(VehicleId v);
+TopicSpec<msg::Image> FrontCamera(VehicleId v);
+TopicSpec<msg::Image> RearCamera(VehicleId v);
+/// Actuator commands: only the newest matters (stream, keep last 1).
+TopicSpec<msg::Float32> ThrottleCommand(VehicleId v);
+TopicSpec<msg::Float32> SteeringCommand(VehicleId v);
+TopicSpec<msg::Int32> HeadlightsCommand(VehicleId v);
+TopicSpec<msg::Int32> IndicatorsCommand(VehicleId v);
+
+// --- Traffic lights (AutoDRIVE devkit), /autodrive/signal_<i>/... --------------------------
+/// What the light must show (0 off, 1 red, 2 yellow, 3 green). Latched, so that a light that
+/// restarts gets the current command at once.
+TopicSpec<msg::Int32> SignalCommand(SignalHeadId s);
+/// What the light shows now. Latched.
+TopicSpec<msg::Int32> SignalState(SignalHeadId s);
+
+// --- Smart City Manager, /autodrive/scm/... -------------------------------------------------
+TopicSpec<msg::Spat> Spat();                                ///< 10 Hz stream
+TopicSpec<msg::MapData> Map();                              ///< latched
+TopicSpec<msg::SignRegistry> Signs();                       ///< latched
+TopicSpec<msg::FleetState> Fleet();                         ///< stream
+TopicSpec<msg::TrafficObjects> Traffic();                   ///< stream (SUMO background traffic)
+TopicSpec<msg::Event> Events();                             ///< latched, last 100 per writer
+TopicSpec<msg::DeviceStatus> Devices();                     ///< latched, last one per writer
+TopicSpec<msg::Heartbeat> Heartbeat();                      ///< stream, the SCM's heartbeat
+TopicSpec<msg::SignalRequest> SignalRequests();             ///< command (V2I, from vehicles)
+TopicSpec<msg::SignalRequestStatus> SignalRequestStatus();  ///< command (V2I, to vehicles)
+TopicSpec<msg::OperatorRequest> OperatorRequests();         ///< command
+TopicSpec<msg::OperatorReply> OperatorReplies();            ///< command
+
+// --- Simulation -------------------------------------------------------------------------------
+/// `/clock` (rosgraph_msgs/Clock), best effort keep last 1 exactly like ROS 2's ClockQoS, so
+/// that our readers also match ROS simulators' /clock.
+TopicSpec<msg::Clock> Clock();
+
+}  // namespace topics
+}  // namespace autodrive::dds

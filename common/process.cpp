@@ -1,0 +1,170 @@
+#include "common/process.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <thread>
+#include <utility>
+
+#include "common/error.h"
+
+extern char** environ;
+
+namespace autodrive {
+namespace {
+
+int DecodeStatus(int status) {
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return -1;
+}
+
+}  // namespace
+
+ChildProcess::ChildProcess(const std::vector<std::string>& argv,
+                           const std::vector<std::string>& extra_env) {
+  AUTODRIVE_THROW_UNLESS(!argv.empty(), "ChildProcess needs a program to run");
+  int in_pipe[2];
+  int out_pipe[2];
+  AUTODRIVE_CHECK(::pipe2(in_pipe, O_CLOEXEC) == 0, std::strerror(errno));
+  AUTODRIVE_CHECK(::pipe2(out_pipe, O_CLOEXEC) == 0, std::strerror(errno));
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, in_pipe[0], STDIN_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
+
+  std::vector<std::string> env_strings;
+  for (char** e = environ; *e != nullptr; ++e) env_strings.emplace_back(*e);
+  for (const auto& e : extra_env) env_strings.push_back(e);
+  std::vector<char*> envp;
+  for (auto& e : env_strings) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  std::vector<std::string> args = argv;
+  std::vector<char*> argp;
+  for (auto& a : args) argp.push_back(a.data());
+  argp.push_back(nullptr);
+
+  const int rc = ::posix_spawnp(&pid_, argp[0], &actions, nullptr, argp.data(), envp.data());
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(in_pipe[0]);
+  ::close(out_pipe[1]);
+  if (rc != 0) {
+    ::close(in_pipe[1]);
+    ::close(out_pipe[0]);
+    pid_ = -1;
+    throw InputError("cannot start '" + argv[0] + "': " + std::strerror(rc));
+  }
+  stdin_fd_ = in_pipe[1];
+  stdout_fd_ = out_pipe[0];
+}
+
+ChildProcess::ChildProcess(ChildProcess&& other) noexcept { *this = std::move(other); }
+
+ChildProcess& ChildProcess::operator=(ChildProcess&& other) noexcept {
+  if (this != &other) {
+    if (running()) Stop();
+    CloseAll();
+    pid_ = std::exchange(other.pid_, -1);
+    stdin_fd_ = std::exchange(other.stdin_fd_, -1);
+    stdout_fd_ = std::exchange(other.stdout_fd_, -1);
+    buffer_ = std::move(other.buffer_);
+    exit_code_ = other.exit_code_;
+  }
+  return *this;
+}
+
+ChildProcess::~ChildProcess() {
+  if (running()) Stop();
+  CloseAll();
+}
+
+void ChildProcess::CloseAll() {
+  if (stdin_fd_ >= 0) ::close(stdin_fd_);
+  if (stdout_fd_ >= 0) ::close(stdout_fd_);
+  stdin_fd_ = stdout_fd_ = -1;
+}
+
+std::optional<std::string> ChildProcess::ReadLine(std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    if (const auto nl = buffer_.find('\n'); nl != std::string::npos) {
+      std::string line = buffer_.substr(0, nl);
+      buffer_.erase(0, nl + 1);
+      return line;
+    }
+    if (stdout_fd_ < 0) return std::nullopt;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return std::nullopt;
+    pollfd pfd{stdout_fd_, POLLIN, 0};
+    const int n = ::poll(&pfd, 1, static_cast<int>(left.count()));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return std::nullopt;
+    char chunk[4096];
+    const ssize_t got = ::read(stdout_fd_, chunk, sizeof chunk);
+    if (got <= 0) {
+      ::close(stdout_fd_);
+      stdout_fd_ = -1;
+      if (!buffer_.empty()) return std::exchange(buffer_, {});
+      return std::nullopt;
+    }
+    buffer_.append(chunk, static_cast<std::size_t>(got));
+  }
+}
+
+void ChildProcess::Write(const std::string& text) {
+  AUTODRIVE_THROW_UNLESS(stdin_fd_ >= 0, "the child's stdin is closed");
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(stdin_fd_, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    AUTODRIVE_THROW_UNLESS(n > 0, "writing to the child failed: " << std::strerror(errno));
+    done += static_cast<std::size_t>(n);
+  }
+}
+
+void ChildProcess::CloseStdin() {
+  if (stdin_fd_ >= 0) ::close(stdin_fd_);
+  stdin_fd_ = -1;
+}
+
+std::optional<int> ChildProcess::Wait(std::chrono::milliseconds timeout) {
+  if (!running()) return exit_code_;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    int status = 0;
+    const pid_t r = ::waitpid(pid_, &status, WNOHANG);
+    if (r == pid_) {
+      pid_ = -1;
+      exit_code_ = DecodeStatus(status);
+      return exit_code_;
+    }
+    AUTODRIVE_CHECK(r == 0 || errno == EINTR, "waitpid: " << std::strerror(errno));
+    if (std::chrono::steady_clock::now() >= deadline) return std::nullopt;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+}
+
+int ChildProcess::Stop(std::chrono::milliseconds grace) {
+  if (!running()) return exit_code_;
+  ::kill(pid_, SIGTERM);
+  if (const auto code = Wait(grace)) return *code;
+  ::kill(pid_, SIGKILL);
+  const auto code = Wait(std::chrono::milliseconds(10000));
+  AUTODRIVE_CHECK(code.has_value(), "child " << pid_ << " survived SIGKILL");
+  return *code;
+}
+
+std::string ExecutableDir() {
+  return std::filesystem::read_symlink("/proc/self/exe").parent_path().string();
+}
+
+}  // namespace autodrive

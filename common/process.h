@@ -1,0 +1,59 @@
+#pragma once
+/// @file
+/// Child processes: start a program with pipes to its stdin and stdout, read its output line by
+/// line with a timeout, wait for or stop it. Used by the launcher, tests and benchmarks.
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace autodrive {
+
+/// One running child process. Move-only. The destructor stops a child that is still running
+/// (SIGTERM, then SIGKILL after a grace period) and reaps it, so no process is left behind.
+class ChildProcess {
+ public:
+  /// Starts `argv[0]` (a path, or a name looked up in PATH) with arguments `argv[1..]`.
+  /// `extra_env` entries ("NAME=value") are added to this process's environment. The child's
+  /// stdin and stdout are pipes to us; its stderr is ours. Throws `InputError` when the
+  /// program cannot be started (with the path and the reason).
+  explicit ChildProcess(const std::vector<std::string>& argv,
+                        const std::vector<std::string>& extra_env = {});
+  ChildProcess(ChildProcess&& other) noexcept;
+  ChildProcess& operator=(ChildProcess&& other) noexcept;
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  ~ChildProcess();
+
+  /// The next line the child wrote to stdout, without the newline; nullopt on timeout or when
+  /// the child closed stdout.
+  std::optional<std::string> ReadLine(std::chrono::milliseconds timeout);
+  /// Writes `text` to the child's stdin.
+  void Write(const std::string& text);
+  /// Closes the child's stdin (it sees end of file).
+  void CloseStdin();
+  /// Waits for the child to exit. Returns its exit code (128 + signal when killed by a signal),
+  /// or nullopt on timeout (the child keeps running).
+  std::optional<int> Wait(std::chrono::milliseconds timeout);
+  /// Sends SIGTERM, waits up to `grace`, then SIGKILL. Returns the exit code.
+  int Stop(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
+  /// True while the child has not been reaped.
+  [[nodiscard]] bool running() const { return pid_ > 0; }
+  [[nodiscard]] pid_t pid() const { return pid_; }
+
+ private:
+  void CloseAll();
+  pid_t pid_ = -1;
+  int stdin_fd_ = -1;
+  int stdout_fd_ = -1;
+  std::string buffer_;
+  int exit_code_ = -1;
+};
+
+/// The directory of the running executable (from /proc/self/exe), to find sibling programs.
+[[nodiscard]] std::string ExecutableDir();
+
+}  // namespace autodrive
