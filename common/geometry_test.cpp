@@ -3,18 +3,16 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <charconv>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
 #include <limits>
 #include <random>
 #include <sstream>
 #include <string>
-#include <system_error>
 #include <vector>
 
 #include "common/error.h"
+#include "common/test_support.h"
 
 namespace autodrive {
 namespace {
@@ -29,34 +27,9 @@ constexpr double kRandomTolerance = 1e-10;
 // Randomised cross-checks run kBaseCases cases, times AUTODRIVE_SOAK_FACTOR when it is set.
 constexpr int kBaseCases = 1000;
 
-int SoakFactor() {
-  const char* text = std::getenv("AUTODRIVE_SOAK_FACTOR");
-  if (text == nullptr || *text == '\0') {
-    return 1;
-  }
-  int factor = 0;
-  const char* end = text + std::strlen(text);
-  const auto [ptr, ec] = std::from_chars(text, end, factor);
-  if (ec != std::errc() || ptr != end || factor < 1) {
-    ADD_FAILURE() << "AUTODRIVE_SOAK_FACTOR must be a positive integer, got \"" << text << "\"";
-    return 1;
-  }
-  return factor;
-}
+int NumCases() { return kBaseCases * test::SoakFactor(); }
 
-int NumCases() { return kBaseCases * SoakFactor(); }
-
-// Runs `f`, expects InputError, and returns its message ("" and a failure if none).
-template <typename F>
-std::string InputErrorMessage(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return "";
-}
+std::string InputErrorMessage(auto&& f) { return test::ErrorMessage(f); }
 
 // --- Plain-matrix references, written out independently of the code under test. ---
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "common/error.h"
+#include "common/test_support.h"
 
 namespace autodrive {
 namespace {
@@ -61,17 +62,7 @@ static_assert(IntersectionId(3).value() == 3u);
 static_assert(IntersectionId(3) == IntersectionId(3));
 static_assert(IntersectionId(2) < IntersectionId(3));
 
-// Runs `f`, expects InputError, and returns its message ("" and a failure if none).
-template <typename F>
-std::string InputErrorMessage(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "expected an InputError";
-  return "";
-}
+std::string InputErrorMessage(auto&& f) { return test::ErrorMessage(f); }
 
 TEST(Id, HoldsItsValue) {
   EXPECT_EQ(LaneId(7).value(), 7u);

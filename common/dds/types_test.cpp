@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "common/dds/messages.h"
+#include "common/test_support.h"
 
 namespace autodrive::dds {
 namespace {
@@ -184,11 +185,7 @@ std::string RosLayout(const std::string& full_name) {
 
 // ---- Our IDL ----------------------------------------------------------------------------------
 
-fs::path IdlDir() {
-  const char* src = std::getenv("AUTODRIVE_SOURCE_DIR");
-  if (src == nullptr) throw std::runtime_error("AUTODRIVE_SOURCE_DIR is not set (run via ctest)");
-  return fs::path(src) / "common" / "msgs" / "idl";
-}
+fs::path IdlDir() { return test::SourceDir() / "common" / "msgs" / "idl"; }
 
 struct IdlStruct {
   std::string type_name;  // "pkg::msg::dds_::Name_"
