@@ -41,7 +41,9 @@
 ///   seconds (put the unit in the key: `yellow_s: 3.0`; rounded to the nearest nanosecond, half
 ///   away from zero), `std::optional<T>` (absent or `null` is `std::nullopt`),
 ///   `std::vector<T>`, `std::map<std::string, T>`, and structs with `Serialize`, nested to any
-///   depth. Numbers and booleans must be plain YAML scalars: `"3"` is a string, not a number.
+///   depth, and types with `FromConfigString`/`ToConfigString` written as one string (see
+///   `StringConvertible`). Numbers and booleans must be plain YAML scalars: `"3"` is a string, not
+///   a number.
 /// - Enums: declare, in the enum's namespace (found by argument-dependent lookup),
 ///   `constexpr auto ConfigEnumNames(MyEnum) { return std::array{std::pair{MyEnum::kA,
 ///   std::string_view{"a"}}, ...}; }`: any range of pairs (enumerator, name).
@@ -256,11 +258,19 @@ concept NamedEnum = std::is_enum_v<E> && requires(E e) {
   ConfigEnumNames(e);
 };
 
+/// Types written as one string in YAML: they provide `static T FromConfigString(std::string_view)`
+/// (throwing `InputError` on bad text) and `std::string ToConfigString() const`.
+template <typename T>
+concept StringConvertible = requires(const T& t, std::string_view s) {
+  { T::FromConfigString(s) } -> std::same_as<T>;
+  { t.ToConfigString() } -> std::convertible_to<std::string>;
+};
+
 /// Types written as one YAML scalar (or null), which vectors of them list in flow style.
 template <typename T>
-struct IsScalar
-    : std::bool_constant<std::is_arithmetic_v<T> || std::is_same_v<T, std::string> ||
-                         std::is_same_v<T, std::chrono::nanoseconds> || std::is_enum_v<T>> {};
+struct IsScalar : std::bool_constant<std::is_arithmetic_v<T> || std::is_same_v<T, std::string> ||
+                                     std::is_same_v<T, std::chrono::nanoseconds> ||
+                                     std::is_enum_v<T> || StringConvertible<T>> {};
 template <typename T>
 struct IsScalar<std::optional<T>> : IsScalar<T> {};
 
@@ -472,6 +482,13 @@ void ReadLeaf(const YAML::Node& node, const Loc& loc, T& value) {
       names.emplace_back(name);
     }
     value = enumerators[ParseName(node, loc, names)];
+  } else if constexpr (StringConvertible<T>) {
+    const std::string text = ParseString(node, loc);
+    try {
+      value = T::FromConfigString(text);
+    } catch (const InputError& e) {
+      Fail(loc, e.what());
+    }
   } else {
     static_assert(kAlwaysFalse<T>,
                   "autodrive::config cannot read this type: use bool, an integer, float, "
@@ -599,6 +616,8 @@ void WriteValue(YAML::Emitter& out, const std::string& path, const T& value) {
     }
     AUTODRIVE_CHECK(false, "enum value " << static_cast<long long>(value) << " at " << path
                                          << " is missing from its ConfigEnumNames table");
+  } else if constexpr (StringConvertible<T>) {
+    WriteString(out, path, value.ToConfigString());
   } else {
     static_assert(kAlwaysFalse<T>, "autodrive::config cannot write this type");
   }

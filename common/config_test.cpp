@@ -1058,3 +1058,47 @@ TEST(ConfigSave, RandomValuesOfEveryTypeRoundTripExactly) {
 
 }  // namespace
 }  // namespace autodrive
+
+// ---------------------------------------------------------------------------------------------
+// Types written as one string (FromConfigString / ToConfigString).
+
+namespace autodrive {
+namespace {
+
+struct Turn {
+  int degrees = 0;
+  static Turn FromConfigString(std::string_view text) {
+    if (text == "left") return Turn{90};
+    if (text == "right") return Turn{-90};
+    throw InputError("expected left or right, got \"" + std::string(text) + "\"");
+  }
+  std::string ToConfigString() const { return degrees > 0 ? "left" : "right"; }
+  bool operator==(const Turn&) const = default;
+};
+
+struct Route {
+  std::vector<Turn> turns;
+  std::optional<Turn> last;
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("turns", turns);
+    a.Optional("last", last);
+  }
+  bool operator==(const Route&) const = default;
+};
+
+TEST(ConfigStringTypes, LoadThroughFromConfigStringAndRoundTrip) {
+  const auto route = config::LoadString<Route>("turns: [left, right, left]\nlast: right\n");
+  EXPECT_EQ(route.turns, (std::vector<Turn>{{90}, {-90}, {90}}));
+  EXPECT_EQ(route.last, Turn{-90});
+  EXPECT_EQ(config::LoadString<Route>(config::SaveString(route)), route);
+}
+
+TEST(ConfigStringTypes, BadTextIsAConfigErrorWithTheElementsLocation) {
+  EXPECT_EQ(test::ErrorMessage<ConfigError>(
+                [] { (void)config::LoadString<Route>("turns:\n  - left\n  - up\n", "<test>"); }),
+            "<test>:3:5: turns[1]: expected left or right, got \"up\"");
+}
+
+}  // namespace
+}  // namespace autodrive
