@@ -1,0 +1,284 @@
+#include "maps/builder.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "common/error.h"
+#include "common/test_support.h"
+
+namespace autodrive::maps {
+namespace {
+
+Layout MakeLayout(std::vector<std::vector<std::string>> rows) {
+  Layout l;
+  l.name = "test";
+  for (const auto& row : rows) {
+    std::vector<Cell> cells;
+    for (const auto& text : row) cells.push_back(Cell::FromConfigString(text));
+    l.grid.push_back(cells);
+  }
+  return l;
+}
+
+// A 4-way intersection with one lane per direction, its arms leaving the map.
+Layout FourWay() {
+  return MakeLayout({{"empty", "straight@90", "empty"},
+                     {"straight", "x4", "straight"},
+                     {"empty", "straight@90", "empty"}});
+}
+
+// "S>N" from a movement name "r1c1:S>N:0>0".
+std::string Short(const Movement& m) { return m.name.substr(m.name.find(':') + 1, 3); }
+
+TEST(MapBuilder, FourWayConflictsMatchTheHandWrittenTable) {
+  const Map map = Build(FourWay());
+  ASSERT_EQ(map.intersections.size(), 1u);
+  const Intersection& x = map.intersections[0];
+  ASSERT_EQ(x.movements.size(), 12u);
+
+  // Right-hand traffic, tile 1.0 m, lanes 0.3 m, clearance 0.2 m. Derived by hand:
+  const std::set<std::set<std::string>> expected = {
+      // crossing throughs
+      {"S>N", "E>W"},
+      {"S>N", "W>E"},
+      {"N>S", "E>W"},
+      {"N>S", "W>E"},
+      // merges into one egress lane (right, left and through into E, N, W, S)
+      {"S>E", "N>E"},
+      {"S>E", "W>E"},
+      {"N>E", "W>E"},
+      {"E>N", "W>N"},
+      {"E>N", "S>N"},
+      {"W>N", "S>N"},
+      {"N>W", "S>W"},
+      {"N>W", "E>W"},
+      {"S>W", "E>W"},
+      {"W>S", "E>S"},
+      {"W>S", "N>S"},
+      {"E>S", "N>S"},
+      // a left turn crosses the opposing through ...
+      {"S>W", "N>S"},
+      {"N>E", "S>N"},
+      {"E>S", "W>E"},
+      {"W>N", "E>W"},
+      // ... and the through coming from its left
+      {"S>W", "W>E"},
+      {"N>E", "E>W"},
+      {"E>S", "S>N"},
+      {"W>N", "N>S"},
+      // lefts: adjacent ones cross; opposing ones pass 0.11 m apart, under the clearance
+      {"S>W", "E>S"},
+      {"E>S", "N>E"},
+      {"N>E", "W>N"},
+      {"W>N", "S>W"},
+      {"S>W", "N>E"},
+      {"E>S", "W>N"},
+  };
+  std::set<std::set<std::string>> actual;
+  for (const auto& [a, b] : x.conflicts) {
+    actual.insert({Short(map.movement(a)), Short(map.movement(b))});
+  }
+  EXPECT_EQ(actual, expected);
+  EXPECT_EQ(x.conflicts.size(), 30u);
+
+  // The acceptance's three statements, spelt out.
+  const auto id = [&](const std::string& s) {
+    for (MovementId m : x.movements) {
+      if (Short(map.movement(m)) == s) return m;
+    }
+    ADD_FAILURE() << "no movement " << s;
+    return x.movements.front();
+  };
+  EXPECT_TRUE(map.Conflict(id("S>N"), id("E>W")));   // crossing throughs
+  EXPECT_TRUE(map.Conflict(id("S>W"), id("N>S")));   // left vs opposing through
+  EXPECT_FALSE(map.Conflict(id("S>E"), id("N>W")));  // rights into different lanes
+  EXPECT_FALSE(map.Conflict(id("S>E"), id("S>N")));  // diverging from one lane: by rule
+  EXPECT_FALSE(map.Conflict(id("S>N"), id("N>S")));  // opposing throughs
+}
+
+TEST(MapBuilder, MovementPathsStartAtTheIngressEndAndEndAtTheEgressStart) {
+  const Map map = Build(FourWay());
+  for (const auto& m : map.movements) {
+    SCOPED_TRACE(m.name);
+    EXPECT_EQ(m.path.front(), map.lane(m.from).centreline.back());
+    EXPECT_EQ(m.path.back(), map.lane(m.to).centreline.front());
+    EXPECT_EQ(map.lane(m.from).ingress_of, m.intersection);
+    EXPECT_EQ(map.lane(m.to).egress_of, m.intersection);
+  }
+}
+
+// The radius of the circle through three points.
+double Circumradius(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+  const double ab = (b - a).norm(), bc = (c - b).norm(), ca = (a - c).norm();
+  const double cross = std::abs((b - a).x() * (c - a).y() - (b - a).y() * (c - a).x());
+  return cross < 1e-15 ? std::numeric_limits<double>::infinity() : ab * bc * ca / (2 * cross);
+}
+
+double MinRadius(const Polyline& p) {
+  double r = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 2; i < p.size(); ++i)
+    r = std::min(r, Circumradius(p[i - 2], p[i - 1], p[i]));
+  return r;
+}
+
+TEST(MapBuilder, EveryLaneAndPathCanBeDrivenByNigel) {
+  // Nigel's minimum turning radius: wheelbase / tan(30 deg) = 0.14154 / 0.57735 = 0.245 m.
+  const Map map = Build(MakeLayout({{"curve", "t", "end"},
+                                    {"straight@90", "straight@90", "empty"},
+                                    {"curve@90", "x4", "parking@270"},
+                                    {"empty", "end@270", "empty"}}));
+  EXPECT_EQ(map.intersections.size(), 2u);
+  EXPECT_EQ(map.parking_bays.size(), 3u);
+  for (const auto& lane : map.lanes) EXPECT_GE(MinRadius(lane.centreline), 0.245) << lane.name;
+  for (const auto& m : map.movements) EXPECT_GE(MinRadius(m.path), 0.245) << m.name;
+}
+
+TEST(MapBuilder, LanesChainAcrossTileEdgesAndAClosedLoopIsACycle) {
+  const Map map = Build(MakeLayout({{"curve", "curve@270"}, {"curve@90", "curve@180"}}));
+  ASSERT_EQ(map.lanes.size(), 8u);
+  for (const auto& lane : map.lanes) {
+    ASSERT_EQ(lane.successors.size(), 1u) << lane.name;
+    EXPECT_EQ(map.lane(lane.successors[0]).centreline.front(), lane.centreline.back());
+  }
+  // Following successors from any lane comes back to it after 4 lanes (one lap).
+  LaneId l = map.lanes[0].id;
+  for (int i = 0; i < 4; ++i) l = map.lane(l).successors[0];
+  EXPECT_EQ(l, map.lanes[0].id);
+}
+
+TEST(MapBuilder, SignalisedApproachesGetStopLinesAndOneHeadEach) {
+  const Map map = Build(FourWay());
+  EXPECT_EQ(map.signal_heads.size(), 4u);
+  for (const auto& a : map.intersections[0].approaches) {
+    for (LaneId in : a.ingress) {
+      const Lane& lane = map.lane(in);
+      ASSERT_TRUE(lane.stop_line.has_value()) << lane.name;
+      EXPECT_NEAR((lane.stop_line->left - lane.stop_line->right).norm(), 0.3, 1e-12);
+      EXPECT_NEAR(
+          ((lane.stop_line->left + lane.stop_line->right) / 2 - lane.centreline.back()).norm(), 0,
+          1e-12);
+    }
+  }
+  // Heads stand at the corners of the intersection tile (centre (1.5, 1.5)), outside the road.
+  for (const auto& h : map.signal_heads) {
+    const Eigen::Vector2d d = h.X_MH.translation() - Eigen::Vector2d(1.5, 1.5);
+    EXPECT_GT(std::abs(d.x()), 0.3);
+    EXPECT_GT(std::abs(d.y()), 0.3);
+    EXPECT_LT(d.norm(), 0.75);
+  }
+}
+
+TEST(MapBuilder, StopControlledIntersectionsGetStopSignsAndNoHeads) {
+  const Map map = Build(MakeLayout({{"empty", "straight@90", "empty"},
+                                    {"straight", "x4 control=stop", "straight"},
+                                    {"empty", "straight@90", "empty"}}));
+  EXPECT_TRUE(map.signal_heads.empty());
+  ASSERT_EQ(map.signs.size(), 4u);
+  for (const auto& s : map.signs) {
+    EXPECT_EQ(s.type, "stop");
+    ASSERT_TRUE(s.lane.has_value());
+    EXPECT_TRUE(map.lane(*s.lane).stop_line.has_value());
+  }
+}
+
+// ---- Bad layouts: each kind of error names the place and the reason ----------------------
+
+std::string BuildError(const Layout& layout) {
+  return test::ErrorMessage([&] { (void)Build(layout); });
+}
+
+TEST(MapBuilderErrors, RoadMeetingAnEdgeWithoutARoad) {
+  EXPECT_EQ(BuildError(MakeLayout({{"straight", "empty"}})),
+            "tile r0c0 (row 0, column 0, \"straight\"): its road on the E edge meets tile r0c1 "
+            "(row 0, column 1, \"empty\"), which has no road on its W edge (mismatched tile "
+            "edges)");
+}
+
+TEST(MapBuilderErrors, MismatchedLaneCounts) {
+  Layout l = MakeLayout({{"straight lanes=2", "straight"}});
+  l.tile_size_m = 1.5;
+  EXPECT_EQ(BuildError(l),
+            "tile r0c0 (row 0, column 0, \"straight lanes=2\"): 2 lane(s) per direction on its E "
+            "edge but tile r0c1 (row 0, column 1, \"straight\") has 1");
+}
+
+TEST(MapBuilderErrors, IntersectionArmOnTheMapBoundary) {
+  EXPECT_EQ(BuildError(MakeLayout({{"x4"}})),
+            "tile r0c0 (row 0, column 0, \"x4\"): its E edge is the map boundary; an "
+            "intersection arm needs a road tile beyond it");
+}
+
+TEST(MapBuilderErrors, IntersectionNextToIntersection) {
+  Layout l = MakeLayout({{"empty", "straight@90", "straight@90", "empty"},
+                         {"straight", "x4", "x4", "straight"},
+                         {"empty", "straight@90", "straight@90", "empty"}});
+  EXPECT_EQ(BuildError(l),
+            "tile r1c1 (row 1, column 1, \"x4\"): next to another intersection, tile r1c2 (row 1, "
+            "column 2, \"x4\"); put a road tile between them");
+}
+
+TEST(MapBuilderErrors, RoadEndingInAWall) {
+  Layout l = MakeLayout({{"straight", "straight"}});
+  l.boundary_walls = true;
+  EXPECT_EQ(BuildError(l),
+            "the boundary wall closes the road of tile r0c0 (row 0, column 0, \"straight\") at "
+            "its W edge (a road that ends in a wall)");
+}
+
+TEST(MapBuilderErrors, OverlappingObstacles) {
+  Layout l = MakeLayout({{"empty", "empty"}});
+  l.obstacles = {{"box", 0.5, 0.5, 0, 0.2, 0.2, 0.2}, {"box", 0.6, 0.55, 0.3, 0.2, 0.2, 0.2}};
+  EXPECT_EQ(BuildError(l),
+            "obstacle 1 (box at x 0.6, y 0.55) overlaps obstacle 0 (box at x 0.5, y 0.5)");
+  l.obstacles[1].x_m = 0.7;  // touching is not overlapping
+  l.obstacles[1].yaw_rad = 0;
+  l.obstacles[1].y_m = 0.5;
+  EXPECT_NO_THROW((void)Build(l));
+}
+
+TEST(MapBuilderErrors, ObstacleOutsideTheMap) {
+  Layout l = MakeLayout({{"empty", "empty"}});
+  l.obstacles = {{"box", 1.95, 0.5, 0, 0.2, 0.2, 0.2}};
+  EXPECT_EQ(BuildError(l),
+            "obstacle 0 (box at x 1.95, y 0.5) reaches outside the map [0, 2] x [0, 1] m");
+}
+
+TEST(MapBuilderErrors, MismatchedRampHeights) {
+  EXPECT_EQ(BuildError(MakeLayout({{"ramp rise=0.1", "straight"}})),
+            "tile r0c0 (row 0, column 0, \"ramp rise=0.1\"): its road on the E edge is at 0.1 m "
+            "but tile r0c1 (row 0, column 1, \"straight\") is at 0 m there (mismatched heights)");
+  EXPECT_NO_THROW((void)Build(MakeLayout({{"ramp rise=0.1", "straight elevation=0.1"}})));
+}
+
+TEST(MapBuilderErrors, UnknownModuleAndBadOptions) {
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("roundabout"); }),
+            "unknown module \"roundabout\" (known: empty, straight, curve, x4, t, end, parking, "
+            "ramp)");
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("curve@45"); }),
+            "the rotation must be 0, 90, 180 or 270 degrees, got 45 in cell \"curve@45\"");
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("straight control=stop"); }),
+            "control applies to intersections (x4, t), not to straight");
+}
+
+TEST(MapBuilderErrors, RaggedGridAndRoadsTooWideForTheTile) {
+  EXPECT_EQ(BuildError(MakeLayout({{"empty", "empty"}, {"empty"}})),
+            "grid row 1 has 1 cells but row 0 has 2 (the grid must be rectangular)");
+  EXPECT_EQ(BuildError(MakeLayout({{"straight lanes=2"}})),
+            "tile r0c0: a road of 2 lane(s) per direction is 1.2 m wide and does not fit a 1 m "
+            "tile (at most 90% of it)");
+}
+
+TEST(MapLayout, CellsRoundTripThroughText) {
+  for (const char* text :
+       {"empty", "straight@90", "x4 control=stop name=main", "ramp@180 rise=0.05",
+        "t@270 lanes=2 control=yield", "parking elevation=0.1"}) {
+    EXPECT_EQ(Cell::FromConfigString(Cell::FromConfigString(text).ToConfigString()),
+              Cell::FromConfigString(text))
+        << text;
+  }
+  EXPECT_EQ(Cell::FromConfigString("."), Cell::FromConfigString("empty"));
+}
+
+}  // namespace
+}  // namespace autodrive::maps
