@@ -6,11 +6,15 @@
 #include <CGAL/Polygon_2.h>
 #include <CGAL/Polygon_set_2.h>
 #include <CGAL/Polygon_with_holes_2.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <sstream>
+
+#include <Eigen/Geometry>
 
 #include "common/error.h"
 
@@ -81,6 +85,7 @@ ModuleShape ShapeOf(ModuleType type) {
   using S = Side;
   switch (type) {
     case ModuleType::kEmpty:
+    case ModuleType::kOpen:
       return {};
     case ModuleType::kStraight:
     case ModuleType::kRamp:
@@ -239,17 +244,28 @@ Polyline FromPolygon(const CGAL::Polygon_2<Epeck>& poly) {
   return out;
 }
 
-// Simple polygons covering a strip of half-width h along a path, in chunks short enough that
-// each is simple even when the path loops back near itself.
-void StripPolygons(const Polyline& path, double h, std::vector<CGAL::Polygon_2<Epeck>>& out) {
+// Simple polygons covering a strip of half-width h along a path: one polygon when that is
+// simple, else chunks short enough to be simple (a turning loop comes back near itself).
+// Every `stride`-th point is used (the surface needs less detail than the lanes).
+void StripPolygons(const Polyline& path, double h, std::size_t stride,
+                   std::vector<CGAL::Polygon_2<Epeck>>& out) {
+  Polyline c;
+  for (std::size_t i = 0; i < path.size(); i += stride) c.push_back(path[i]);
+  if (c.back() != path.back()) c.push_back(path.back());
   Polyline left, right;
-  Boundaries(path, h, left, right);
-  const std::size_t chunk = 8;
-  for (std::size_t s = 0; s + 1 < path.size(); s += chunk) {
-    const std::size_t e = std::min(path.size() - 1, s + chunk);
+  Boundaries(c, h, left, right);
+  const auto strip = [&](std::size_t s, std::size_t e) {
     Polyline ring(left.begin() + static_cast<long>(s), left.begin() + static_cast<long>(e) + 1);
     for (std::size_t i = e + 1; i-- > s;) ring.push_back(right[i]);
-    auto poly = ToPolygon(ring);
+    return ToPolygon(ring);
+  };
+  if (auto whole = strip(0, c.size() - 1); whole.is_simple()) {
+    out.push_back(std::move(whole));
+    return;
+  }
+  const std::size_t chunk = 6;
+  for (std::size_t s = 0; s + 1 < c.size(); s += chunk) {
+    auto poly = strip(s, std::min(c.size() - 1, s + chunk));
     if (poly.is_simple()) out.push_back(std::move(poly));
   }
 }
@@ -261,16 +277,29 @@ Polyline Rectangle(const Vec& centre, double yaw, double length, double width) {
           centre + u * length / 2 + v * width / 2, centre - u * length / 2 + v * width / 2};
 }
 
-double MinSquaredDistance(const Polyline& a, const Polyline& b) {
-  double best = std::numeric_limits<double>::infinity();
+// True when two polylines come closer than sqrt(limit2) (crossing included).
+bool CloserThan(const Polyline& a, const Polyline& b, double limit2) {
+  const auto box = [](const Polyline& p) {
+    Eigen::AlignedBox2d bb;
+    for (const auto& q : p) bb.extend(q);
+    return bb;
+  };
+  const Eigen::AlignedBox2d ba = box(a), bb = box(b);
+  if (ba.squaredExteriorDistance(bb) >= limit2) return false;
   for (std::size_t i = 1; i < a.size(); ++i) {
-    const Epick::Segment_2 sa({a[i - 1].x(), a[i - 1].y()}, {a[i].x(), a[i].y()});
+    Eigen::AlignedBox2d sa(a[i - 1]);
+    sa.extend(a[i]);
+    if (sa.squaredExteriorDistance(bb) >= limit2) continue;
+    const Epick::Segment_2 sega({a[i - 1].x(), a[i - 1].y()}, {a[i].x(), a[i].y()});
     for (std::size_t j = 1; j < b.size(); ++j) {
-      const Epick::Segment_2 sb({b[j - 1].x(), b[j - 1].y()}, {b[j].x(), b[j].y()});
-      best = std::min(best, CGAL::squared_distance(sa, sb));
+      Eigen::AlignedBox2d sb(b[j - 1]);
+      sb.extend(b[j]);
+      if (sa.squaredExteriorDistance(sb) >= limit2) continue;
+      const Epick::Segment_2 segb({b[j - 1].x(), b[j - 1].y()}, {b[j].x(), b[j].y()});
+      if (CGAL::squared_distance(sega, segb) < limit2) return true;
     }
   }
-  return best;
+  return false;
 }
 
 // Points keyed on a 1 micrometre grid, to join lanes end to start.
@@ -285,20 +314,34 @@ class Builder {
 
   Map Build() {
     layout_.Validate();
+    map_.layout = layout_;
+    map_.options = o_;
     map_.name = layout_.name;
     map_.tile_size_m = layout_.tile_size_m;
     map_.lane_width_m = layout_.lane_width_m;
     map_.rows = static_cast<int>(layout_.grid.size());
     map_.cols = static_cast<int>(layout_.grid.front().size());
     map_.cells = layout_.grid;
+    auto t0 = std::chrono::steady_clock::now();
+    const auto phase = [&](const char* name) {
+      const auto t1 = std::chrono::steady_clock::now();
+      spdlog::debug("map {}: {} took {:.3f} s", layout_.name, name,
+                    std::chrono::duration<double>(t1 - t0).count());
+      t0 = t1;
+    };
     MakeTiles();
     CheckEdges();
+    phase("tiles and edges");
     MakeLanes();
     JoinLanes();
+    phase("lanes");
     MakeIntersections();
+    phase("intersections and conflicts");
     MakeObstacles();
     MakeSigns();
+    phase("obstacles and signs");
     MakeSurfaces();
+    phase("road surface and drivable area");
     MakeTerrain();
     return std::move(map_);
   }
@@ -560,7 +603,7 @@ class Builder {
         } else if (a.to == b.to) {
           conflict = true;  // merging into one lane
         } else {
-          conflict = MinSquaredDistance(a.path, b.path) < clearance2;  // crossing or too close
+          conflict = CloserThan(a.path, b.path, clearance2);  // crossing or too close
         }
         if (conflict) x.conflicts.push_back({a.id, b.id});
       }
@@ -675,14 +718,29 @@ class Builder {
     }
   }
 
+  // The road surface is the union, per tile, of lane and movement strips and open or parking
+  // floors; every piece lies inside its tile, so tiles are joined independently (linear in the
+  // number of tiles) and the regions of neighbouring tiles meet along tile edges.
   void MakeSurfaces() {
-    std::vector<CGAL::Polygon_2<Epeck>> pieces;
-    for (const auto& lane : map_.lanes) StripPolygons(lane.centreline, W() / 2, pieces);
-    for (const auto& m : map_.movements) StripPolygons(m.path, W() / 2, pieces);
+    const std::size_t stride =
+        std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(0.05 / o_.sample_step_m)));
+    std::vector<std::vector<CGAL::Polygon_2<Epeck>>> pieces(tiles_.size());
+    const auto tile_of = [&](const TileIndex& i) {
+      return static_cast<std::size_t>(i.row * map_.cols + i.col);
+    };
+    for (const auto& lane : map_.lanes) {
+      StripPolygons(lane.centreline, W() / 2, stride, pieces[tile_of(lane.tile)]);
+    }
+    for (const auto& m : map_.movements) {
+      StripPolygons(m.path, W() / 2, stride,
+                    pieces[tile_of(map_.intersection(m.intersection).tile)]);
+    }
     for (const auto& t : tiles_) {
-      if (t.cell.type != ModuleType::kParking) continue;
       const double h = T() / 2;
-      pieces.push_back(ToPolygon(Rectangle(t.centre, 0, 2 * h, 2 * h)));
+      if (t.cell.type == ModuleType::kOpen || t.cell.type == ModuleType::kParking) {
+        pieces[tile_of(t.index)].push_back(ToPolygon(Rectangle(t.centre, 0, 2 * h, 2 * h)));
+      }
+      if (t.cell.type != ModuleType::kParking) continue;
       // Bays along the side opposite the entrance.
       const Side back = Opposite(t.road_sides.front());
       const Vec out = Outward(back);
@@ -696,12 +754,20 @@ class Builder {
                                      Rectangle(c, Angle(along), width, depth)});
       }
     }
-    CGAL::Polygon_set_2<Epeck> road;
-    road.join(pieces.begin(), pieces.end());
-    map_.road_surface = ToRegions(road);
-    CGAL::Polygon_set_2<Epeck> drivable = road;
-    for (const auto& o : map_.obstacles) drivable.difference(ToPolygon(o.footprint));
-    map_.drivable = ToRegions(drivable);
+    for (const auto& t : tiles_) {
+      auto& tile_pieces = pieces[tile_of(t.index)];
+      if (tile_pieces.empty()) continue;
+      CGAL::Polygon_set_2<Epeck> road;
+      road.join(tile_pieces.begin(), tile_pieces.end());
+      for (auto& r : ToRegions(road)) map_.road_surface.push_back(std::move(r));
+      Eigen::AlignedBox2d tile_box(t.centre - Vec(T(), T()) / 2, t.centre + Vec(T(), T()) / 2);
+      for (const auto& o : map_.obstacles) {
+        Eigen::AlignedBox2d ob;
+        for (const auto& p : o.footprint) ob.extend(p);
+        if (ob.intersects(tile_box)) road.difference(ToPolygon(o.footprint));
+      }
+      for (auto& r : ToRegions(road)) map_.drivable.push_back(std::move(r));
+    }
   }
 
   static std::vector<Region> ToRegions(const CGAL::Polygon_set_2<Epeck>& set) {

@@ -254,7 +254,7 @@ TEST(MapBuilderErrors, MismatchedRampHeights) {
 TEST(MapBuilderErrors, UnknownModuleAndBadOptions) {
   EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("roundabout"); }),
             "unknown module \"roundabout\" (known: empty, straight, curve, x4, t, end, parking, "
-            "ramp)");
+            "ramp, open)");
   EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("curve@45"); }),
             "the rotation must be 0, 90, 180 or 270 degrees, got 45 in cell \"curve@45\"");
   EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("straight control=stop"); }),

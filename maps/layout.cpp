@@ -18,6 +18,7 @@ constexpr TypeName kTypeNames[] = {
     {ModuleType::kCurve, "curve"},     {ModuleType::kIntersection, "x4"},
     {ModuleType::kTJunction, "t"},     {ModuleType::kRoadEnd, "end"},
     {ModuleType::kParking, "parking"}, {ModuleType::kRamp, "ramp"},
+    {ModuleType::kOpen, "open"},
 };
 
 struct ControlName {
@@ -89,7 +90,7 @@ Cell Cell::FromConfigString(std::string_view text) {
   }
   if (!known) {
     throw InputError("unknown module \"" + std::string(type_text) +
-                     "\" (known: empty, straight, curve, x4, t, end, parking, ramp)");
+                     "\" (known: empty, straight, curve, x4, t, end, parking, ramp, open)");
   }
   std::string option;
   while (words >> option) {

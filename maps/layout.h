@@ -34,6 +34,7 @@ enum class ModuleType {
   kRoadEnd,       ///< road from the west edge ending in a turning loop
   kParking,       ///< parking area entered from the south edge, bays along the north
   kRamp,          ///< straight road west to east rising by `rise_m` (terrain)
+  kOpen,          ///< open drivable floor without lanes (the Parking School's area)
 };
 
 /// How an intersection is controlled.
@@ -43,7 +44,8 @@ enum class Control { kSignal, kStop, kYield, kUncontrolled };
 /// `straight@90 lanes=2`, `ramp rise=0.1`, `empty` (or `.`). Rotation is counter-clockwise in
 /// degrees, a multiple of 90. Keys: `lanes` (per direction, 1 or 2; default: the layout's),
 /// `control` (signal|stop|yield|none; intersections, default signal), `rise` (ramps, m),
-/// `elevation` (m, default 0), `name` (intersections). Written in YAML as one string.
+/// `elevation` (m, default 0), `name` (intersections). Types: empty (or .), straight,
+/// curve, x4, t, end, parking, ramp, open. Written in YAML as one string.
 struct Cell {
   ModuleType type = ModuleType::kEmpty;
   int rotation_deg = 0;      ///< 0, 90, 180 or 270

@@ -159,8 +159,30 @@ struct Terrain {
   std::vector<int> tile_rotation_deg;
 };
 
+/// Parameters of the build that are not part of a layout.
+struct BuildOptions {
+  /// Spacing of points along lane centrelines and movement paths (m).
+  double sample_step_m = 0.02;
+  /// Smallest turning radius of any lane or path the builder makes (m). Nigel's is 0.245 m
+  /// (wheelbase / tan 30 deg); dead ends and parking loops use this radius.
+  double min_turn_radius_m = 0.3;
+  /// Two movements whose paths come closer than this conflict (m): Nigel's width 0.175 m plus
+  /// a margin.
+  double vehicle_clearance_m = 0.2;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("sample_step_m", sample_step_m, config::Range{0.001, 0.5});
+    a.Optional("min_turn_radius_m", min_turn_radius_m, config::Range{0.05, 10.0});
+    a.Optional("vehicle_clearance_m", vehicle_clearance_m, config::Range{0.0, 5.0});
+  }
+  bool operator==(const BuildOptions&) const = default;
+};
+
 /// The whole built map. Value type; ids index the vectors: `lanes[id.value() - 1]`.
 struct Map {
+  Layout layout;         ///< what it was built from
+  BuildOptions options;  ///< how
   std::string name;
   double tile_size_m = 1.0;
   double lane_width_m = 0.3;
@@ -174,8 +196,10 @@ struct Map {
   std::vector<Sign> signs;
   std::vector<Obstacle> obstacles;
   std::vector<ParkingBay> parking_bays;
-  std::vector<Region> road_surface;  ///< union of lanes, movements and parking areas
-  std::vector<Region> drivable;      ///< road surface minus obstacles
+  /// Union of lanes, movements, open floors and parking areas, per tile: regions of
+  /// neighbouring tiles meet along tile edges and never overlap.
+  std::vector<Region> road_surface;
+  std::vector<Region> drivable;  ///< road surface minus obstacles, per tile likewise
   Terrain terrain;
 
   const Lane& lane(LaneId id) const { return lanes.at(id.value() - 1); }
