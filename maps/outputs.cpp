@@ -2,6 +2,7 @@
 
 #include "maps/map_io.h"
 #include "maps/mesh.h"
+#include "maps/sumo.h"
 
 namespace autodrive::maps {
 
@@ -14,7 +15,13 @@ std::vector<std::string> WriteOutputs(const Map& map, const std::string& dir,
   const std::string mesh = dir + "/mesh.obj";
   WriteMeshObj(map, mesh);
   written.push_back(mesh);
-  (void)options;
+  if (options.sumo && !map.lanes.empty()) {
+    const SumoExport sumo = ExportSumo(map, dir + "/sumo");
+    for (const auto& f : {sumo.node_file, sumo.edge_file, sumo.connection_file, sumo.tll_file,
+                          sumo.net_file, sumo.vtype_file}) {
+      written.push_back(f);
+    }
+  }
   return written;
 }
 

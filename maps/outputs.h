@@ -17,7 +17,8 @@ struct OutputOptions {
 };
 
 /// Writes into `dir` (which must exist): map.yaml, mesh.obj, and, as they are available, the
-/// occupancy grid (occupancy.pgm + occupancy.yaml), map.png and map.svg, and the SUMO network.
+/// occupancy grid (occupancy.pgm + occupancy.yaml), map.png and map.svg, and the SUMO network
+/// (sumo/, for maps that have lanes).
 /// Returns the paths written. Throws `InputError` / `ConfigError` on failure.
 std::vector<std::string> WriteOutputs(const Map& map, const std::string& dir,
                                       const OutputOptions& options);
