@@ -12,6 +12,8 @@
 #include "maps/lane_graph.h"
 #include "maps/map_io.h"
 #include "maps/mesh.h"
+#include "maps/occupancy.h"
+#include "maps/outputs.h"
 
 namespace autodrive::maps {
 namespace {
@@ -182,6 +184,41 @@ TEST(Terrain, RampsRiseAndTheMeshFollowsThem) {
   EXPECT_EQ(f, stats.faces);
   EXPECT_NEAR(zmax, 0.25, 1e-9);  // a 0.25 m box on the ground
   fs::remove_all(dir);
+}
+
+TEST(ShippedMaps, OccupancyGridFreeAreaEqualsTheDrivableAreaWithinTwoPercent) {
+  for (const auto& path : ShippedLayouts()) {
+    SCOPED_TRACE(path.string());
+    const Map map = Build(LoadLayout(path.string()));
+    const OccupancyGrid grid = MakeOccupancyGrid(map, 0.05);
+    const double free_m2 = static_cast<double>(grid.FreeCount()) * 0.05 * 0.05;
+    EXPECT_NEAR(free_m2, Area(map.drivable), 0.02 * Area(map.drivable));
+  }
+}
+
+// Every output of every shipped map, written where a person can look at them after a test
+// run: <build>/maps_out/<map>/ (map.png, map.svg, occupancy.pgm, mesh.obj, sumo/...).
+TEST(ShippedMaps, EveryOutputIsWrittenForEveryShippedMap) {
+  const char* bin = std::getenv("AUTODRIVE_BINARY_DIR");
+  ASSERT_NE(bin, nullptr) << "run through ctest";
+  for (const auto& path : ShippedLayouts()) {
+    SCOPED_TRACE(path.string());
+    const Map map = Build(LoadLayout(path.string()));
+    const fs::path dir = fs::path(bin) / "maps_out" / map.name;
+    fs::create_directories(dir);
+    const auto files = WriteOutputs(map, dir.string(), OutputOptions{});
+    for (const char* name :
+         {"map.yaml", "mesh.obj", "occupancy.pgm", "occupancy.yaml", "map.png", "map.svg"}) {
+      ASSERT_TRUE(fs::exists(dir / name)) << name;
+      EXPECT_GT(fs::file_size(dir / name), 100u) << name;
+    }
+    std::ifstream png(dir / "map.png", std::ios::binary);
+    char magic[8] = {};
+    png.read(magic, 8);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+    EXPECT_EQ(fs::exists(dir / "sumo" / (map.name + ".net.xml")), !map.lanes.empty());
+    EXPECT_NO_THROW((void)LoadMap((dir / "map.yaml").string()));
+  }
 }
 
 }  // namespace
