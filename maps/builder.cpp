@@ -112,6 +112,7 @@ struct TileInfo {
   TileIndex index;
   Cell cell;
   int lanes = 1;
+  double width = 0.3;  // lane width (m)
   Vec centre;
   std::vector<Side> road_sides;                    // world frame
   std::vector<std::pair<Side, Side>> connections;  // world frame
@@ -348,7 +349,6 @@ class Builder {
 
  private:
   double T() const { return layout_.tile_size_m; }
-  double W() const { return layout_.lane_width_m; }
   TileInfo* TileAt(int r, int c) {
     if (r < 0 || c < 0 || r >= map_.rows || c >= map_.cols) return nullptr;
     return &tiles_[static_cast<std::size_t>(r * map_.cols + c)];
@@ -362,7 +362,7 @@ class Builder {
   // (inward) or leaving (outward) through that side.
   Vec LanePoint(const TileInfo& t, Side s, int k, bool entering) const {
     const Vec d = entering ? Vec(-Outward(s)) : Outward(s);
-    return Mid(t, s) + RightOf(d) * (k + 0.5) * W();
+    return Mid(t, s) + RightOf(d) * (k + 0.5) * t.width;
   }
 
   void MakeTiles() {
@@ -372,6 +372,7 @@ class Builder {
         t.index = {r, c};
         t.cell = layout_.grid[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)];
         t.lanes = t.cell.lanes.value_or(layout_.lanes_per_direction);
+        t.width = t.cell.lane_width_m.value_or(layout_.lane_width_m);
         t.centre = Vec((c + 0.5) * T(), (map_.rows - 1 - r + 0.5) * T());
         const int k = t.cell.rotation_deg / 90;
         const ModuleShape shape = ShapeOf(t.cell.type);
@@ -408,6 +409,10 @@ class Builder {
           Fail(t.Describe() + ": " + std::to_string(t.lanes) + " lane(s) per direction on its " +
                edge + " but " + n->Describe() + " has " + std::to_string(n->lanes));
         }
+        if (std::abs(n->width - t.width) > 1e-9) {
+          Fail(t.Describe() + ": lanes " + Num(t.width) + " m wide on its " + edge + " but " +
+               n->Describe() + " has lanes " + Num(n->width) + " m wide");
+        }
         if (IsJunction(t.cell.type) && IsJunction(n->cell.type)) {
           Fail(t.Describe() + ": next to another intersection, " + n->Describe() +
                "; put a road tile between them");
@@ -443,10 +448,10 @@ class Builder {
     lane.name =
         t.index.Name() + ":" + SideLetter(from) + ">" + SideLetter(to) + ":" + std::to_string(k);
     lane.tile = t.index;
-    lane.width_m = W();
+    lane.width_m = t.width;
     lane.index_from_centre = k;
     lane.centreline = std::move(centreline);
-    Boundaries(lane.centreline, W() / 2, lane.left_boundary, lane.right_boundary);
+    Boundaries(lane.centreline, t.width / 2, lane.left_boundary, lane.right_boundary);
     lane.length_m = Length(lane.centreline);
     map_.lanes.push_back(std::move(lane));
     return map_.lanes.back().id;
@@ -460,7 +465,7 @@ class Builder {
           const Vec q = LanePoint(t, a, 0, false);
           auto loop = LoopPath(p, q, -Outward(a), o_.min_turn_radius_m, o_.sample_step_m);
           if (!loop) {
-            Fail(t.Describe() + ": the turning loop does not fit lanes " + std::to_string(W()) +
+            Fail(t.Describe() + ": the turning loop does not fit lanes " + Num(t.width) +
                  " m wide with a turning radius of " + std::to_string(o_.min_turn_radius_m) + " m");
           }
           AddLane(t, a, a, 0, std::move(*loop));
@@ -535,7 +540,7 @@ class Builder {
           if (x.control != Control::kUncontrolled) {
             const Vec e = lin.centreline.back();
             const Vec d = -Outward(s);
-            lin.stop_line = StopLine{e + LeftOf(d) * W() / 2, e + RightOf(d) * W() / 2};
+            lin.stop_line = StopLine{e + LeftOf(d) * t.width / 2, e + RightOf(d) * t.width / 2};
           }
           Lane& lout = map_.lanes[out.value() - 1];
           lout.egress_of = x.id;
@@ -681,7 +686,7 @@ class Builder {
     for (const auto& t : tiles_) {
       for (Side s : t.road_sides) {
         const Vec m = Mid(t, s);
-        const Vec along = LeftOf(Outward(s)) * (t.lanes * W());
+        const Vec along = LeftOf(Outward(s)) * (t.lanes * t.width);
         const Vec inward = -Outward(s) * 1e-4;
         const Polyline mouth = {m + along, m - along, m - along + inward, m + along + inward};
         if (CGAL::do_intersect(wall, ToPolygon(mouth))) {
@@ -729,10 +734,10 @@ class Builder {
       return static_cast<std::size_t>(i.row * map_.cols + i.col);
     };
     for (const auto& lane : map_.lanes) {
-      StripPolygons(lane.centreline, W() / 2, stride, pieces[tile_of(lane.tile)]);
+      StripPolygons(lane.centreline, lane.width_m / 2, stride, pieces[tile_of(lane.tile)]);
     }
     for (const auto& m : map_.movements) {
-      StripPolygons(m.path, W() / 2, stride,
+      StripPolygons(m.path, map_.lane(m.from).width_m / 2, stride,
                     pieces[tile_of(map_.intersection(m.intersection).tile)]);
     }
     for (const auto& t : tiles_) {

@@ -203,6 +203,21 @@ TEST(MapBuilderErrors, MismatchedLaneCounts) {
             "edge but tile r0c1 (row 0, column 1, \"straight\") has 1");
 }
 
+TEST(MapBuilderErrors, MismatchedLaneWidths) {
+  EXPECT_EQ(BuildError(MakeLayout({{"straight width=0.25", "straight"}})),
+            "tile r0c0 (row 0, column 0, \"straight width=0.25\"): lanes 0.25 m wide on its E edge "
+            "but tile r0c1 (row 0, column 1, \"straight\") has lanes 0.3 m wide");
+}
+
+TEST(MapBuilder, LaneWidthIsSetPerModule) {
+  const Map map = Build(MakeLayout({{"curve width=0.25", "curve@270 width=0.25"},
+                                    {"curve@90 width=0.25", "curve@180 width=0.25"}}));
+  for (const auto& lane : map.lanes) {
+    EXPECT_DOUBLE_EQ(lane.width_m, 0.25);
+    EXPECT_NEAR((lane.left_boundary[3] - lane.right_boundary[3]).norm(), 0.25, 1e-9);
+  }
+}
+
 TEST(MapBuilderErrors, IntersectionArmOnTheMapBoundary) {
   EXPECT_EQ(BuildError(MakeLayout({{"x4"}})),
             "tile r0c0 (row 0, column 0, \"x4\"): its E edge is the map boundary; an "
@@ -272,7 +287,7 @@ TEST(MapBuilderErrors, RaggedGridAndRoadsTooWideForTheTile) {
 TEST(MapLayout, CellsRoundTripThroughText) {
   for (const char* text :
        {"empty", "straight@90", "x4 control=stop name=main", "ramp@180 rise=0.05",
-        "t@270 lanes=2 control=yield", "parking elevation=0.1"}) {
+        "t@270 lanes=2 control=yield", "parking elevation=0.1", "straight width=0.25"}) {
     EXPECT_EQ(Cell::FromConfigString(Cell::FromConfigString(text).ToConfigString()),
               Cell::FromConfigString(text))
         << text;

@@ -104,6 +104,11 @@ Cell Cell::FromConfigString(std::string_view text) {
       cell.lanes = ParseNumber<int>(value, "lanes", text);
       AUTODRIVE_THROW_UNLESS(*cell.lanes == 1 || *cell.lanes == 2,
                              "lanes must be 1 or 2 per direction, got " << *cell.lanes);
+    } else if (key == "width") {
+      cell.lane_width_m = ParseNumber<double>(value, "width", text);
+      AUTODRIVE_THROW_UNLESS(
+          *cell.lane_width_m >= 0.1 && *cell.lane_width_m <= 2.0,
+          "width must be a lane width in [0.1, 2] m, got " << *cell.lane_width_m);
     } else if (key == "control") {
       bool found = false;
       for (const auto& [c, name] : kControlNames) {
@@ -129,7 +134,7 @@ Cell Cell::FromConfigString(std::string_view text) {
       cell.name = value;
     } else {
       throw InputError("unknown cell option \"" + key +
-                       "\" (known: lanes, control, rise, elevation, name)");
+                       "\" (known: lanes, width, control, rise, elevation, name)");
     }
   }
   return cell;
@@ -139,6 +144,7 @@ std::string Cell::ToConfigString() const {
   std::string s(ToString(type));
   if (rotation_deg != 0) s += "@" + std::to_string(rotation_deg);
   if (lanes) s += " lanes=" + std::to_string(*lanes);
+  if (lane_width_m) s += " width=" + FormatNumber(*lane_width_m);
   if ((type == ModuleType::kIntersection || type == ModuleType::kTJunction) &&
       control != Control::kSignal) {
     s += " control=" + std::string(ToString(control));
@@ -162,7 +168,7 @@ void Layout::Validate() const {
   for (std::size_t r = 0; r < grid.size(); ++r) {
     for (std::size_t c = 0; c < grid[r].size(); ++c) {
       const int lanes = grid[r][c].lanes.value_or(lanes_per_direction);
-      const double road_m = 2.0 * lanes * lane_width_m;
+      const double road_m = 2.0 * lanes * grid[r][c].lane_width_m.value_or(lane_width_m);
       AUTODRIVE_THROW_UNLESS(road_m <= 0.9 * tile_size_m,
                              "tile r" << r << "c" << c << ": a road of " << lanes
                                       << " lane(s) per direction is " << road_m

@@ -42,14 +42,15 @@ enum class Control { kSignal, kStop, kYield, kUncontrolled };
 
 /// One grid cell: `TYPE[@ROTATION] [key=value ...]`, e.g. `curve@90`, `x4 control=stop`,
 /// `straight@90 lanes=2`, `ramp rise=0.1`, `empty` (or `.`). Rotation is counter-clockwise in
-/// degrees, a multiple of 90. Keys: `lanes` (per direction, 1 or 2; default: the layout's),
-/// `control` (signal|stop|yield|none; intersections, default signal), `rise` (ramps, m),
-/// `elevation` (m, default 0), `name` (intersections). Types: empty (or .), straight,
-/// curve, x4, t, end, parking, ramp, open. Written in YAML as one string.
+/// degrees, a multiple of 90. Keys: `lanes` (per direction, 1 or 2; default: the layout's), `width`
+/// (lane width in m; default: the layout's), `control` (signal|stop|yield|none; intersections,
+/// default signal), `rise` (ramps, m), `elevation` (m, default 0), `name` (intersections). Types:
+/// empty (or .), straight, curve, x4, t, end, parking, ramp, open. Written in YAML as one string.
 struct Cell {
   ModuleType type = ModuleType::kEmpty;
-  int rotation_deg = 0;      ///< 0, 90, 180 or 270
-  std::optional<int> lanes;  ///< lanes per direction; unset: the layout's default
+  int rotation_deg = 0;                ///< 0, 90, 180 or 270
+  std::optional<int> lanes;            ///< lanes per direction; unset: the layout's default
+  std::optional<double> lane_width_m;  ///< lane width (m); unset: the layout's default
   Control control = Control::kSignal;
   double rise_m = 0.0;
   double elevation_m = 0.0;
