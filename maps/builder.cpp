@@ -54,26 +54,6 @@ using Vec = Eigen::Vector2d;
 
 // ---- Sides and tiles ------------------------------------------------------------------------
 
-Side Rotate(Side s, int quarter_turns) {
-  return static_cast<Side>((static_cast<int>(s) + quarter_turns) % 4);
-}
-Side Opposite(Side s) { return Rotate(s, 2); }
-Vec Outward(Side s) {
-  switch (s) {
-    case Side::kEast:
-      return {1, 0};
-    case Side::kNorth:
-      return {0, 1};
-    case Side::kWest:
-      return {-1, 0};
-    case Side::kSouth:
-      return {0, -1};
-  }
-  return {0, 0};
-}
-Vec RightOf(const Vec& d) { return {d.y(), -d.x()}; }
-Vec LeftOf(const Vec& d) { return {-d.y(), d.x()}; }
-
 // The road sides of a module in its own frame, and the pairs of sides its lanes connect
 // (a == b: a turning loop entered and left through the same side).
 struct ModuleShape {

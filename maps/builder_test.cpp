@@ -6,27 +6,17 @@
 
 #include "common/error.h"
 #include "common/test_support.h"
+#include "maps/test_layouts.h"
 
 namespace autodrive::maps {
 namespace {
 
-Layout MakeLayout(std::vector<std::vector<std::string>> rows) {
-  Layout l;
-  l.name = "test";
-  for (const auto& row : rows) {
-    std::vector<Cell> cells;
-    for (const auto& text : row) cells.push_back(Cell::FromConfigString(text));
-    l.grid.push_back(cells);
-  }
-  return l;
+Layout MakeLayout(const std::vector<std::vector<std::string>>& rows) {
+  return maps::MakeLayout("test", rows);
 }
 
 // A 4-way intersection with one lane per direction, its arms leaving the map.
-Layout FourWay() {
-  return MakeLayout({{"empty", "straight@90", "empty"},
-                     {"straight", "x4", "straight"},
-                     {"empty", "straight@90", "empty"}});
-}
+using test_layouts::FourWay;
 
 // "S>N" from a movement name "r1c1:S>N:0>0".
 std::string Short(const Movement& m) { return m.name.substr(m.name.find(':') + 1, 3); }

@@ -178,6 +178,17 @@ void Layout::Validate() const {
   }
 }
 
+Layout MakeLayout(const std::string& name, const std::vector<std::vector<std::string>>& rows) {
+  Layout l;
+  l.name = name;
+  for (const auto& row : rows) {
+    std::vector<Cell> cells;
+    for (const auto& text : row) cells.push_back(Cell::FromConfigString(text));
+    l.grid.push_back(std::move(cells));
+  }
+  return l;
+}
+
 Layout LoadLayout(const std::string& path) { return config::LoadFile<Layout>(path); }
 
 }  // namespace autodrive::maps

@@ -139,6 +139,11 @@ struct Layout {
   bool operator==(const Layout&) const = default;
 };
 
+/// A layout named `name` from rows of cell texts (north row first), with default parameters,
+/// for layouts made in code. Throws `InputError` for a bad cell.
+[[nodiscard]] Layout MakeLayout(const std::string& name,
+                                const std::vector<std::vector<std::string>>& rows);
+
 /// Loads a layout file. Throws `ConfigError` with file, line and key on bad input.
 Layout LoadLayout(const std::string& path);
 

@@ -29,6 +29,21 @@ using Polyline = std::vector<Eigen::Vector2d>;
 enum class Side { kEast = 0, kNorth = 1, kWest = 2, kSouth = 3 };
 /// "E", "N", "W", "S".
 [[nodiscard]] char SideLetter(Side side);
+/// Side `s` after `quarter_turns` counter-clockwise quarter turns.
+[[nodiscard]] inline Side Rotate(Side s, int quarter_turns) {
+  return static_cast<Side>(((static_cast<int>(s) + quarter_turns) % 4 + 4) % 4);
+}
+/// The side across the tile.
+[[nodiscard]] inline Side Opposite(Side s) { return Rotate(s, 2); }
+/// The unit vector out of a tile through side `s`, map frame.
+[[nodiscard]] inline Eigen::Vector2d Outward(Side s) {
+  constexpr double kX[] = {1, 0, -1, 0};
+  constexpr double kY[] = {0, 1, 0, -1};
+  return {kX[static_cast<int>(s)], kY[static_cast<int>(s)]};
+}
+/// `d` turned a quarter clockwise (to its right) and counter-clockwise (to its left).
+[[nodiscard]] inline Eigen::Vector2d RightOf(const Eigen::Vector2d& d) { return {d.y(), -d.x()}; }
+[[nodiscard]] inline Eigen::Vector2d LeftOf(const Eigen::Vector2d& d) { return {-d.y(), d.x()}; }
 
 /// Where a tile is in the grid.
 struct TileIndex {

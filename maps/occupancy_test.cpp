@@ -15,28 +15,18 @@
 #include "common/error.h"
 #include "common/test_support.h"
 #include "maps/builder.h"
+#include "maps/test_layouts.h"
 
 namespace autodrive::maps {
 namespace {
 
 namespace fs = std::filesystem;
 
-Layout MakeLayout(std::vector<std::vector<std::string>> rows) {
-  Layout l;
-  l.name = "test";
-  for (const auto& row : rows) {
-    std::vector<Cell> cells;
-    for (const auto& text : row) cells.push_back(Cell::FromConfigString(text));
-    l.grid.push_back(cells);
-  }
-  return l;
+Layout MakeLayout(const std::vector<std::vector<std::string>>& rows) {
+  return maps::MakeLayout("test", rows);
 }
 
-Layout FourWay() {
-  return MakeLayout({{"empty", "straight@90", "empty"},
-                     {"straight", "x4", "straight"},
-                     {"empty", "straight@90", "empty"}});
-}
+using test_layouts::FourWay;
 
 Layout LoopOfCurves() {
   return MakeLayout({{"curve", "straight", "curve@270"},

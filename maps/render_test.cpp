@@ -14,30 +14,18 @@
 #include "common/error.h"
 #include "common/test_support.h"
 #include "maps/builder.h"
+#include "maps/test_layouts.h"
 
 namespace autodrive::maps {
 namespace {
 
 namespace fs = std::filesystem;
 
-Layout MakeLayout(std::vector<std::vector<std::string>> rows) {
-  Layout l;
-  l.name = "test";
-  for (const auto& row : rows) {
-    std::vector<Cell> cells;
-    for (const auto& text : row) cells.push_back(Cell::FromConfigString(text));
-    l.grid.push_back(cells);
-  }
-  return l;
+Layout MakeLayout(const std::vector<std::vector<std::string>>& rows) {
+  return maps::MakeLayout("test", rows);
 }
 
-Layout FourWay(const std::string& control = "signal") {
-  Layout l = MakeLayout({{"empty", "straight@90", "empty"},
-                         {"straight", "x4 control=" + control, "straight"},
-                         {"empty", "straight@90", "empty"}});
-  l.name = "four_way";
-  return l;
-}
+using test_layouts::FourWay;
 
 fs::path TempDir(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() /

@@ -40,25 +40,6 @@ Side SideFromLetter(char c) {
   return Side::kEast;
 }
 
-Side Opposite(Side s) { return static_cast<Side>((static_cast<int>(s) + 2) % 4); }
-
-Vec Outward(Side s) {
-  switch (s) {
-    case Side::kEast:
-      return {1, 0};
-    case Side::kNorth:
-      return {0, 1};
-    case Side::kWest:
-      return {-1, 0};
-    case Side::kSouth:
-      return {0, -1};
-  }
-  return {0, 0};
-}
-
-Vec RightOf(const Vec& d) { return {d.y(), -d.x()}; }
-Vec LeftOf(const Vec& d) { return {-d.y(), d.x()}; }
-
 Vec TileCentre(const Map& map, TileIndex t) {
   return {(t.col + 0.5) * map.tile_size_m, (map.rows - 1 - t.row + 0.5) * map.tile_size_m};
 }

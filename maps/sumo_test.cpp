@@ -15,6 +15,7 @@
 #include "common/error.h"
 #include "common/test_support.h"
 #include "maps/builder.h"
+#include "maps/test_layouts.h"
 
 namespace autodrive::maps {
 namespace {
@@ -22,22 +23,11 @@ namespace {
 namespace fs = std::filesystem;
 
 Layout MakeLayout(const std::vector<std::vector<std::string>>& rows) {
-  Layout l;
-  l.name = "sumo_test";
-  for (const auto& row : rows) {
-    std::vector<Cell> cells;
-    for (const auto& text : row) cells.push_back(Cell::FromConfigString(text));
-    l.grid.push_back(cells);
-  }
-  return l;
+  return maps::MakeLayout("sumo_test", rows);
 }
 
 // A signalised 4-way intersection whose arms leave the map.
-Layout FourWaySignal() {
-  return MakeLayout({{"empty", "straight@90", "empty"},
-                     {"straight", "x4", "straight"},
-                     {"empty", "straight@90", "empty"}});
-}
+Layout FourWaySignal() { return test_layouts::FourWay("signal"); }
 
 // A stop-controlled T-junction (roads west, east and south).
 Layout TJunctionStop() {
