@@ -21,6 +21,8 @@ set_target_properties(sumo::libtraci PROPERTIES IMPORTED_LOCATION ${SUMO_LIBTRAC
 
 # Maths and geometry.
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+# The sanitizer build is Debug on purpose; CGAL would warn that Release is faster.
+set(CGAL_DO_NOT_WARN_ABOUT_CMAKE_BUILD_TYPE TRUE)
 find_package(CGAL REQUIRED)
 
 # Vehicle dynamics: ODE (libode-dev), through pkg-config.
