@@ -76,8 +76,10 @@ class Canvas {
   virtual ~Canvas() = default;
   // An axis-aligned filled rectangle [min, max).
   virtual void Rect(const Vec& min, const Vec& max, Colour fill) = 0;
-  // Rings filled together by the even-odd rule (an outer boundary and its holes).
-  virtual void FillRings(const std::vector<Points>& rings, Colour fill, std::string_view cls) = 0;
+  // Disjoint regions (they may share edges), each its rings (an outer boundary and its holes)
+  // by the even-odd rule.
+  virtual void FillRegions(const std::vector<std::vector<Points>>& regions, Colour fill,
+                           std::string_view cls) = 0;
   virtual void Line(const Points& points, Colour colour, double width_px, bool closed) = 0;
   virtual void Polygon(const Points& points, Colour fill, std::optional<Colour> stroke,
                        double stroke_px) = 0;
@@ -100,9 +102,13 @@ class CvCanvas final : public Canvas {
                       static_cast<int>(std::lround(max.y())) - 1);
     cv::rectangle(image_, a, b, Scalar(fill), cv::FILLED);
   }
-  void FillRings(const std::vector<Points>& rings, Colour fill, std::string_view) override {
+  void FillRegions(const std::vector<std::vector<Points>>& regions, Colour fill,
+                   std::string_view) override {
+    // One fill of all the rings: the regions are disjoint, so even-odd gives their union.
     std::vector<std::vector<cv::Point>> contours;
-    for (const auto& ring : rings) contours.push_back(ToCv(ring));
+    for (const auto& rings : regions) {
+      for (const auto& ring : rings) contours.push_back(ToCv(ring));
+    }
     cv::fillPoly(image_, contours, Scalar(fill), cv::LINE_AA, kShift);
   }
   void Line(const Points& points, Colour colour, double width_px, bool closed) override {
@@ -233,15 +239,21 @@ class SvgCanvas final : public Canvas {
          << Num(max.x() - min.x()) << "\" height=\"" << Num(max.y() - min.y()) << "\" fill=\""
          << Hex(fill) << "\"/>\n";
   }
-  void FillRings(const std::vector<Points>& rings, Colour fill, std::string_view cls) override {
-    out_ << "<path class=\"" << cls << "\" fill=\"" << Hex(fill) << "\" fill-rule=\"evenodd\" d=\"";
-    for (const auto& ring : rings) {
-      for (std::size_t i = 0; i < ring.size(); ++i) {
-        out_ << (i == 0 ? "M" : "L") << Num(ring[i].x()) << "," << Num(ring[i].y()) << " ";
+  void FillRegions(const std::vector<std::vector<Points>>& regions, Colour fill,
+                   std::string_view cls) override {
+    // One path per region; a hairline stroke of the fill's colour hides the seams viewers
+    // leave between anti-aliased neighbours.
+    for (const auto& rings : regions) {
+      out_ << "<path class=\"" << cls << "\" fill=\"" << Hex(fill) << "\" stroke=\"" << Hex(fill)
+           << "\" stroke-width=\"0.5\" fill-rule=\"evenodd\" d=\"";
+      for (const auto& ring : rings) {
+        for (std::size_t i = 0; i < ring.size(); ++i) {
+          out_ << (i == 0 ? "M" : "L") << Num(ring[i].x()) << "," << Num(ring[i].y()) << " ";
+        }
+        out_ << "Z ";
       }
-      out_ << "Z ";
+      out_ << "\"/>\n";
     }
-    out_ << "\"/>\n";
   }
   void Line(const Points& points, Colour colour, double width_px, bool closed) override {
     if (points.size() < 2) return;
@@ -374,11 +386,13 @@ class Scene {
   }
 
   void DrawRoad() {
+    std::vector<std::vector<Points>> regions;
     for (const Region& region : map_.road_surface) {
-      std::vector<Points> rings{P(region.outer)};
+      std::vector<Points>& rings = regions.emplace_back();
+      rings.push_back(P(region.outer));
       for (const auto& hole : region.holes) rings.push_back(P(hole));
-      canvas_.FillRings(rings, kRoad, "road");
     }
+    canvas_.FillRegions(regions, kRoad, "road");
   }
 
   void DrawParkingBays() {
@@ -396,8 +410,9 @@ class Scene {
       int& k = kerb_index.try_emplace(group(lane), 0).first->second;
       k = std::max(k, lane.index_from_centre);
     }
-    const double width = Px(0.012, 1.5);
+    const double width = Px(0.015, 2.0);
     for (const auto& lane : map_.lanes) {
+      if (OnParkingTile(lane)) continue;  // an open area: its bays are its markings
       if (lane.index_from_centre == kerb_index[group(lane)]) {
         canvas_.Line(P(lane.right_boundary), kWhite, width, false);
       }
@@ -406,6 +421,13 @@ class Scene {
         canvas_.Line(P(dash), colour, width, false);
       }
     }
+  }
+
+  bool OnParkingTile(const Lane& lane) const {
+    const auto row = static_cast<std::size_t>(lane.tile.row);
+    const auto col = static_cast<std::size_t>(lane.tile.col);
+    return row < map_.cells.size() && col < map_.cells[row].size() &&
+           map_.cells[row][col].type == ModuleType::kParking;
   }
 
   void DrawMovements() {
@@ -475,7 +497,7 @@ class Scene {
   }
 
   void DrawSigns() {
-    const double r = Px(0.05, 7.0);
+    const double r = Px(0.06, 8.0);
     for (const auto& sign : map_.signs) {
       const Vec c = P(sign.X_MS.translation());
       const std::string letter = Letter(sign);

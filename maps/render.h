@@ -3,11 +3,11 @@
 /// Pictures of a built map, for people: a PNG (drawn with OpenCV) and an SVG (plain text) of the
 /// same scene. Drawn, bottom to top: the ground and a faint tile grid, the road surface, parking
 /// bays, lane markings (solid white at the kerb, dashed white between lanes of one direction,
-/// dashed yellow between opposite directions), movement paths through intersections (coloured
-/// by turn: straight blue, left magenta, right green, U-turn orange), lane direction arrows,
-/// stop lines, obstacles (boxes orange, walls grey), signal heads (red, amber and green lamps,
-/// amber at the head's position), signs (stop octagon, yield triangle, others a circle, each
-/// with a letter), then the map's name above the map and a scale bar below it.
+/// dashed yellow between opposite directions; none on parking tiles), movement paths through
+/// intersections (coloured by turn: straight blue, left magenta, right green, U-turn orange), lane
+/// direction arrows, stop lines, obstacles (boxes orange, walls grey), signal heads (red, amber and
+/// green lamps, amber at the head's position), signs (stop octagon, yield triangle, others a
+/// circle, each with a letter), then the map's name above the map and a scale bar below it.
 ///
 /// Image coordinates: the map's [0, cols T] x [0, rows T] is drawn `RenderOptions::margin_px`
 /// from each edge of the image, north up (image rows grow southwards); see `MapToPixel`.
