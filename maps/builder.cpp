@@ -353,7 +353,7 @@ class Builder {
         t.cell = layout_.grid[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)];
         t.lanes = t.cell.lanes.value_or(layout_.lanes_per_direction);
         t.width = t.cell.lane_width_m.value_or(layout_.lane_width_m);
-        t.centre = Vec((c + 0.5) * T(), (map_.rows - 1 - r + 0.5) * T());
+        t.centre = map_.TileCentre(t.index);
         const int k = t.cell.rotation_deg / 90;
         const ModuleShape shape = ShapeOf(t.cell.type);
         for (Side s : shape.sides) t.road_sides.push_back(Rotate(s, k));
@@ -428,6 +428,8 @@ class Builder {
     lane.name =
         t.index.Name() + ":" + SideLetter(from) + ">" + SideLetter(to) + ":" + std::to_string(k);
     lane.tile = t.index;
+    lane.from_side = from;
+    lane.to_side = to;
     lane.width_m = t.width;
     lane.index_from_centre = k;
     lane.centreline = std::move(centreline);
@@ -545,7 +547,7 @@ class Builder {
         }
       }
       ComputeConflicts(x);
-      if (x.control == Control::kSignal) AddSignalHeads(x, t);
+      if (x.control == Control::kSignal) AddSignalHeads(x);
       map_.intersections.push_back(std::move(x));
     }
   }
@@ -595,7 +597,7 @@ class Builder {
     }
   }
 
-  void AddSignalHeads(Intersection& x, const TileInfo& t) {
+  void AddSignalHeads(Intersection& x) {
     for (const auto& a : x.approaches) {
       const Lane& kerb = map_.lanes[a.ingress.back().value() - 1];
       const Vec d = -Outward(a.side);
@@ -609,7 +611,6 @@ class Builder {
       x.signal_heads.push_back(h.id);
       map_.signal_heads.push_back(h);
     }
-    (void)t;
   }
 
   void MakeObstacles() {

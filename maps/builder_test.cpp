@@ -131,6 +131,14 @@ TEST(MapBuilder, LanesChainAcrossTileEdgesAndAClosedLoopIsACycle) {
     ASSERT_EQ(lane.successors.size(), 1u) << lane.name;
     EXPECT_EQ(map.lane(lane.successors[0]).centreline.front(), lane.centreline.back());
   }
+  // Each lane knows the tile edges it crosses, and its ends lie on them.
+  for (const auto& lane : map.lanes) {
+    const Eigen::Vector2d c = map.TileCentre(lane.tile);
+    const Eigen::Vector2d in = lane.centreline.front() - c;
+    const Eigen::Vector2d out = lane.centreline.back() - c;
+    EXPECT_NEAR(in.dot(Outward(lane.from_side)), 0.5, 1e-12) << lane.name;
+    EXPECT_NEAR(out.dot(Outward(lane.to_side)), 0.5, 1e-12) << lane.name;
+  }
   // Following successors from any lane comes back to it after 4 lanes (one lap).
   LaneId l = map.lanes[0].id;
   for (int i = 0; i < 4; ++i) l = map.lane(l).successors[0];

@@ -71,8 +71,10 @@ struct Lane {
   LaneId id{0};
   std::string name;  ///< "r2c3:W>E:0": tile, from side > to side, index from the centreline
   TileIndex tile;
-  Polyline centreline;     ///< in the direction of travel
-  Polyline left_boundary;  ///< same length as the centreline
+  Side from_side = Side::kEast;  ///< the tile edge it enters through
+  Side to_side = Side::kEast;    ///< the tile edge it leaves through (== from_side for a loop)
+  Polyline centreline;           ///< in the direction of travel
+  Polyline left_boundary;        ///< same length as the centreline
   Polyline right_boundary;
   double width_m = 0.0;
   int index_from_centre = 0;       ///< 0 next to the road's centreline, growing to the kerb
@@ -221,6 +223,10 @@ struct Map {
   const Movement& movement(MovementId id) const { return movements.at(id.value() - 1); }
   const Intersection& intersection(IntersectionId id) const {
     return intersections.at(id.value() - 1);
+  }
+  /// The centre of tile `t` in the map frame.
+  [[nodiscard]] Eigen::Vector2d TileCentre(const TileIndex& t) const {
+    return {(t.col + 0.5) * tile_size_m, (rows - 1 - t.row + 0.5) * tile_size_m};
   }
   /// The map's extent: [0, cols T] x [0, rows T].
   [[nodiscard]] Eigen::Vector2d size_m() const { return {cols * tile_size_m, rows * tile_size_m}; }

@@ -36,8 +36,9 @@ double HeightInTile(const Map& map, int row, int col, double x, double y) {
   if (rise == 0.0) return base;
   // Fraction along the ramp's local +x (rotated counter-clockwise by its rotation).
   const double T = map.tile_size_m;
-  const double cx = (col + 0.5) * T;
-  const double cy = (map.rows - 1 - row + 0.5) * T;
+  const Eigen::Vector2d c = map.TileCentre({row, col});
+  const double cx = c.x();
+  const double cy = c.y();
   const double a = map.terrain.tile_rotation_deg[i] * kPi / 180.0;
   const double along = (x - cx) * std::cos(a) + (y - cy) * std::sin(a);
   return base + rise * std::clamp(along / T + 0.5, 0.0, 1.0);

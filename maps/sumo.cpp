@@ -23,29 +23,8 @@ namespace fs = std::filesystem;
 
 // ---- Geometry of the grid (the builder's conventions, see map.h) ----------------------------
 
-Side SideFromLetter(char c) {
-  switch (c) {
-    case 'E':
-      return Side::kEast;
-    case 'N':
-      return Side::kNorth;
-    case 'W':
-      return Side::kWest;
-    case 'S':
-      return Side::kSouth;
-    default:
-      break;
-  }
-  AUTODRIVE_CHECK(false, "not a side letter: '" << c << "'");
-  return Side::kEast;
-}
-
-Vec TileCentre(const Map& map, TileIndex t) {
-  return {(t.col + 0.5) * map.tile_size_m, (map.rows - 1 - t.row + 0.5) * map.tile_size_m};
-}
-
 Vec EdgeMid(const Map& map, TileIndex t, Side s) {
-  const Vec centre = TileCentre(map, t);
+  const Vec centre = map.TileCentre(t);
   return centre + Outward(s) * (map.tile_size_m / 2);
 }
 
@@ -328,13 +307,8 @@ class Exporter {
     std::vector<EdgeInfo> pieces;
     std::map<std::string, std::size_t> index;
     for (const Lane& lane : map_.lanes) {
-      // "r2c3:W>E:0": the tile, then the sides.
-      const auto colon = lane.name.find(':');
-      AUTODRIVE_CHECK(colon != std::string::npos && lane.name.size() >= colon + 4 &&
-                          lane.name[colon + 2] == '>',
-                      "lane name " << lane.name);
-      const Side from = SideFromLetter(lane.name[colon + 1]);
-      const Side to = SideFromLetter(lane.name[colon + 3]);
+      const Side from = lane.from_side;
+      const Side to = lane.to_side;
       const std::string id =
           lane.tile.Name() + "_" + SideLetter(from) + "_" + std::string(1, SideLetter(to));
       auto [it, inserted] = index.emplace(id, pieces.size());
