@@ -161,7 +161,7 @@ TopicSpec<msg::DeviceStatus> Devices() {
   return Spec<msg::DeviceStatus>("/autodrive/scm/devices", Qos::LatchedState());
 }
 TopicSpec<msg::Heartbeat> Heartbeat() {
-  return Spec<msg::Heartbeat>("/autodrive/scm/heartbeat", Qos::Stream());
+  return Spec<msg::Heartbeat>("/autodrive/scm/heartbeat", Qos::Stream(16));
 }
 TopicSpec<msg::SignalRequest> SignalRequests() {
   return Spec<msg::SignalRequest>("/autodrive/scm/signal_request", Qos::Command());

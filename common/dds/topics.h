@@ -80,7 +80,7 @@ TopicSpec<msg::FleetState> Fleet();                         ///< stream
 TopicSpec<msg::TrafficObjects> Traffic();                   ///< stream (SUMO background traffic)
 TopicSpec<msg::Event> Events();                             ///< latched, last 100 per writer
 TopicSpec<msg::DeviceStatus> Devices();                     ///< latched, last one per writer
-TopicSpec<msg::Heartbeat> Heartbeat();                      ///< stream, the SCM's heartbeat
+TopicSpec<msg::Heartbeat> Heartbeat();                      ///< stream (last 16): SCM and device hosts
 TopicSpec<msg::SignalRequest> SignalRequests();             ///< command (V2I, from vehicles)
 TopicSpec<msg::SignalRequestStatus> SignalRequestStatus();  ///< command (V2I, to vehicles)
 TopicSpec<msg::OperatorRequest> OperatorRequests();         ///< command

@@ -1,0 +1,182 @@
+#pragma once
+/// @file
+/// The intersection controller: one state machine per signalised intersection that decides
+/// what each signal group shows, from its plan, its mode, detector calls, operator commands and
+/// V2I requests. It is written to keep the signal safety rules, but it is not trusted to: the
+/// `ConflictMonitor` checks everything it outputs.
+///
+/// Stages: start-up flash -> all red -> green -> (yellow -> red clearance) -> green ... ; flash
+/// and dark are entered through a clearance on request, or at once on a fail-safe, and left
+/// through all red. Plans change only at the end of a green (a safe point).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/aspect.h"
+#include "common/time.h"
+#include "scm/city.h"
+
+namespace autodrive::scm {
+
+/// How an intersection is run. `kAuto` runs the current plan as its type says.
+enum class Mode { kAuto, kFixed, kActuated, kManual, kFlash, kDark };
+/// "auto", "fixed", "actuated", "manual", "flash", "dark".
+[[nodiscard]] std::string_view ToString(Mode mode);
+/// The mode called `name`; nothing when it is not one.
+[[nodiscard]] std::optional<Mode> ModeFromString(std::string_view name);
+
+/// Where the controller's state machine is.
+enum class Stage { kStartupFlash, kFlash, kDark, kAllRed, kGreen, kYellow, kRedClearance };
+/// "startup_flash", "flash", "dark", "all_red", "green", "yellow", "red_clearance".
+[[nodiscard]] std::string_view ToString(Stage stage);
+
+/// What one signal group shows, since when, and when that is expected to change (SPaT).
+struct GroupSignal {
+  Aspect aspect = Aspect::kFlashingRed;
+  Time since{};
+  Time min_end{};                  ///< earliest end of the current aspect; always set
+  std::optional<Time> max_end;     ///< latest end, when known
+  std::optional<Time> likely_end;  ///< best estimate, when known
+  float likely_confidence = 0.0f;  ///< 0..1
+  std::optional<Time> next_green;  ///< when the group's next green should start (not green)
+};
+
+/// The answer to an operator command.
+struct CommandResult {
+  bool ok = false;
+  std::string message;
+  static CommandResult Ok(std::string m) { return {true, std::move(m)}; }
+  static CommandResult Refused(std::string m) { return {false, std::move(m)}; }
+};
+
+/// A V2I priority or pre-emption request for one group.
+struct ServiceRequest {
+  std::string vehicle;
+  std::uint32_t request_id = 0;
+  bool preemption = false;  ///< emergency: served as soon as safe and held
+  std::size_t group = 0;    ///< group index
+  Time end{};               ///< when the vehicle expects to have cleared (eta + duration)
+};
+
+/// What happened to a request; `status` uses SignalRequestStatus_Constants numbers.
+struct RequestUpdate {
+  std::string vehicle;
+  std::uint32_t request_id = 0;
+  std::uint8_t status = 0;
+  std::optional<std::size_t> group;
+  std::optional<Time> expected_green;
+  std::string reason;
+};
+
+/// The controller of one intersection. Borrows its model, which must outlive it. Copyable
+/// (the property tests copy it); not thread-safe: the daemon drives it from one thread.
+class IntersectionController {
+ public:
+  /// Starts in the start-up sequence at `now`, then runs `mode` with `plan` (a plan index chosen
+  /// by the operator) or, without one, the scheduled plan.
+  IntersectionController(const IntersectionModel& model, Time now, Mode mode = Mode::kAuto,
+                         std::optional<std::size_t> operator_plan = std::nullopt);
+
+  /// Advances to `now` (never backwards). `calls[g]` is true when a detector of group g is
+  /// occupied; shorter or empty means no call. `minute_of_day` selects the scheduled plan.
+  void Step(Time now, const std::vector<bool>& calls, int minute_of_day);
+
+  /// Operator: run `mode`. Fixed, actuated and manual need a phase plan; actuated needs
+  /// detectors.
+  CommandResult SetMode(Mode mode, Time now);
+  /// Operator: run plan `name` from the next safe point, or "auto" to follow the schedule.
+  CommandResult SetPlan(std::string_view name, Time now);
+  /// Operator (manual mode): end the current phase once its min green is served.
+  CommandResult Advance(Time now);
+  /// Clears a fail-safe latch; the intersection restarts through all red.
+  CommandResult Reset(Time now);
+  /// Goes to fail-safe flash at once and latches (reason kept for status).
+  void FailSafe(Time now, std::string reason);
+  /// While false the start-up flash does not end (the lights are not all there yet).
+  void SetDevicesReady(bool ready) { devices_ready_ = ready; }
+
+  /// A V2I request: the first answer (GRANTED or REJECTED); later changes come from
+  /// `TakeRequestUpdates`.
+  RequestUpdate Request(const ServiceRequest& request, Time now);
+  /// Cancels the vehicle's request.
+  RequestUpdate Cancel(std::string_view vehicle, std::uint32_t request_id, Time now);
+  /// Status changes since the last call (completions, cancellations).
+  std::vector<RequestUpdate> TakeRequestUpdates();
+
+  /// Each group's signal with SPaT timing, valid after the last `Step` or command.
+  [[nodiscard]] std::vector<GroupSignal> Signals(Time now) const;
+  /// The aspects alone, by group index.
+  [[nodiscard]] const std::vector<Aspect>& aspects() const { return aspects_; }
+
+  [[nodiscard]] const IntersectionModel& model() const { return *model_; }
+  [[nodiscard]] Stage stage() const { return stage_; }
+  [[nodiscard]] Mode requested_mode() const { return mode_; }
+  /// The mode actually running: fixed, actuated, manual, flash or dark (flash also while
+  /// latched or in the start-up sequence).
+  [[nodiscard]] Mode effective_mode() const;
+  [[nodiscard]] const Plan& plan() const { return model_->plans[plan_]; }
+  [[nodiscard]] std::size_t plan_index() const { return plan_; }
+  [[nodiscard]] std::optional<std::size_t> operator_plan() const { return operator_plan_; }
+  [[nodiscard]] bool latched() const { return latched_; }
+  [[nodiscard]] const std::string& latch_reason() const { return latch_reason_; }
+  /// The phase index while a phase runs (green or its clearance).
+  [[nodiscard]] std::optional<std::size_t> phase() const;
+  [[nodiscard]] bool preemption_active() const { return active_ && active_->request.preemption; }
+  [[nodiscard]] bool priority_active() const { return active_ && !active_->request.preemption; }
+
+ private:
+  struct Active {
+    ServiceRequest request;
+    Time accepted{};
+    bool served = false;  ///< its group has been green since it was accepted
+  };
+  [[nodiscard]] Mode TargetMode(std::size_t plan) const;
+  [[nodiscard]] bool InPhase(std::size_t group) const;
+  [[nodiscard]] Time PhaseMinEnd() const;
+  [[nodiscard]] Duration PhaseMaxGreen(std::size_t phase) const;
+  [[nodiscard]] bool ShouldTerminate(Time now, const std::vector<bool>& calls) const;
+  [[nodiscard]] std::size_t ChooseNext(std::size_t plan, const std::vector<bool>& calls) const;
+  [[nodiscard]] std::size_t FirstPhase(std::size_t plan, Time at) const;
+  [[nodiscard]] Time PlannedEnd(std::size_t phase, Time now) const;
+  /// The time group `g` turns green if the sequence runs with each phase's green ending at
+  /// `green_end(phase, start)`.
+  [[nodiscard]] std::optional<Time> EarliestGreen(std::size_t g, Time now) const;
+  template <typename F>
+  [[nodiscard]] std::optional<Time> WalkToGreen(std::size_t g, F green_end) const;
+  void Show(std::size_t g, Aspect aspect, Time now);
+  void EnterFlash(Time now, bool dark);
+  void EnterAllRed(Time now, Duration d);
+  void StartPhase(std::size_t phase, Time now);
+  void BeginClearance(std::optional<std::size_t> next, Time now);
+  void UpdateRequest(Time now);
+  void EndRequest(Time now, std::uint8_t status, std::string reason);
+
+  const IntersectionModel* model_;
+  std::vector<Aspect> aspects_;
+  std::vector<Time> since_;
+  Stage stage_ = Stage::kStartupFlash;
+  Time stage_end_{};
+  Mode mode_ = Mode::kAuto;
+  std::size_t plan_ = 0;
+  std::optional<std::size_t> operator_plan_;
+  std::optional<std::size_t> scheduled_plan_;
+  std::size_t phase_ = 0;
+  std::optional<std::size_t> next_phase_;  ///< during a clearance; none: to flash or dark
+  Time green_start_{};
+  Time planned_end_{};
+  Time last_call_{};
+  Time yellow_end_{};
+  Duration red_clearance_{0};  ///< of the clearance under way
+  bool advance_ = false;
+  bool devices_ready_ = true;
+  bool latched_ = false;
+  std::string latch_reason_;
+  std::optional<Active> active_;
+  std::vector<RequestUpdate> updates_;
+  std::vector<bool> calls_;  ///< the last calls seen, for predictions
+};
+
+}  // namespace autodrive::scm

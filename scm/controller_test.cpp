@@ -1,0 +1,518 @@
+#include "scm/controller.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "autodrive_msgs/msg/SignalRequestStatus.h"
+
+#include "common/test_support.h"
+#include "scm/conflict_monitor.h"
+
+namespace autodrive::scm {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using ::testing::HasSubstr;
+
+const City& DrivingSchool() {
+  static const City city = LoadCity(test::SourceDir() / "config/cities/driving_school.yaml");
+  return city;
+}
+const City& SmallTown() {
+  static const City city = LoadCity(test::SourceDir() / "config/cities/small_town.yaml");
+  return city;
+}
+
+constexpr int kNoon = 12 * 60;     // the day plan (fixed)
+constexpr int kEvening = 20 * 60;  // the evening plan (actuated)
+
+/// A start time where the day plan's cycle (52 s) begins, so its phases line up with the clock.
+Time CycleStart() { return Time(seconds(52 * 1000)); }
+
+/// Drives a controller in fixed ticks and checks every output with a monitor.
+struct Rig {
+  explicit Rig(const IntersectionModel& x, Time start = CycleStart())
+      : model(x), now(start), controller(x, start), monitor(x, start) {}
+  /// Steps until `until`, with `calls`; fails the test on any monitor violation.
+  void RunTo(Time until, const std::vector<bool>& calls = {}, int minute = kNoon) {
+    while (now < until) {
+      now = std::min(until, now + tick);
+      controller.Step(now, calls, minute);
+      const auto v = monitor.CheckAndRecord(now, controller.aspects());
+      ASSERT_FALSE(v) << v->message;
+    }
+  }
+  void RunFor(Duration d, const std::vector<bool>& calls = {}, int minute = kNoon) {
+    RunTo(now + d, calls, minute);
+  }
+  Aspect Of(std::size_t g) const { return controller.aspects()[g]; }
+  const IntersectionModel& model;
+  Time now;
+  Duration tick = milliseconds(100);
+  IntersectionController controller;
+  ConflictMonitor monitor;
+};
+
+TEST(Controller, StartsWithFlashThenAllRedThenThePlan) {
+  Rig rig(DrivingSchool().intersections[0]);
+  EXPECT_EQ(rig.Of(0), Aspect::kFlashingRed);
+  rig.RunFor(milliseconds(2900));
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kFlashingRed);
+  rig.RunFor(milliseconds(100));  // 3 s: start-up flash over
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kRed);
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+  rig.RunFor(milliseconds(1900));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  rig.RunFor(milliseconds(100));  // 5 s: all red over; the cycle is at 5 s, in phase 1's green
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  EXPECT_EQ(rig.controller.effective_mode(), Mode::kFixed);
+  EXPECT_EQ(rig.controller.plan().name, "day");
+}
+
+TEST(Controller, StartUpWaitsForTheDevices) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.controller.SetDevicesReady(false);
+  rig.RunFor(seconds(10));
+  EXPECT_EQ(rig.controller.stage(), Stage::kStartupFlash);
+  rig.controller.SetDevicesReady(true);
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+}
+
+TEST(Controller, FixedTimeRunsThePhasesInTurnKeepingToTheCycle) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(52));  // settle into the cycle
+  // Cycle position 0 (phase 1 green from 0 to 8 s, yellow to 11, all red to 13, phase 2 ...).
+  const Time c = CycleStart() + seconds(52);
+  rig.RunTo(c + milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(c + milliseconds(7900));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(c + seconds(8));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(c + seconds(11));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  rig.RunTo(c + seconds(13));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  rig.RunTo(c + seconds(52 + 1));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  EXPECT_EQ(rig.Of(3), Aspect::kRed);
+}
+
+TEST(Controller, FixedTimePredictionsMatchWhatHappens) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(60));
+  // Record each group's predictions now, then check them against the changes that follow.
+  const auto predicted = rig.controller.Signals(rig.now);
+  std::vector<std::optional<Time>> changed(4);
+  std::vector<std::optional<Time>> green_at(4);
+  const auto start = rig.controller.aspects();
+  while (rig.now < CycleStart() + seconds(60 + 52)) {
+    rig.RunFor(milliseconds(100));
+    for (std::size_t g = 0; g < 4; ++g) {
+      if (!changed[g] && rig.Of(g) != start[g]) changed[g] = rig.now;
+      if (!green_at[g] && start[g] != Aspect::kGreen && rig.Of(g) == Aspect::kGreen) {
+        green_at[g] = rig.now;
+      }
+    }
+  }
+  for (std::size_t g = 0; g < 4; ++g) {
+    SCOPED_TRACE(g);
+    const auto& s = predicted[g];
+    ASSERT_TRUE(changed[g]);
+    ASSERT_TRUE(s.likely_end);
+    EXPECT_EQ(*s.likely_end, *changed[g]);
+    EXPECT_LE(s.min_end, *changed[g]);
+    if (s.max_end) {
+      EXPECT_GE(*s.max_end, *changed[g]);
+    }
+    if (start[g] == Aspect::kRed) {
+      ASSERT_TRUE(s.next_green);
+      EXPECT_EQ(*s.next_green, *green_at[g]);
+    }
+  }
+}
+
+TEST(Controller, ManualHoldsUntilAdvanceAndHonoursMinGreen) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));  // phase 1 green since 5 s
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  ASSERT_TRUE(rig.controller.SetMode(Mode::kManual, rig.now).ok);
+  rig.RunFor(seconds(60));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);  // held
+  const auto r = rig.controller.Advance(rig.now);
+  EXPECT_TRUE(r.ok) << r.message;
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunFor(seconds(5));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  // Advance right after a green starts waits for the min green.
+  const auto early = rig.controller.Advance(rig.now);
+  EXPECT_THAT(early.message, HasSubstr("advancing when min green is served, in"));
+  rig.RunFor(seconds(4));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  rig.RunFor(seconds(1));
+  EXPECT_EQ(rig.Of(1), Aspect::kYellow);
+}
+
+TEST(Controller, AdvanceOutsideManualIsRefused) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunFor(seconds(6));
+  const auto r = rig.controller.Advance(rig.now);
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.message, "advance needs manual mode; driving_school_crossing runs fixed");
+}
+
+TEST(Controller, ActuatedRestsInGreenAndGapsOutToACall) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  const std::vector<bool> none(4, false);
+  rig.RunFor(seconds(5), none, kEvening);  // start-up; the first phase begins
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunFor(seconds(30), none, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);  // no calls anywhere: rests
+  // A call on the south approach: east's green gaps out (no call of its own).
+  std::vector<bool> south(4, false);
+  south[3] = true;
+  rig.RunFor(milliseconds(100), south, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunFor(seconds(5), south, kEvening);
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);  // phases 2 and 3 skipped
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  // Calls on its own approach extend it up to max green (15 s) even with a call waiting.
+  std::vector<bool> both(4, false);
+  both[3] = both[0] = true;
+  rig.RunFor(seconds(14), both, kEvening);
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);
+  rig.RunFor(seconds(1), both, kEvening);
+  EXPECT_EQ(rig.Of(3), Aspect::kYellow);
+}
+
+TEST(Controller, PlanChangesAtTheEndOfAGreen) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  const auto r = rig.controller.SetPlan("night", rig.now);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.message, "driving_school_crossing runs plan night from the next safe point");
+  rig.RunFor(milliseconds(100));
+  // Not before min green (5 s from 5 s): yellow at 10 s, red at 13 s, flash at 15 s.
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(CycleStart() + seconds(10));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(CycleStart() + seconds(15));
+  EXPECT_EQ(rig.Of(0), Aspect::kFlashingRed);
+  EXPECT_EQ(rig.controller.effective_mode(), Mode::kFlash);
+  // Back to the schedule: out of flash through all red.
+  ASSERT_TRUE(rig.controller.SetPlan("auto", rig.now).ok);
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+  EXPECT_FALSE(rig.controller.SetPlan("nope", rig.now).ok);
+  EXPECT_EQ(rig.controller.SetPlan("nope", rig.now).message,
+            "driving_school_crossing has no plan \"nope\" (plans: day, evening, night, off, or "
+            "auto)");
+}
+
+TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  ServiceRequest req{"nigel_2", 7, true, 2, rig.now + seconds(20)};
+  const auto u = rig.controller.Request(req, rig.now);
+  EXPECT_EQ(u.status, autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED);
+  ASSERT_TRUE(u.expected_green);
+  EXPECT_TRUE(rig.controller.preemption_active());
+  // Group 1's min green ends at 10 s; yellow 3 s, all red 2 s: west green at 15 s, skipping north.
+  rig.RunTo(CycleStart() + seconds(10));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(CycleStart() + seconds(15));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  EXPECT_EQ(*u.expected_green, CycleStart() + seconds(15));
+  // Held past its max green until the vehicle's end time (26 s), then completed.
+  rig.RunTo(CycleStart() + seconds(25));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  rig.RunTo(CycleStart() + seconds(27));
+  const auto updates = rig.controller.TakeRequestUpdates();
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].status, autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED);
+  EXPECT_EQ(updates[0].vehicle, "nigel_2");
+}
+
+TEST(Controller, RequestsAreRefusedInFlashAndManual) {
+  Rig rig(DrivingSchool().intersections[0]);
+  const auto in_startup = rig.controller.Request({"nigel_1", 1, true, 0, rig.now}, rig.now);
+  EXPECT_EQ(in_startup.status, autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED);
+  EXPECT_EQ(in_startup.reason, "driving_school_crossing is in flash");
+  rig.RunFor(seconds(6));
+  ASSERT_TRUE(rig.controller.SetMode(Mode::kManual, rig.now).ok);
+  const auto in_manual = rig.controller.Request({"nigel_1", 1, false, 1, rig.now}, rig.now);
+  EXPECT_EQ(in_manual.reason, "driving_school_crossing is under manual control");
+}
+
+TEST(Controller, FailSafeLatchesUntilReset) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  rig.controller.FailSafe(rig.now, "devices lost: signal_1");
+  rig.RunFor(milliseconds(100));
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kFlashingRed);
+  EXPECT_TRUE(rig.controller.latched());
+  ASSERT_TRUE(rig.controller.SetPlan("day", rig.now).ok);
+  rig.RunFor(seconds(30));
+  EXPECT_EQ(rig.Of(0), Aspect::kFlashingRed);  // a plan does not clear the latch
+  const auto r = rig.controller.Reset(rig.now);
+  EXPECT_TRUE(r.ok);
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  rig.RunFor(seconds(2));
+  EXPECT_FALSE(rig.controller.latched());
+  EXPECT_EQ(rig.controller.Reset(rig.now).message,
+            "driving_school_crossing is not in fail-safe flash; nothing to reset");
+}
+
+// --- The conflict monitor on its own ---
+
+struct MonitorRig {
+  MonitorRig() : model(DrivingSchool().intersections[0]), now(CycleStart()), monitor(model, now) {
+    Show({Aspect::kRed, Aspect::kRed, Aspect::kRed, Aspect::kRed}, seconds(0));
+  }
+  std::optional<Violation> Show(std::vector<Aspect> a, Duration after) {
+    now += after;
+    return monitor.CheckAndRecord(now, a);
+  }
+  const IntersectionModel& model;
+  Time now;
+  ConflictMonitor monitor;
+};
+constexpr Aspect R = Aspect::kRed, Y = Aspect::kYellow, G = Aspect::kGreen,
+                 F = Aspect::kFlashingRed;
+
+TEST(ConflictMonitor, LatchesWhenTwoConflictingGroupsAreGreen) {
+  MonitorRig m;
+  const auto v = m.Show({G, G, R, R}, seconds(3));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->rule, "conflict");
+  EXPECT_EQ(v->message,
+            "driving_school_crossing: group 1 (east) green and group 2 (north) green conflict; "
+            "rule: conflicting groups are never green or yellow together");
+}
+
+TEST(ConflictMonitor, CatchesShortYellowShortGreenAndShortAllRed) {
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    const auto v = m.Show({Y, R, R, R}, seconds(4));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "short_green");
+    EXPECT_THAT(v->message, HasSubstr("green lasted 4.000 s of its min green 5.000 s"));
+  }
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    ASSERT_FALSE(m.Show({Y, R, R, R}, seconds(5)));
+    const auto v = m.Show({R, R, R, R}, milliseconds(2900));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "short_yellow");
+  }
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    ASSERT_FALSE(m.Show({Y, R, R, R}, seconds(5)));
+    ASSERT_FALSE(m.Show({R, R, R, R}, seconds(3)));
+    const auto v = m.Show({R, G, R, R}, milliseconds(1900));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "short_all_red");
+    EXPECT_THAT(v->message, HasSubstr("group 2 (north) turned green while conflicting group 1 "
+                                      "(east) was red for 1.900 s, under its red clearance"));
+    EXPECT_FALSE(m.Show({R, G, R, R}, milliseconds(100)));  // 2 s: fine
+  }
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    const auto v = m.Show({R, R, R, R}, seconds(10));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "green_not_to_yellow");
+  }
+}
+
+TEST(ConflictMonitor, AllowsGoingToFlashAtAnyTimeButNotGreenStraightFromFlash) {
+  MonitorRig m;
+  ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+  EXPECT_FALSE(m.Show({F, F, F, F}, seconds(1)));
+  const auto v = m.Show({G, F, F, F}, seconds(1));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->rule, "green_not_from_red");
+}
+
+// --- Property test: random operator commands, plans, requests and faults ---
+
+/// The safety rules, checked from the outside on the controller's raw output.
+class RuleChecker {
+ public:
+  RuleChecker(const IntersectionModel& x, Time now)
+      : x_(x),
+        last_(x.groups.size(), Aspect::kFlashingRed),
+        since_(x.groups.size(), now),
+        red_since_(x.groups.size()) {}
+  /// Returns a description of the first broken rule, or "".
+  std::string Check(Time now, const std::vector<Aspect>& a) {
+    const std::size_t n = a.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t j = i + 1; j < n; ++j) {
+        if (x_.conflicts[i][j] && IsGo(a[i]) && IsGo(a[j])) return "conflicting go";
+      }
+    }
+    for (std::size_t g = 0; g < n; ++g) {
+      if (a[g] == last_[g]) continue;
+      const auto& t = x_.groups[g].timing;
+      const bool flash = IsFlashing(a[g]) || a[g] == Aspect::kOff;
+      if (last_[g] == Aspect::kGreen && !flash && now - since_[g] < t.min_green)
+        return "short green";
+      if (last_[g] == Aspect::kYellow && !flash && now - since_[g] < t.yellow)
+        return "short yellow";
+      if (last_[g] == Aspect::kGreen && !flash && a[g] != Aspect::kYellow)
+        return "green not to yellow";
+      if (a[g] == Aspect::kGreen) {
+        if (last_[g] != Aspect::kRed) return "green not from red";
+        for (std::size_t h = 0; h < n; ++h) {
+          if (x_.conflicts[g][h] &&
+              (!red_since_[h] || now - *red_since_[h] < x_.groups[h].timing.red_clearance)) {
+            return "short all-red";
+          }
+        }
+      }
+    }
+    for (std::size_t g = 0; g < n; ++g) {
+      if (a[g] != last_[g]) {
+        last_[g] = a[g];
+        since_[g] = now;
+        red_since_[g] = a[g] == Aspect::kRed ? std::optional<Time>(now) : std::nullopt;
+      }
+    }
+    return "";
+  }
+
+ private:
+  const IntersectionModel& x_;
+  std::vector<Aspect> last_;
+  std::vector<Time> since_;
+  std::vector<std::optional<Time>> red_since_;
+};
+
+void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> tick_ms(20, 600);
+  std::uniform_int_distribution<int> percent(0, 99);
+  long long ticks = 0;
+  int latches = 0;
+  int grants = 0;
+  for (int s = 0; s < sequences; ++s) {
+    const auto& x = city.intersections[static_cast<std::size_t>(s) % city.intersections.size()];
+    Time now = Time(seconds(1'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
+    const auto modes = {Mode::kAuto,   Mode::kFixed, Mode::kActuated,
+                        Mode::kManual, Mode::kFlash, Mode::kDark};
+    IntersectionController c(
+        x, now, *(modes.begin() + percent(rng) % 6),
+        percent(rng) < 50
+            ? std::optional<std::size_t>(static_cast<std::size_t>(percent(rng)) % x.plans.size())
+            : std::nullopt);
+    ConflictMonitor monitor(x, now);
+    RuleChecker checker(x, now);
+    int minute = std::uniform_int_distribution<int>(0, 1439)(rng);
+    std::vector<bool> calls(x.groups.size(), false);
+    const int steps = 200;
+    std::vector<GroupSignal> prev;
+    std::vector<std::string> trace;  // the last steps, printed when a rule breaks
+    auto note = [&](std::string what) {
+      if (trace.size() >= 40) trace.erase(trace.begin());
+      std::string aspects;
+      for (Aspect a : c.aspects()) aspects += std::string(ToString(a)) + " ";
+      trace.push_back(fmt::format("t={:.2f} {} -> stage {} [{}]", ToSeconds(now) - 1e6, what,
+                                  ToString(c.stage()), aspects));
+    };
+    auto dump = [&] {
+      std::string out;
+      for (const auto& t : trace) out += "\n  " + t;
+      return out;
+    };
+    for (int k = 0; k < steps; ++k) {
+      const int p = percent(rng);
+      std::string what = "tick";
+      if (p < 3) {
+        const Mode m = *(modes.begin() + percent(rng) % 6);
+        what = fmt::format("mode {}: {}", ToString(m), c.SetMode(m, now).message);
+      } else if (p < 6) {
+        const std::size_t plan = static_cast<std::size_t>(percent(rng)) % (x.plans.size() + 1);
+        what = c.SetPlan(plan == x.plans.size() ? "auto" : x.plans[plan].name, now).message;
+      } else if (p < 12) {
+        what = "advance: " + c.Advance(now).message;
+      } else if (p < 16) {
+        const std::size_t g = static_cast<std::size_t>(percent(rng)) % x.groups.size();
+        const auto u = c.Request({"nigel_" + std::to_string(1 + percent(rng) % 3),
+                                  static_cast<std::uint32_t>(percent(rng)), percent(rng) < 50, g,
+                                  now + milliseconds(percent(rng) * 300)},
+                                 now);
+        if (u.status == autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED) ++grants;
+        what = fmt::format("request group {} status {} {}", g, u.status, u.reason);
+      } else if (p < 17) {
+        c.FailSafe(now, "injected device fault");
+        what = "fail-safe";
+        ++latches;
+      } else if (p < 20) {
+        what = "reset: " + c.Reset(now).message;
+      } else if (p < 22) {
+        c.SetDevicesReady(percent(rng) < 70);
+      } else if (p < 30) {
+        calls[static_cast<std::size_t>(percent(rng)) % calls.size()].flip();
+      } else if (p < 31) {
+        minute = std::uniform_int_distribution<int>(0, 1439)(rng);
+        what = "schedule";
+      }
+      now += milliseconds(tick_ms(rng));
+      const auto before = c.aspects();
+      c.Step(now, calls, minute);
+      note(what);
+      // SPaT timing: with no command in between, a change never comes before the min end the
+      // last tick promised, nor later than one tick after its max end.
+      if (what == "tick" && !prev.empty()) {
+        for (std::size_t g = 0; g < before.size(); ++g) {
+          if (c.aspects()[g] == before[g]) continue;
+          if (IsFlashing(c.aspects()[g]) || c.aspects()[g] == Aspect::kOff) continue;  // any time
+          ASSERT_GE(now, prev[g].min_end) << "group " << g << dump();
+          if (prev[g].max_end) {
+            ASSERT_LE(now, *prev[g].max_end + milliseconds(600)) << "group " << g << dump();
+          }
+        }
+      }
+      prev = c.Signals(now);
+      for (const auto& sig : prev) ASSERT_GE(sig.min_end, now);
+      for (const auto& u : c.TakeRequestUpdates())
+        note("update " + std::to_string(u.status) + " " + u.reason);
+      ++ticks;
+      const std::string broken = checker.Check(now, c.aspects());
+      if (!broken.empty()) note("checked");
+      ASSERT_EQ(broken, "") << "sequence " << s << " step " << k << " at " << x.name << dump();
+      const auto v = monitor.CheckAndRecord(now, c.aspects());
+      ASSERT_FALSE(v) << "sequence " << s << " step " << k << ": " << v->message << dump();
+    }
+  }
+  std::printf("%s: %d sequences, %lld ticks, %d injected faults, %d requests granted\n",
+              city.config.name.c_str(), sequences, ticks, latches, grants);
+  EXPECT_GT(grants, 0);
+}
+
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDrivingSchool) {
+  RunRandomSequences(DrivingSchool(), 10'000 * test::SoakFactor(), 1);
+}
+
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleSmallTown) {
+  RunRandomSequences(SmallTown(), 10'000 * test::SoakFactor(), 2);
+}
+
+}  // namespace
+}  // namespace autodrive::scm
