@@ -1,0 +1,309 @@
+#include "scm/fleet.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/dds/conversions.h"
+#include "common/error.h"
+
+namespace autodrive::scm {
+namespace {
+
+// Preference among fresh sources: lower is preferred (see PoseSource).
+int Rank(PoseSource source) {
+  switch (source) {
+    case PoseSource::kSimGroundTruth:
+      return 0;
+    case PoseSource::kEye:
+      return 1;
+    case PoseSource::kOdometry:
+      return 2;
+  }
+  return 3;
+}
+
+const FleetRegistryParams& Validated(const FleetRegistryParams& params) {
+  params.Validate();
+  return params;
+}
+
+// The point of `line` nearest to p, brute force over its segments.
+struct LineProjection {
+  double distance_m = std::numeric_limits<double>::infinity();
+  double along_m = 0.0;
+  Eigen::Vector2d tangent = Eigen::Vector2d::UnitX();
+};
+
+LineProjection Project(const maps::Polyline& line, const Eigen::Vector2d& p) {
+  LineProjection best;
+  double s = 0.0;
+  for (std::size_t i = 1; i < line.size(); ++i) {
+    const Eigen::Vector2d a = line[i - 1];
+    const Eigen::Vector2d ab = line[i] - a;
+    const double length = ab.norm();
+    if (length == 0.0) continue;
+    const double t = std::clamp((p - a).dot(ab) / (length * length), 0.0, 1.0);
+    const double d = (a + t * ab - p).norm();
+    if (d < best.distance_m) {
+      best.distance_m = d;
+      best.along_m = s + t * length;
+      best.tangent = ab / length;
+    }
+    s += length;
+  }
+  return best;
+}
+
+}  // namespace
+
+std::string_view ToString(PoseSource source) {
+  switch (source) {
+    case PoseSource::kEye:
+      return "eye";
+    case PoseSource::kSimGroundTruth:
+      return "sim_ground_truth";
+    case PoseSource::kOdometry:
+      return "odometry";
+  }
+  return "?";
+}
+
+void FleetRegistryParams::Validate() const {
+  AUTODRIVE_THROW_UNLESS(staleness > Duration::zero(),
+                         "staleness_s must be > 0, got " << ToSeconds(staleness));
+  AUTODRIVE_THROW_UNLESS(std::isfinite(lane_margin_m) && lane_margin_m >= 0 && lane_margin_m <= 1,
+                         "lane_margin_m must be in [0, 1], got " << lane_margin_m);
+  AUTODRIVE_THROW_UNLESS(std::isfinite(max_heading_error_rad) && max_heading_error_rad >= 0 &&
+                             max_heading_error_rad <= kPi,
+                         "max_heading_error_rad must be in [0, pi], got " << max_heading_error_rad);
+}
+
+FleetRegistry::FleetRegistry(const maps::Map& map, FleetRegistryParams params)
+    : map_(map), params_(Validated(params)), index_(map) {
+  for (const auto& lane : map_.lanes) {
+    const double reach = lane.width_m / 2 + params_.lane_margin_m;
+    Eigen::AlignedBox2d box;
+    for (const auto& p : lane.centreline) box.extend(p);
+    box.min().array() -= reach;
+    box.max().array() += reach;
+    lane_boxes_.push_back(box);
+    max_reach_m_ = std::max(max_reach_m_, reach);
+  }
+  box_of_tile_.assign(static_cast<std::size_t>(map_.rows * map_.cols), nullptr);
+  ingress_approach_.resize(map_.lanes.size());
+  for (const auto& x : map_.intersections) {
+    box_of_tile_[static_cast<std::size_t>(x.tile.row * map_.cols + x.tile.col)] = &x;
+    for (const auto& a : x.approaches) {
+      for (const LaneId l : a.ingress) ingress_approach_[l.value() - 1] = a.id;
+    }
+  }
+}
+
+bool FleetRegistry::HeadingFits(const Eigen::Vector2d& tangent, double yaw_rad) const {
+  const double error = std::abs(WrapAngle(yaw_rad - std::atan2(tangent.y(), tangent.x())));
+  return error <= params_.max_heading_error_rad;
+}
+
+const maps::Intersection* FleetRegistry::BoxAt(const Eigen::Vector2d& p) const {
+  const double T = map_.tile_size_m;
+  const double col = std::floor(p.x() / T);
+  const double row_from_south = std::floor(p.y() / T);
+  if (!(col >= 0 && col < map_.cols && row_from_south >= 0 && row_from_south < map_.rows)) {
+    return nullptr;
+  }
+  const int row = map_.rows - 1 - static_cast<int>(row_from_south);
+  const maps::Intersection* x =
+      box_of_tile_[static_cast<std::size_t>(row * map_.cols + static_cast<int>(col))];
+  if (x == nullptr) return nullptr;
+  // Strictly inside (by more than rounding): a vehicle on the box's edge is still on its lane,
+  // at the stop line.
+  constexpr double kEdge = 1e-9;
+  const Eigen::Vector2d d = (p - x->centre).cwiseAbs();
+  return d.x() < T / 2 - kEdge && d.y() < T / 2 - kEdge ? x : nullptr;
+}
+
+std::optional<std::pair<LaneId, double>> FleetRegistry::NearestLane(const Eigen::Vector2d& p,
+                                                                    double yaw_rad) const {
+  const auto fits = [&](const maps::Lane& lane, const LineProjection& q) {
+    return q.distance_m <= lane.width_m / 2 + params_.lane_margin_m &&
+           HeadingFits(q.tangent, yaw_rad);
+  };
+  // The common case: the nearest lane (CGAL's AABB tree) is the one.
+  if (const auto m = index_.NearestLane(p, max_reach_m_)) {
+    const maps::Lane& lane = map_.lane(m->lane);
+    const LineProjection q = Project(lane.centreline, p);
+    if (fits(lane, q)) return std::pair{lane.id, q.along_m};
+  } else {
+    return std::nullopt;  // no lane within reach at all
+  }
+  // The nearest lane runs the other way (the car is near the road's centreline, or on the
+  // opposing lane): look at every lane within reach for the nearest that fits.
+  std::optional<std::pair<LaneId, double>> best;
+  double best_distance_m = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < map_.lanes.size(); ++i) {
+    if (!lane_boxes_[i].contains(p)) continue;
+    const maps::Lane& lane = map_.lanes[i];
+    const LineProjection q = Project(lane.centreline, p);
+    if (!fits(lane, q)) continue;
+    if (q.distance_m < best_distance_m) {
+      best = std::pair{lane.id, q.along_m};
+      best_distance_m = q.distance_m;
+    }
+  }
+  return best;
+}
+
+VehicleLocation FleetRegistry::Locate(const RigidTransform2& X_MV) const {
+  const Eigen::Vector2d& p = X_MV.translation();
+  const double yaw = X_MV.yaw();
+  VehicleLocation loc;
+  if (const maps::Intersection* x = BoxAt(p)) {
+    loc.intersection = x->id;
+    const maps::Movement* best = nullptr;
+    LineProjection best_q;
+    for (const MovementId id : x->movements) {
+      const maps::Movement& mv = map_.movement(id);
+      const LineProjection q = Project(mv.path, p);
+      const double reach = map_.lane(mv.from).width_m / 2 + params_.lane_margin_m;
+      if (q.distance_m > reach || !HeadingFits(q.tangent, yaw)) continue;
+      if (best == nullptr || q.distance_m < best_q.distance_m) {
+        best = &mv;
+        best_q = q;
+      }
+    }
+    if (best != nullptr) {
+      loc.movement = best->id;
+      loc.lane = best->from;
+      loc.approach = best->from_approach;
+      loc.distance_to_stop_line_m = -best_q.along_m;
+    }
+    return loc;
+  }
+  const auto match = NearestLane(p, yaw);
+  if (!match) return loc;
+  const maps::Lane& lane = map_.lane(match->first);
+  loc.lane = lane.id;
+  if (lane.ingress_of && ingress_approach_[lane.id.value() - 1]) {
+    loc.intersection = lane.ingress_of;
+    loc.approach = ingress_approach_[lane.id.value() - 1];
+    loc.distance_to_stop_line_m = lane.length_m - match->second;
+  }
+  return loc;
+}
+
+bool FleetRegistry::Observe(const VehicleObservation& o) {
+  AUTODRIVE_THROW_UNLESS(o.source == PoseSource::kEye || o.source == PoseSource::kSimGroundTruth ||
+                             o.source == PoseSource::kOdometry,
+                         "an observation of " << VehicleName(o.vehicle) << " has an unknown source "
+                                              << static_cast<int>(o.source)
+                                              << " (expected 1 eye, 2 sim ground "
+                                              << "truth or 3 odometry)");
+  AUTODRIVE_THROW_UNLESS(std::isfinite(o.speed_mps), "an observation of " << VehicleName(o.vehicle)
+                                                                          << " has speed "
+                                                                          << o.speed_mps);
+  for (std::size_t i = 0; i < o.pose_covariance.size(); ++i) {
+    AUTODRIVE_THROW_UNLESS(std::isfinite(o.pose_covariance[i]),
+                           "an observation of " << VehicleName(o.vehicle) << " has covariance[" << i
+                                                << "] = " << o.pose_covariance[i]);
+  }
+  Entry entry{o, Locate(o.X_MV.ToRigidTransform2())};  // outside the lock: the map is const
+  std::lock_guard lock(mutex_);
+  const auto key = std::pair{o.vehicle, o.source};
+  const auto it = entries_.find(key);
+  if (it != entries_.end()) {
+    const Time stored = it->second.observation.observed;
+    if (o.observed < stored && stored - o.observed <= params_.staleness) return false;
+    it->second = std::move(entry);
+  } else {
+    entries_.emplace(key, std::move(entry));
+  }
+  return true;
+}
+
+bool FleetRegistry::Fresh(const VehicleObservation& o, Time now) const {
+  const Duration age = now - o.observed;
+  return age <= params_.staleness && -age <= params_.staleness;
+}
+
+std::vector<const FleetRegistry::Entry*> FleetRegistry::Chosen(Time now) const {
+  // entries_ is ordered by (vehicle, source): one run per vehicle. Caller holds the lock.
+  std::vector<const Entry*> out;
+  for (auto it = entries_.begin(); it != entries_.end();) {
+    const VehicleId vehicle = it->first.first;
+    const Entry* best = nullptr;
+    for (; it != entries_.end() && it->first.first == vehicle; ++it) {
+      const Entry& e = it->second;
+      if (!Fresh(e.observation, now)) continue;
+      if (best == nullptr || Rank(e.observation.source) < Rank(best->observation.source)) {
+        best = &e;
+      }
+    }
+    if (best != nullptr) out.push_back(best);
+  }
+  return out;
+}
+
+std::vector<FleetVehicle> FleetRegistry::Vehicles(Time now) const {
+  std::lock_guard lock(mutex_);
+  std::vector<FleetVehicle> out;
+  for (const Entry* e : Chosen(now)) out.push_back({e->observation, e->location});
+  return out;
+}
+
+FleetStateMessage FleetRegistry::State(Time now) const {
+  const std::vector<FleetVehicle> vehicles = Vehicles(now);
+  FleetStateMessage m;
+  m->header.stamp = dds::ToMsg(now);
+  dds::SetString(m->header.frame_id, "map");
+  dds::ResizeSequence(m->vehicles, static_cast<std::uint32_t>(vehicles.size()));
+  for (std::size_t i = 0; i < vehicles.size(); ++i) {
+    const VehicleObservation& o = vehicles[i].observation;
+    const VehicleLocation& loc = vehicles[i].location;
+    auto& v = dds::Elements(m->vehicles)[i];
+    dds::SetString(v.vehicle_id, VehicleName(o.vehicle));
+    v.tag_id = o.tag ? o.tag->value() : 0;
+    v.source = static_cast<std::uint8_t>(o.source);
+    v.observed = dds::ToMsg(o.observed);
+    v.pose.pose = dds::ToMsg(o.X_MV);
+    std::copy(o.pose_covariance.begin(), o.pose_covariance.end(), v.pose.covariance);
+    v.twist.twist.linear.x = o.speed_mps;
+    dds::SetString(v.map_lane_id, loc.lane ? map_.lane(*loc.lane).name : std::string());
+    v.intersection_id = loc.intersection ? loc.intersection->value() : 0;
+    v.approach_id = loc.approach ? loc.approach->value() : 0;
+    v.distance_to_stop_line_m = loc.distance_to_stop_line_m.value_or(0.0);
+  }
+  return m;
+}
+
+bool FleetRegistry::Occupied(const DetectorZone& zone, Time now) const {
+  AUTODRIVE_THROW_UNLESS(zone.lane.value() >= 1 && zone.lane.value() <= map_.lanes.size(),
+                         "detector zone on " << zone.lane << ", which is not in map \"" << map_.name
+                                             << "\" (it has " << map_.lanes.size() << " lanes)");
+  const maps::Lane& lane = map_.lane(zone.lane);
+  AUTODRIVE_THROW_UNLESS(lane.ingress_of.has_value(),
+                         "detector zone on lane " << lane.name
+                                                  << ", which is not an ingress lane of an "
+                                                     "intersection (no stop line to measure from)");
+  AUTODRIVE_THROW_UNLESS(
+      std::isfinite(zone.from_stop_line_m) && std::isfinite(zone.to_stop_line_m) &&
+          zone.from_stop_line_m <= zone.to_stop_line_m,
+      "detector zone on lane " << lane.name << " has an empty range [" << zone.from_stop_line_m
+                               << ", " << zone.to_stop_line_m << "] m");
+  std::lock_guard lock(mutex_);
+  for (const Entry* e : Chosen(now)) {
+    const VehicleLocation& loc = e->location;
+    if (loc.lane != zone.lane || !loc.distance_to_stop_line_m) continue;
+    const double d = *loc.distance_to_stop_line_m;
+    if (d >= zone.from_stop_line_m && d <= zone.to_stop_line_m) return true;
+  }
+  return false;
+}
+
+std::size_t FleetRegistry::DropStale(Time now) {
+  std::lock_guard lock(mutex_);
+  return std::erase_if(entries_,
+                       [&](const auto& kv) { return !Fresh(kv.second.observation, now); });
+}
+
+}  // namespace autodrive::scm

@@ -1,0 +1,205 @@
+// scmctl: the operator's command line for the Smart City Manager. See docs/scm.md.
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <iostream>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+
+#include "common/config.h"
+#include "common/dds/conversions.h"
+#include "common/dds/topics.h"
+#include "common/shutdown.h"
+#include "scm/city.h"
+#include "scm/client.h"
+
+namespace {
+
+using namespace autodrive;
+using namespace autodrive::scm;
+
+/// Exit codes: 0 done, 1 refused or failed, 2 bad arguments (also INVALID replies), 3 no SCM.
+constexpr int kRefused = 1;
+constexpr int kInvalid = 2;
+constexpr int kNoAnswer = 3;
+
+int Print(const OperatorAnswer& a, bool json) {
+  if (json) {
+    std::cout << ToJson(a) << std::endl;
+  } else {
+    std::cout << ResultName(a.result) << ": " << a.message << "\n";
+    for (const auto& [k, v] : a.values) std::cout << "  " << k << ": " << v << "\n";
+  }
+  switch (a.result) {
+    case autodrive_msgs_msg_OperatorReply_Constants_OK:
+      return 0;
+    case autodrive_msgs_msg_OperatorReply_Constants_INVALID:
+      return kInvalid;
+    default:
+      return kRefused;
+  }
+}
+
+std::string ClientId() {
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  const char* user = std::getenv("USER");
+  return fmt::format("scmctl/{}@{}/{}", user ? user : "?", host, ::getpid());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "scmctl: talk to a running autodrive-scm over DDS. Every command is answered with ok, "
+      "rejected, invalid or failed and a message. Exit status: 0 ok, 1 rejected/failed, 2 "
+      "invalid, 3 no SCM answered. See docs/scm.md."};
+  app.require_subcommand(1);
+  dds::ParticipantOptions dds_options;
+  double timeout_s = 5.0;
+  bool json = false;
+  app.add_option("--partition", dds_options.partition, "DDS partition of the SCM");
+  app.add_option("--domain", dds_options.domain_id, "DDS domain id");
+  app.add_option("--timeout", timeout_s, "seconds to wait for the SCM and its answer")
+      ->capture_default_str();
+  app.add_flag("--json", json, "print answers (and watched messages) as JSON, one per line");
+
+  std::string intersection, mode, plan, file, watch_what, since;
+  int limit = 100;
+  int count = 0;
+  double duration_s = 0.0;
+  auto* status = app.add_subcommand("status", "the daemon's state");
+  auto* intersections = app.add_subcommand("intersections", "every signalised intersection");
+  auto* show = app.add_subcommand("show", "one intersection: mode, plan, groups and lights");
+  show->add_option("intersection", intersection, "name or id")->required();
+  auto* mode_cmd = app.add_subcommand("mode", "set the mode of an intersection");
+  mode_cmd->add_option("intersection", intersection, "name or id")->required();
+  mode_cmd->add_option("mode", mode, "auto|fixed|actuated|manual|flash|dark")->required();
+  auto* plan_cmd = app.add_subcommand("plan", "run a plan from the next safe point");
+  plan_cmd->add_option("intersection", intersection, "name or id")->required();
+  plan_cmd->add_option("plan", plan, "plan name, or auto for the schedule")->required();
+  auto* advance = app.add_subcommand("advance", "manual mode: end the current phase");
+  advance->add_option("intersection", intersection, "name or id")->required();
+  auto* reset = app.add_subcommand("reset", "clear a fail-safe flash latch");
+  reset->add_option("intersection", intersection, "name or id")->required();
+  auto* events = app.add_subcommand("events", "the event log");
+  events->add_option("--since", since, "only events after this time (seconds since the epoch)");
+  events->add_option("--limit", limit, "at most this many")->capture_default_str();
+  auto* watch = app.add_subcommand("watch", "print SPaT, fleet or events as they come");
+  watch->add_option("what", watch_what, "spat|fleet|events")
+      ->required()
+      ->check(CLI::IsMember({"spat", "fleet", "events"}));
+  watch->add_option("--count", count, "stop after this many messages (0: until interrupted)");
+  watch->add_option("--duration", duration_s, "stop after this many seconds (0: no limit)");
+  watch->add_flag("--json", json, "one JSON object per line");
+  auto* config = app.add_subcommand("config", "check or apply a city configuration");
+  config->require_subcommand(1);
+  auto* validate = config->add_subcommand("validate", "check a city file (no SCM needed)");
+  validate->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
+  auto* apply = config->add_subcommand("apply", "check a city file and make the SCM run it");
+  apply->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(timeout_s));
+    if (validate->parsed()) {
+      try {
+        const City city = LoadCity(file);
+        std::cout << "ok: " << file << " is valid: city " << city.config.name << ", "
+                  << city.intersections.size() << " signalised intersections\n";
+        return 0;
+      } catch (const InputError& e) {
+        std::cout << "invalid: " << e.what() << "\n";
+        return kInvalid;
+      }
+    }
+    if (watch->parsed()) {
+      dds::Participant participant(dds_options);
+      std::atomic<bool> stop{false};
+      ShutdownSignals signals([&](int) { stop = true; });
+      const auto end = duration_s > 0
+                           ? std::chrono::steady_clock::now() +
+                                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                     std::chrono::duration<double>(duration_s))
+                           : std::chrono::steady_clock::time_point::max();
+      int seen = 0;
+      auto done = [&] {
+        return stop.load() || (count > 0 && seen >= count) ||
+               std::chrono::steady_clock::now() >= end;
+      };
+      auto loop = [&](auto& reader, auto text) {
+        while (!done()) {
+          reader.WaitForData(std::chrono::milliseconds(100));
+          for (auto& m : reader.TakeAll()) {
+            if (done()) break;
+            std::cout << (json ? ToJson(*m) : text(*m)) << std::endl;
+            ++seen;
+          }
+        }
+      };
+      if (watch_what == "spat") {
+        dds::Reader<msg::Spat> r(participant, dds::topics::Spat());
+        loop(r, [](const msg::Spat& s) {
+          std::string out = fmt::format("{:.1f}", ToSeconds(dds::FromMsg(s.header.stamp)));
+          for (const auto& x : dds::Elements(s.intersections)) {
+            out += fmt::format(" | {} {}:", x.name ? x.name : "", x.plan ? x.plan : "");
+            for (const auto& g : dds::Elements(x.signal_groups)) {
+              out += fmt::format(" {}={}", g.signal_group, EventStateName(g.event_state));
+            }
+          }
+          return out;
+        });
+      } else if (watch_what == "fleet") {
+        dds::Reader<msg::FleetState> r(participant, dds::topics::Fleet());
+        loop(r, [](const msg::FleetState& f) { return ToJson(f); });
+      } else {
+        dds::Reader<msg::Event> r(participant, dds::topics::Events());
+        loop(r, [](const msg::Event& e) {
+          return fmt::format("{:.3f} [{}] {} {}", ToSeconds(dds::FromMsg(e.header.stamp)),
+                             e.severity, e.code ? e.code : "", e.message ? e.message : "");
+        });
+      }
+      return 0;
+    }
+
+    std::string command;
+    std::map<std::string, std::string> args;
+    if (status->parsed()) command = "status";
+    if (intersections->parsed()) command = "intersections";
+    if (show->parsed()) command = "show";
+    if (mode_cmd->parsed()) command = "mode", args["mode"] = mode;
+    if (plan_cmd->parsed()) command = "plan", args["plan"] = plan;
+    if (advance->parsed()) command = "advance";
+    if (reset->parsed()) command = "reset";
+    if (!intersection.empty()) args["intersection"] = intersection;
+    if (events->parsed()) {
+      command = "events";
+      if (!since.empty()) args["since"] = since;
+      args["limit"] = std::to_string(limit);
+    }
+    if (apply->parsed()) {
+      command = "config_apply";
+      args["yaml"] = config::internal::ReadFile(file);
+      args["path"] = std::filesystem::absolute(file).string();
+    }
+    OperatorClient client(dds_options, ClientId());
+    if (!client.WaitForScm(timeout)) {
+      std::cerr << "scmctl: no SCM answered within " << timeout_s
+                << " s (is autodrive-scm running, on this partition and domain?)\n";
+      return kNoAnswer;
+    }
+    const auto answer = client.Call(command, args, timeout);
+    if (!answer) {
+      std::cerr << "scmctl: the SCM did not answer " << command << " within " << timeout_s
+                << " s\n";
+      return kNoAnswer;
+    }
+    return Print(*answer, json);
+  } catch (const std::exception& e) {
+    std::cerr << "scmctl: " << e.what() << "\n";
+    return kRefused;
+  }
+}

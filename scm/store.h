@@ -1,0 +1,203 @@
+#pragma once
+/// @file
+/// The SCM's persistence: an SQLite database holding the event log, the city configurations
+/// that were applied, and the per-intersection state to restore after a restart.
+///
+/// Durability: the database runs in WAL mode and every write is one transaction, so a daemon
+/// killed at any moment (SIGKILL included) loses nothing it had committed and never leaves a
+/// corrupt file; SQLite rolls back an interrupted transaction when the file is next opened.
+/// Events are written with `synchronous=NORMAL` (a power cut may lose the last events committed
+/// before it, never corrupt the file); applied configurations and intersection states are
+/// written with `synchronous=FULL` (they survive a power cut once the call returns). See
+/// store.cpp for why.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/ids.h"
+#include "common/time.h"
+
+namespace autodrive::scm {
+
+/// A failure of the database itself (disk full, I/O error, database locked for too long), with
+/// SQLite's extended result code. Bad input (a missing directory, a file that is not an SCM
+/// database, a newer schema) is an `InputError` instead.
+class StoreError : public std::runtime_error {
+ public:
+  /// `what` names the operation and SQLite's message; `code` is SQLite's extended result code.
+  StoreError(const std::string& what, int code) : std::runtime_error(what), code_(code) {}
+  /// SQLite's extended result code (`SQLITE_*`).
+  [[nodiscard]] int code() const { return code_; }
+
+ private:
+  int code_;
+};
+
+/// How serious an event is; the numbering of `autodrive_msgs/Event` (`Event_Constants`).
+enum class Severity : std::uint8_t {
+  kDebug = 0,
+  kInfo = 1,
+  kWarning = 2,
+  kAlarm = 3,     ///< needs an operator
+  kCritical = 4,  ///< safety, e.g. conflict-monitor flash
+};
+
+/// "debug", "info", "warning", "alarm" or "critical".
+[[nodiscard]] std::string_view ToString(Severity severity);
+
+/// The severity with wire value `value` (0..4).
+/// @throws InputError naming the value when it is not one.
+[[nodiscard]] Severity SeverityFromWire(std::uint8_t value);
+
+/// One entry of the event log.
+struct EventRecord {
+  std::int64_t id = 0;  ///< row id, 1, 2, 3, ... in append order; set by `Store::AppendEvent`
+  Time time{};          ///< when it happened, in the system's clock
+  Severity severity = Severity::kInfo;
+  std::string source;              ///< who raised it, e.g. "scm/conflict_monitor"
+  std::string code;                ///< stable machine-readable code, e.g. "conflict_green"
+  std::string message;             ///< human-readable text
+  IntersectionId intersection{0};  ///< 0 when not about an intersection
+  std::string device_id;           ///< empty when not about a device
+  std::string actor;               ///< who caused it: an operator client id, or "scm"
+  bool active = false;             ///< alarms: true raised, false cleared
+  bool operator==(const EventRecord&) const = default;
+};
+
+/// Which events `Store::Events` returns, and in what order.
+struct EventQuery {
+  /// Only events with `time >= since`.
+  std::optional<Time> since;
+  /// Only events with `id > after_id` (to page through the log, or to poll for new ones).
+  std::optional<std::int64_t> after_id;
+  /// At most this many events.
+  std::size_t limit = 1000;
+  /// False: the oldest matching events, in append order. True: the newest matching events,
+  /// newest first (a dashboard's "last 100").
+  bool newest_first = false;
+};
+
+/// A city configuration as it was applied.
+struct AppliedConfig {
+  std::int64_t id = 0;     ///< 1, 2, 3, ... in the order applied
+  std::string path;        ///< the file it was read from
+  std::string yaml;        ///< the full YAML text
+  std::string hash;        ///< `ContentHash(yaml)`
+  std::string applied_by;  ///< operator client id, or "scm" for the configuration at start-up
+  Time applied_at{};
+  bool operator==(const AppliedConfig&) const = default;
+};
+
+/// An entry of the configuration history: an `AppliedConfig` without its text.
+struct AppliedConfigSummary {
+  std::int64_t id = 0;
+  std::string path;
+  std::string hash;
+  std::string applied_by;
+  Time applied_at{};
+  bool operator==(const AppliedConfigSummary&) const = default;
+};
+
+/// What to restore for one intersection after a restart.
+struct IntersectionStateRecord {
+  IntersectionId intersection{0};
+  std::string mode;              ///< e.g. "fixed", "actuated", "manual", "flash", "dark"; not empty
+  std::string plan;              ///< the signal plan's name; may be empty
+  bool operator_chosen = false;  ///< true when an operator chose this mode and plan
+  Time updated_at{};             ///< when it was last saved
+  bool operator==(const IntersectionStateRecord&) const = default;
+};
+
+/// A content hash of `text`: 64-bit FNV-1a (offset basis 0xcbf29ce484222325, prime
+/// 0x100000001b3) over its bytes, as 16 lower-case hex digits. It tells whether two
+/// configurations are the same text; it is not a cryptographic hash (it does not resist a
+/// deliberate collision).
+[[nodiscard]] std::string ContentHash(std::string_view text);
+
+/// The SCM's database (see the file comment). Opened on a file, which it creates when
+/// missing; `":memory:"` opens a private in-memory database (tests).
+///
+/// All methods are thread-safe (one connection behind a mutex). Move-only; a moved-from
+/// Store may only be destroyed or assigned to.
+class Store {
+ public:
+  /// The schema version this build writes and reads (`PRAGMA user_version`).
+  static constexpr int kSchemaVersion = 1;
+  /// Marks a file as an SCM database (`PRAGMA application_id`), "ADSC".
+  static constexpr std::int32_t kApplicationId = 0x41445343;
+
+  /// Opens (creating when missing) the database at `path`, or an in-memory one for
+  /// `":memory:"`. Creates the schema in a new file.
+  /// @throws InputError naming the path when its directory does not exist, when the file is
+  ///   not an SQLite database or belongs to another application, or when its schema version is
+  ///   newer than `kSchemaVersion` (a newer SCM wrote it: this one refuses rather than guess).
+  /// @throws StoreError when SQLite fails otherwise (permissions, I/O, locked).
+  explicit Store(const std::string& path);
+  ~Store();
+  Store(Store&&) noexcept;
+  Store& operator=(Store&&) noexcept;
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+
+  /// The path it was opened on.
+  [[nodiscard]] const std::string& path() const;
+
+  // ---- Event log --------------------------------------------------------------------------
+
+  /// Appends `event` (its `id` is ignored) and returns its row id: 1 for the first event of
+  /// the database, then one more each time (ids are never reused).
+  /// @throws StoreError when the write fails; nothing is written then.
+  std::int64_t AppendEvent(const EventRecord& event);
+
+  /// The events matching `query` (see `EventQuery` for the order).
+  /// @throws InputError when `query.limit` is 0 or above 1000000.
+  [[nodiscard]] std::vector<EventRecord> Events(const EventQuery& query) const;
+
+  /// The number of events in the log.
+  [[nodiscard]] std::int64_t EventCount() const;
+
+  // ---- Applied configuration --------------------------------------------------------------
+
+  /// Records that the configuration `yaml`, read from `path`, was applied by `applied_by` at
+  /// `applied_at`. Returns its id. Durable once it returns (`synchronous=FULL`).
+  /// @throws StoreError when the write fails; nothing is written then.
+  std::int64_t SaveAppliedConfig(std::string_view path, std::string_view yaml,
+                                 std::string_view applied_by, Time applied_at);
+
+  /// The configuration applied last, or nothing when none was.
+  [[nodiscard]] std::optional<AppliedConfig> LatestConfig() const;
+
+  /// The configuration with id `id`, or nothing when there is none.
+  [[nodiscard]] std::optional<AppliedConfig> ConfigById(std::int64_t id) const;
+
+  /// The configurations applied, newest first, at most `limit`.
+  /// @throws InputError when `limit` is 0 or above 1000000.
+  [[nodiscard]] std::vector<AppliedConfigSummary> ConfigHistory(std::size_t limit = 100) const;
+
+  // ---- Per-intersection state -------------------------------------------------------------
+
+  /// Inserts or replaces the state of `state.intersection`. Durable once it returns.
+  /// @throws InputError when the intersection id is 0 or the mode is empty.
+  /// @throws StoreError when the write fails; nothing is written then.
+  void SaveIntersectionState(const IntersectionStateRecord& state);
+
+  /// Every saved intersection state, by intersection id.
+  [[nodiscard]] std::vector<IntersectionStateRecord> LoadIntersectionStates() const;
+
+  // ---- Maintenance ------------------------------------------------------------------------
+
+  /// SQLite's `PRAGMA integrity_check`: "ok", or its list of problems one per line. Reads the
+  /// whole file: for start-up checks, tools and tests, not for the daemon's loop.
+  [[nodiscard]] std::string IntegrityCheck() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace autodrive::scm
