@@ -268,9 +268,13 @@ struct DevicesConfig {
   nanoseconds timeout_s = std::chrono::milliseconds(500);
   /// A light that shows something other than its command for this long is faulty.
   nanoseconds mismatch_s = std::chrono::seconds(1);
+  /// The start-up flash lasts until every light of the intersection has reported. False runs
+  /// the controllers without lights (SPaT only, e.g. a pure simulation or a benchmark).
+  bool wait_for_lights = true;
 
   template <typename Archive>
   void Serialize(Archive& a) {
+    a.Optional("wait_for_lights", wait_for_lights);
     a.Optional("timeout_s", timeout_s,
                config::Range<nanoseconds>{std::chrono::milliseconds(100), std::chrono::minutes(1)});
     a.Optional("mismatch_s", mismatch_s,

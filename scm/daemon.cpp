@@ -396,7 +396,7 @@ void Scm::Impl::Supervise(Time now) {
         h.mismatch_since.reset();
       }
     }
-    x.controller->SetDevicesReady(all_seen);
+    x.controller->SetDevicesReady(all_seen || !city->config.devices.wait_for_lights);
     if (!lost.empty() && !x.controller->latched()) {
       std::string names;
       for (const auto& n : lost) names += (names.empty() ? "" : ", ") + n;

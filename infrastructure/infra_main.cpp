@@ -1,0 +1,82 @@
+// autodrive-infra: hosts a lab's traffic light heads as devices (simulated, or physical through a
+// microcontroller on a serial port), with the local fail-safe and the independent conflict
+// monitor. See docs/infrastructure.md.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include <CLI/CLI.hpp>
+
+#include "common/dds/clock_subscriber.h"
+#include "common/dds/participant.h"
+#include "common/logging.h"
+#include "common/shutdown.h"
+#include "common/time.h"
+#include "infrastructure/config.h"
+#include "infrastructure/device_host.h"
+
+int main(int argc, char** argv) {
+  using namespace autodrive;
+  using namespace autodrive::infrastructure;
+  CLI::App app{
+      "autodrive-infra: hosts traffic light heads (signal_<i>) as devices: follows the SCM's "
+      "commands along legal transitions only, flashes red on its own when the SCM's heartbeat is "
+      "lost, and runs an independent conflict monitor per intersection. Runs until SIGTERM or "
+      "SIGINT. See docs/infrastructure.md."};
+  std::string config_path;
+  std::string log_level = "info";
+  std::string clock_kind = "wall";
+  std::string partition;
+  app.add_option("--config", config_path,
+                 "host configuration (YAML, e.g. config/infra/small_town.yaml)")
+      ->required();
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
+      ->capture_default_str();
+  app.add_option("--clock", clock_kind,
+                 "wall: the computer's clock (real track); sim: /clock from the simulator")
+      ->check(CLI::IsMember({"wall", "sim"}))
+      ->capture_default_str();
+  app.add_option("--partition", partition,
+                 "DDS partition (separates cities or test runs sharing a domain; default: the "
+                 "default partition, which ROS 2 uses)");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    InitLogging("autodrive-infra", ParseLogLevel(log_level));
+    const InfraConfig config = LoadInfraConfig(config_path);
+    HostPlan plan = PlanHost(config, config_path);
+
+    // The loop is paced by the wall clock; the devices live in the system's clock, which is
+    // the same wall clock on the real track and /clock in simulation.
+    WallClock wall;
+    std::unique_ptr<SimClock> sim_clock;
+    if (clock_kind == "sim") sim_clock = std::make_unique<SimClock>();
+    Clock* clock = sim_clock ? static_cast<Clock*>(sim_clock.get()) : &wall;
+    // Before any other thread starts, so that they all inherit the blocked signals.
+    ShutdownSignals signals([&](int sig) {
+      spdlog::info("signal {}: stopping", sig);
+      wall.Interrupt();
+      if (sim_clock) sim_clock->Interrupt();
+    });
+
+    dds::ParticipantOptions options;
+    options.partition = partition;
+    dds::Participant participant(options);
+    std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
+    if (sim_clock != nullptr) {
+      clock_subscriber = std::make_unique<dds::SimClockSubscriber>(participant, *sim_clock);
+      spdlog::info("running on /clock; waiting for the first message");
+      while (!sim_clock->started()) {
+        if (!wall.SleepFor(std::chrono::milliseconds(20))) return 0;  // stopped while waiting
+      }
+    }
+    spdlog::info("infra/{}: {} heads of map {}, partition '{}', {} clock", config.name,
+                 plan.heads.size(), plan.map.name, partition, ToString(clock->kind()));
+    DeviceHost host(config, std::move(plan), participant, clock->Now());
+    host.Run(*clock, wall);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "autodrive-infra: %s\n", e.what());
+    return 1;
+  }
+}
