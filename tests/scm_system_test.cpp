@@ -13,6 +13,8 @@
 #include "autodrive_msgs/msg/DeviceStatus.h"
 #include "autodrive_msgs/msg/IntersectionState.h"
 #include "autodrive_msgs/msg/SignalGroupState.h"
+#include "autodrive_msgs/msg/SignalRequest.h"
+#include "autodrive_msgs/msg/SignalRequestStatus.h"
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
@@ -202,6 +204,81 @@ TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
   const auto status = Scmctl({"status"});
   EXPECT_EQ(status.code, 0);
   EXPECT_THAT(status.text, HasSubstr("malformed_requests: 1"));
+}
+
+TEST_F(ScmSystem, AnEmergencyVehicleGetsItsMovementAndAStatusReply) {
+  StartInfra();
+  StartScm();
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(15)));
+  // Pick a movement from the MAP (latched): the first ingress lane of the south approach.
+  dds::Reader<msg::MapData> map(*participant_, dds::topics::Map());
+  ASSERT_TRUE(map.WaitForData(seconds(5)));
+  const auto m = map.TakeOne();
+  ASSERT_TRUE(m);
+  const auto& x = dds::Elements((*m)->intersections)[0];
+  std::uint32_t in_lane = 0, out_lane = 0, group = 0;
+  for (const auto& lane : dds::Elements(x.lanes)) {
+    if (lane.connections._length > 0 && in_lane == 0) {
+      in_lane = lane.lane_id;
+      out_lane = dds::Elements(lane.connections)[0].connecting_lane_id;
+      group = dds::Elements(lane.connections)[0].signal_group;
+    }
+  }
+  ASSERT_NE(in_lane, 0u);
+  dds::Reader<msg::SignalRequestStatus> status(*participant_, dds::topics::SignalRequestStatus());
+  dds::Writer<msg::SignalRequest> request(*participant_, dds::topics::SignalRequests());
+  ASSERT_TRUE(request.WaitForReaders(1, seconds(5)));
+  dds::Message<msg::SignalRequest> r;
+  dds::SetString(r->vehicle_id, "nigel_7");
+  r->request_id = 42;
+  r->request_type = autodrive_msgs_msg_SignalRequest_Constants_PREEMPTION;
+  r->vehicle_role = autodrive_msgs_msg_SignalRequest_Constants_EMERGENCY;
+  r->intersection_id = x.intersection_id;
+  r->in_lane_id = in_lane;
+  r->out_lane_id = out_lane;
+  r->duration.sec = 5;
+  (void)spat_->TakeAll();  // from here on, only SPaT sent after the request
+  request.Write(r);
+  ASSERT_TRUE(status.WaitForData(seconds(3)));
+  const auto answer = status.TakeOne();
+  ASSERT_TRUE(answer);
+  EXPECT_EQ((*answer)->status, autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED)
+      << ((*answer)->reason ? (*answer)->reason : "");
+  EXPECT_EQ((*answer)->signal_group, group);
+  EXPECT_TRUE((*answer)->has_expected_green);
+  // The group turns green by the expected time (plus a tick), with the pre-emption flag set.
+  const Time expected = dds::FromMsg((*answer)->expected_green);
+  const auto served = WaitSpat(
+      [&](const msg::Spat& s) {
+        for (const auto& g : dds::Elements(First(s).signal_groups)) {
+          if (g.signal_group == group &&
+              g.event_state ==
+                  autodrive_msgs_msg_SignalGroupState_Constants_PROTECTED_MOVEMENT_ALLOWED) {
+            return true;
+          }
+        }
+        return false;
+      },
+      seconds(20));
+  ASSERT_TRUE(served);
+  EXPECT_LE(dds::FromMsg((*served)->header.stamp), expected + milliseconds(150));
+  EXPECT_NE(First(**served).status & autodrive_msgs_msg_IntersectionState_Constants_PREEMPT_ACTIVE,
+            0);
+  // A basic vehicle may not pre-empt.
+  r->request_id = 43;
+  r->vehicle_role = autodrive_msgs_msg_SignalRequest_Constants_BASIC;
+  request.Write(r);
+  std::optional<dds::Message<msg::SignalRequestStatus>> refused;
+  const auto until = Clock::now() + seconds(3);
+  while (!refused && Clock::now() < until) {
+    status.WaitForData(milliseconds(50));
+    for (auto& a : status.TakeAll()) {
+      if (a->request_id == 43) refused = std::move(a);
+    }
+  }
+  ASSERT_TRUE(refused);
+  EXPECT_EQ((*refused)->status, autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED);
+  EXPECT_STREQ((*refused)->reason, "pre-emption is for emergency vehicles");
 }
 
 TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
