@@ -344,6 +344,14 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   r = Scmctl({"watch", "spat", "--count", "2", "--json"});
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.text, HasSubstr("{\"type\":\"spat\""));
+  r = Scmctl({"watch", "fleet", "--count", "1", "--json"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_THAT(r.text, HasSubstr("{\"type\":\"fleet\""));
+  r = Scmctl({"watch", "events", "--count", "1", "--json"});  // latched: the SCM's last events
+  EXPECT_EQ(r.code, 0);
+  EXPECT_THAT(r.text, HasSubstr("{\"type\":\"event\""));
+  r = Scmctl({"watch", "traffic"});
+  EXPECT_EQ(r.code, 105);  // CLI11: not one of spat, fleet, events
 }
 
 TEST_F(ScmSystem, KillingTheDevicesPutsTheIntersectionInFlashWithinOneSecond) {
