@@ -265,7 +265,11 @@ void DeviceHost::TakeHeartbeats(Time now) {
     if (dds::View(m->sender) != kScmSender) continue;  // device hosts, including us
     ++counters_.scm_heartbeats;
     if (m->state > autodrive_msgs_msg_Heartbeat_Constants_STOPPING) {
-      spdlog::warn("ignored an SCM heartbeat with unknown state {}", m->state);
+      ++counters_.malformed_heartbeats;
+      if (counters_.malformed_heartbeats <= 5 || counters_.malformed_heartbeats % 100 == 0) {
+        spdlog::warn("ignored an SCM heartbeat with unknown state {} ({} so far)", m->state,
+                     counters_.malformed_heartbeats);
+      }
       continue;
     }
     const ScmHeartbeat heartbeat{m->session_id, m->sequence_number,

@@ -31,11 +31,12 @@ using BackendFactory = std::function<std::unique_ptr<LampBackend>(const HeadPlan
 
 /// Counts of what the host received and did, for logs and tests.
 struct HostCounters {
-  std::uint64_t scm_heartbeats = 0;    ///< heartbeats from sender "scm"
-  std::uint64_t commands = 0;          ///< command samples, all heads
-  std::uint64_t operator_resets = 0;   ///< "reset" requests that cleared a latched monitor
-  std::uint64_t events_published = 0;  ///< events written
-  std::uint64_t publish_failures = 0;  ///< writes that failed (logged, never fatal)
+  std::uint64_t scm_heartbeats = 0;        ///< heartbeats from sender "scm"
+  std::uint64_t malformed_heartbeats = 0;  ///< of those, with a state that is not one
+  std::uint64_t commands = 0;              ///< command samples, all heads
+  std::uint64_t operator_resets = 0;       ///< "reset" requests that cleared a latched monitor
+  std::uint64_t events_published = 0;      ///< events written
+  std::uint64_t publish_failures = 0;      ///< writes that failed (logged, never fatal)
 };
 
 /// Hosts the heads of one `autodrive-infra` process on DDS. Single-threaded: `Step` polls its
