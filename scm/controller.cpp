@@ -183,7 +183,10 @@ void IntersectionController::StartPhase(std::size_t phase, Time now) {
   advance_ = false;
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
   planned_end_ = PlannedEnd(phase, now);
-  if (active_ && InPhase(active_->request.group)) active_->served = true;
+  if (active_ && !active_->served && InPhase(active_->request.group)) {
+    active_->served = true;
+    active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+  }
 }
 
 void IntersectionController::BeginClearance(std::optional<std::size_t> next, Time now) {
@@ -663,7 +666,10 @@ void IntersectionController::EndRequest(Time now, std::uint8_t status, std::stri
 void IntersectionController::UpdateRequest(Time now) {
   if (!active_) return;
   const bool green = InPhase(active_->request.group);
-  if (green) active_->served = true;
+  if (green && !active_->served) {
+    active_->served = true;
+    active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+  }
   if (active_->served && (now >= active_->request.end || !green)) {
     EndRequest(now, kCompleted, "served");
   } else if (now >= active_->accepted + model_->priority.max_preemption) {
@@ -701,9 +707,13 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, Time now)
       return u;
     }
     EndRequest(now, kCancelled, fmt::format("pre-empted by an emergency vehicle ({})", r.vehicle));
-    active_ = Active{r, now, InPhase(r.group)};
+    active_ = Active{r, now, false};
   } else {
-    active_ = Active{r, now, InPhase(r.group)};
+    active_ = Active{r, now, false};
+  }
+  if (InPhase(r.group)) {
+    active_->served = true;
+    active_->request.end = std::max(active_->request.end, now + r.duration);
   }
   u.status = kGranted;
   u.expected_green = EarliestGreen(r.group, now);

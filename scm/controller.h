@@ -59,6 +59,9 @@ struct ServiceRequest {
   bool preemption = false;  ///< emergency: served as soon as safe and held
   std::size_t group = 0;    ///< group index
   Time end{};               ///< when the vehicle expects to have cleared (eta + duration)
+  /// How long the vehicle needs the green to clear: a request served late still gets this
+  /// much green from when its green starts.
+  Duration duration{0};
 };
 
 /// What happened to a request; `status` uses SignalRequestStatus_Constants numbers.

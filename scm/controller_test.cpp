@@ -244,6 +244,26 @@ TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
   EXPECT_EQ(updates[0].vehicle, "nigel_2");
 }
 
+TEST(Controller, ARequestServedAfterItsEndStillGetsItsDurationOfGreen) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  // The vehicle is already due (end = now) and needs 4 s of green; west turns green at 15 s.
+  ServiceRequest req{"nigel_3", 1, true, 2, rig.now, seconds(4)};
+  ASSERT_EQ(rig.controller.Request(req, rig.now).status,
+            autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED);
+  rig.RunTo(CycleStart() + seconds(15));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_TRUE(rig.controller.preemption_active());
+  rig.RunTo(CycleStart() + milliseconds(18900));
+  EXPECT_TRUE(rig.controller.preemption_active());
+  rig.RunTo(CycleStart() + milliseconds(19100));
+  EXPECT_FALSE(rig.controller.preemption_active());
+  const auto updates = rig.controller.TakeRequestUpdates();
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].status, autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED);
+}
+
 TEST(Controller, RequestsAreRefusedInFlashAndManual) {
   Rig rig(DrivingSchool().intersections[0]);
   const auto in_startup = rig.controller.Request({"nigel_1", 1, true, 0, rig.now}, rig.now);

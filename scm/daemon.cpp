@@ -795,10 +795,13 @@ void Scm::Impl::HandleSignalRequests(Time now) {
         const Duration d =
             std::clamp(dds::FromMsg(m->duration), Duration{0}, Duration(std::chrono::minutes(5)));
         ServiceRequest r{
-            vehicle, m->request_id,
+            vehicle,
+            m->request_id,
             m->request_type == autodrive_msgs_msg_SignalRequest_Constants_PREEMPTION ||
                 (m->request_type == autodrive_msgs_msg_SignalRequest_Constants_UPDATE && emergency),
-            *group, eta + d};
+            *group,
+            eta + d,
+            d};
         u = x->controller->Request(r, now);
       }
     }
