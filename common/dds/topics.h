@@ -73,15 +73,15 @@ TopicSpec<msg::Int32> SignalCommand(SignalHeadId s);
 TopicSpec<msg::Int32> SignalState(SignalHeadId s);
 
 // --- Smart City Manager, /autodrive/scm/... -------------------------------------------------
-TopicSpec<msg::Spat> Spat();                                ///< 10 Hz stream
-TopicSpec<msg::MapData> Map();                              ///< latched
-TopicSpec<msg::SignRegistry> Signs();                       ///< latched
-TopicSpec<msg::FleetState> Fleet();                         ///< stream
-TopicSpec<msg::TrafficObjects> Traffic();                   ///< stream (SUMO background traffic)
-TopicSpec<msg::Event> Events();                             ///< latched, last 100 per writer
-TopicSpec<msg::DeviceStatus> Devices();                     ///< latched, last one per writer
-TopicSpec<msg::Heartbeat> Heartbeat();                      ///< stream (last 16): SCM and device hosts
-TopicSpec<msg::SignalRequest> SignalRequests();             ///< command (V2I, from vehicles)
+TopicSpec<msg::Spat> Spat();                     ///< 10 Hz stream
+TopicSpec<msg::MapData> Map();                   ///< latched
+TopicSpec<msg::SignRegistry> Signs();            ///< latched
+TopicSpec<msg::FleetState> Fleet();              ///< stream
+TopicSpec<msg::TrafficObjects> Traffic();        ///< stream (SUMO background traffic)
+TopicSpec<msg::Event> Events();                  ///< latched, last 100 per writer
+TopicSpec<msg::DeviceStatus> Devices();          ///< latched, last one per writer
+TopicSpec<msg::Heartbeat> Heartbeat();           ///< stream (last 16): SCM and device hosts
+TopicSpec<msg::SignalRequest> SignalRequests();  ///< command (V2I, from vehicles)
 TopicSpec<msg::SignalRequestStatus> SignalRequestStatus();  ///< command (V2I, to vehicles)
 TopicSpec<msg::OperatorRequest> OperatorRequests();         ///< command
 TopicSpec<msg::OperatorReply> OperatorReplies();            ///< command
