@@ -255,13 +255,14 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
 
   // --- Conflicts: derived from the geometry, extended by hand, never reduced ---
   x.conflicts.assign(n, std::vector<bool>(n, false));
-  std::vector<std::vector<std::pair<MovementId, MovementId>>> why(n * n);
+  // One pair of conflicting movements per conflicting pair of groups (a < b), for messages.
+  std::map<std::pair<std::size_t, std::size_t>, std::pair<MovementId, MovementId>> why;
   for (const auto& [a, b] : map_x.conflicts) {
     const std::size_t ga = group_of.at(a);
     const std::size_t gb = group_of.at(b);
     if (ga == gb) continue;  // refused above
     x.conflicts[ga][gb] = x.conflicts[gb][ga] = true;
-    why[ga * n + gb].emplace_back(a, b);
+    why.try_emplace({std::min(ga, gb), std::max(ga, gb)}, a, b);
   }
   auto read_pairs = [&](const std::vector<std::vector<std::uint32_t>>& pairs, const Where& w) {
     std::vector<std::vector<bool>> out(n, std::vector<bool>(n, false));
@@ -282,9 +283,7 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
     for (std::size_t a = 0; a < n; ++a) {
       for (std::size_t b = a + 1; b < n; ++b) {
         if (x.conflicts[a][b] && !given[a][b]) {
-          const auto& [ma, mb] = why[std::min(a, b) * n + std::max(a, b)].empty()
-                                     ? why[std::max(a, b) * n + std::min(a, b)].front()
-                                     : why[std::min(a, b) * n + std::max(a, b)].front();
+          const auto& [ma, mb] = why.at({a, b});
           cw.Fail(
               fmt::format("groups {} and {} conflict by geometry (movements {} and {} cross "
                           "or merge) but are missing; rule: the conflict matrix may be "

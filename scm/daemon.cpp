@@ -150,7 +150,7 @@ struct Scm::Impl {
   void Reply(const msg::OperatorRequest& request, const OperatorResult& result, Time now);
   OperatorResult Execute(const OperatorCommand& command, Time now);
   Runtime* FindIntersection(const std::string& name);
-  std::string Describe(const Runtime& x, Time now) const;
+  std::string Describe(const Runtime& x) const;
 };
 
 void Scm::Impl::Emit(Severity severity, std::string_view code, const std::string& message,
@@ -541,13 +541,12 @@ Runtime* Scm::Impl::FindIntersection(const std::string& name) {
   return nullptr;
 }
 
-std::string Scm::Impl::Describe(const Runtime& x, Time now) const {
+std::string Scm::Impl::Describe(const Runtime& x) const {
   const auto& c = *x.controller;
   return fmt::format("id={} mode={} requested={} plan={}{} stage={}{}", x.model->id.value(),
                      ToString(c.effective_mode()), ToString(c.requested_mode()), c.plan().name,
                      c.operator_plan() ? " (operator)" : " (schedule)", ToString(c.stage()),
                      c.latched() ? " latched=\"" + c.latch_reason() + "\"" : "");
-  (void)now;
 }
 
 OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
@@ -582,12 +581,12 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
   }
   if (cmd.name == "intersections") {
     R r = R::Ok(fmt::format("{} signalised intersections", xs.size()));
-    for (const auto& rx : xs) r.values.emplace_back(rx.model->name, Describe(rx, now));
+    for (const auto& rx : xs) r.values.emplace_back(rx.model->name, Describe(rx));
     return r;
   }
   if (cmd.name == "show") {
     if (auto bad = need_x(x)) return *bad;
-    R r = R::Ok(x->model->name + ": " + Describe(*x, now));
+    R r = R::Ok(x->model->name + ": " + Describe(*x));
     const auto signals = x->controller->Signals(now);
     for (std::size_t g = 0; g < signals.size(); ++g) {
       const auto& s = signals[g];
