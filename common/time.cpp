@@ -15,8 +15,10 @@ Duration FromSeconds(double seconds) {
 
 Time TimeFromSeconds(double seconds) { return Time(FromSeconds(seconds)); }
 
-std::string ToString(Time t) {
-  const auto ns = t.time_since_epoch().count();
+MonoTime MonoFromSeconds(double seconds) { return MonoTime(FromSeconds(seconds)); }
+
+namespace {
+std::string SecondsText(std::int64_t ns) {
   const auto sec = ns / 1'000'000'000;
   const auto frac = std::abs(ns % 1'000'000'000);
   char buffer[48];
@@ -24,6 +26,11 @@ std::string ToString(Time t) {
                 static_cast<long long>(sec), static_cast<long long>(frac));
   return buffer;
 }
+}  // namespace
+
+std::string ToString(Time t) { return SecondsText(t.time_since_epoch().count()); }
+
+std::string ToString(MonoTime t) { return "mono " + SecondsText(t.time_since_epoch().count()); }
 
 const char* ToString(ClockKind kind) {
   switch (kind) {
@@ -35,26 +42,75 @@ const char* ToString(ClockKind kind) {
   return "?";
 }
 
-Time WallClock::Now() const {
-  const auto since_epoch = std::chrono::system_clock::now().time_since_epoch();
-  return Time(std::chrono::duration_cast<Duration>(since_epoch));
+// --- WallClock ------------------------------------------------------------------------------
+
+WallClock::WallClock(WallTimeSources sources) : sources_(std::move(sources)) {}
+
+Time WallClock::ReadWall() const {
+  if (sources_.wall) return sources_.wall();
+  return Time(
+      std::chrono::duration_cast<Duration>(std::chrono::system_clock::now().time_since_epoch()));
 }
 
-bool WallClock::SleepUntil(Time deadline) {
-  const std::chrono::system_clock::time_point wall_deadline(
-      std::chrono::duration_cast<std::chrono::system_clock::duration>(deadline.time_since_epoch()));
+MonoTime WallClock::ReadMonotonic() const {
+  if (sources_.monotonic) return sources_.monotonic();
+  return MonoTime(
+      std::chrono::duration_cast<Duration>(std::chrono::steady_clock::now().time_since_epoch()));
+}
+
+ClockReading WallClock::Read() const {
+  // Read the wall clock between two readings of the steady clock and keep the tightest of a
+  // few tries, so that a preemption between the two reads is not mistaken for a step.
+  MonoTime mono{};
+  Time wall{};
+  Duration best_gap = Duration::max();
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const MonoTime before = ReadMonotonic();
+    const Time w = ReadWall();
+    const MonoTime after = ReadMonotonic();
+    const Duration gap = after - before;
+    if (gap < best_gap) {
+      best_gap = gap;
+      mono = before + gap / 2;
+      wall = w;
+    }
+    if (gap < std::chrono::microseconds(50)) break;
+  }
+  std::lock_guard lock(mutex_);
+  const Duration observed = wall.time_since_epoch() - mono.time_since_epoch();
+  if (!offset_) {
+    offset_ = observed;
+  } else if (const Duration jump = observed - *offset_;
+             jump > kStepThreshold || jump < -kStepThreshold) {
+    ++steps_;
+    stepped_ += jump;
+    offset_ = observed;
+  }
+  return ClockReading{mono, Time(mono.time_since_epoch() + *offset_), 0};
+}
+
+bool WallClock::SleepUntil(MonoTime deadline) {
   std::unique_lock lock(mutex_);
-  // Waiting on the system clock follows wall-clock adjustments, as the system's time does.
-  cv_.wait_until(lock, wall_deadline, [&] { return interrupted_; });
-  return !interrupted_;
+  for (;;) {
+    if (interrupted_) return false;
+    lock.unlock();
+    const MonoTime now = ReadMonotonic();
+    lock.lock();
+    if (now >= deadline) return !interrupted_;
+    // The steady clock paces the wait: a step of the wall clock cannot stretch or cut it.
+    cv_.wait_for(lock, deadline - now, [&] { return interrupted_; });
+  }
 }
 
 void WallClock::Interrupt() {
+  std::function<void()> waker;
   {
     std::lock_guard lock(mutex_);
     interrupted_ = true;
+    waker = waker_;
   }
   cv_.notify_all();
+  if (waker) waker();
 }
 
 bool WallClock::interrupted() const {
@@ -62,23 +118,64 @@ bool WallClock::interrupted() const {
   return interrupted_;
 }
 
-Time SimClock::Now() const {
-  std::lock_guard lock(mutex_);
-  return now_;
+std::optional<Duration> WallClock::RealTimeUntil(MonoTime deadline) const {
+  return deadline - ReadMonotonic();
 }
 
-bool SimClock::SleepUntil(Time deadline) {
+void WallClock::SetWaker(std::function<void()> waker) {
+  std::lock_guard lock(mutex_);
+  waker_ = std::move(waker);
+}
+
+void WallClock::WakeAt(MonoTime /*deadline*/) {
+  // Waiters on the wall clock time themselves (RealTimeUntil); only an interrupt wakes them.
+  bool fire = false;
+  std::function<void()> waker;
+  {
+    std::lock_guard lock(mutex_);
+    fire = interrupted_;
+    waker = fire ? waker_ : nullptr;
+  }
+  if (fire && waker) waker();
+}
+
+std::uint64_t WallClock::steps() const {
+  std::lock_guard lock(mutex_);
+  return steps_;
+}
+
+Duration WallClock::stepped() const {
+  std::lock_guard lock(mutex_);
+  return stepped_;
+}
+
+// --- SimClock -------------------------------------------------------------------------------
+
+ClockReading SimClock::Read() const {
+  std::lock_guard lock(mutex_);
+  return ClockReading{MonoTime(now_.time_since_epoch()), now_, session_};
+}
+
+bool SimClock::SleepUntil(MonoTime deadline) {
   std::unique_lock lock(mutex_);
-  cv_.wait(lock, [&] { return interrupted_ || now_ >= deadline; });
+  const std::uint64_t session = session_;
+  cv_.wait(lock, [&] {
+    return interrupted_ || session_ != session ||
+           now_.time_since_epoch() >= deadline.time_since_epoch();
+  });
   return !interrupted_;
 }
 
 void SimClock::Interrupt() {
+  std::function<void()> waker;
   {
     std::lock_guard lock(mutex_);
     interrupted_ = true;
+    waker = waker_;
+    wake_at_.reset();
   }
   cv_.notify_all();
+  if (waker) waker();
 }
 
 bool SimClock::interrupted() const {
@@ -86,18 +183,51 @@ bool SimClock::interrupted() const {
   return interrupted_;
 }
 
-bool SimClock::AdvanceTo(Time t) {
+void SimClock::SetWaker(std::function<void()> waker) {
+  std::lock_guard lock(mutex_);
+  waker_ = std::move(waker);
+}
+
+void SimClock::WakeAt(MonoTime deadline) {
+  // The waker is copied under the lock and called outside it (it may take other locks). A
+  // small waker (a pointer or two) is stored in the std::function itself: no allocation.
+  std::function<void()> waker;
+  {
+    std::lock_guard lock(mutex_);
+    if (interrupted_ || now_.time_since_epoch() >= deadline.time_since_epoch()) {
+      waker = waker_;
+      wake_at_.reset();
+    } else {
+      wake_at_ = deadline;
+    }
+  }
+  if (waker) waker();
+}
+
+SimClock::Advance SimClock::AdvanceTo(Time t) {
+  Advance result = Advance::kForward;
+  std::function<void()> waker;
   {
     std::lock_guard lock(mutex_);
     if (started_ && t < now_) {
-      ++backward_jumps_;
-      return false;
+      if (now_ - t < kRestartThreshold) {
+        ++backward_jumps_;
+        return Advance::kIgnored;
+      }
+      ++session_;
+      result = Advance::kRestarted;
     }
     now_ = t;
     started_ = true;
+    if (wake_at_ && (result == Advance::kRestarted ||
+                     now_.time_since_epoch() >= wake_at_->time_since_epoch())) {
+      wake_at_.reset();
+      waker = waker_;
+    }
   }
   cv_.notify_all();
-  return true;
+  if (waker) waker();
+  return result;
 }
 
 bool SimClock::started() const {
@@ -105,29 +235,55 @@ bool SimClock::started() const {
   return started_;
 }
 
+bool SimClock::WaitForStart() {
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [&] { return interrupted_ || started_; });
+  return !interrupted_;
+}
+
 std::uint64_t SimClock::backward_jumps() const {
   std::lock_guard lock(mutex_);
   return backward_jumps_;
 }
 
-Ticker::Ticker(Clock& clock, Duration period)
-    : clock_(clock), period_(period), next_(clock.Now() + period) {
+std::uint64_t SimClock::restarts() const {
+  std::lock_guard lock(mutex_);
+  return session_;
+}
+
+// --- Ticker ---------------------------------------------------------------------------------
+
+Ticker::Ticker(Clock& clock, Duration period) : clock_(clock), period_(period) {
   AUTODRIVE_CHECK(period > Duration::zero(), "period=" << period.count() << "ns");
+  const ClockReading r = clock_.Read();
+  next_ = r.mono + period_;
+  session_ = r.session;
 }
 
 bool Ticker::WaitNext() {
-  if (!clock_.SleepUntil(next_)) {
-    return false;
+  for (;;) {
+    ClockReading r = clock_.Read();
+    if (r.session == session_ && r.mono < next_) {
+      if (!clock_.SleepUntil(next_)) return false;
+      r = clock_.Read();
+    }
+    if (clock_.interrupted()) return false;
+    if (r.session != session_) {
+      // The control timeline restarted: tick from its new time.
+      session_ = r.session;
+      next_ = r.mono + period_;
+      continue;
+    }
+    if (r.mono < next_) continue;
+    next_ += period_;
+    if (r.mono >= next_) {
+      // Late by one period or more: skip the ticks we missed instead of firing them in a burst.
+      const auto behind = (r.mono - next_) / period_ + 1;
+      missed_ += static_cast<std::uint64_t>(behind);
+      next_ += behind * period_;
+    }
+    return true;
   }
-  const Time now = clock_.Now();
-  next_ += period_;
-  if (now >= next_) {
-    // Late by one period or more: skip the ticks we missed instead of firing them in a burst.
-    const auto behind = (now - next_) / period_ + 1;
-    missed_ += static_cast<std::uint64_t>(behind);
-    next_ += behind * period_;
-  }
-  return true;
 }
 
 }  // namespace autodrive

@@ -92,7 +92,7 @@ ConflictMonitor::HeadState* ConflictMonitor::Find(SignalHeadId head) {
   return it == heads_.end() ? nullptr : &states_[static_cast<std::size_t>(it - heads_.begin())];
 }
 
-void ConflictMonitor::Observe(SignalHeadId head, const std::optional<Lamps>& lamps, Time now) {
+void ConflictMonitor::Observe(SignalHeadId head, const std::optional<Lamps>& lamps, MonoTime now) {
   HeadState* state = Find(head);
   if (state == nullptr) return;
   state->lamps = lamps;
@@ -103,13 +103,13 @@ void ConflictMonitor::Observe(SignalHeadId head, const std::optional<Lamps>& lam
   }
 }
 
-std::optional<MonitorLatch> ConflictMonitor::Update(Time now) {
+std::optional<MonitorLatch> ConflictMonitor::Update(MonoTime now) {
   if (latch_) return std::nullopt;
   for (const auto& c : conflicts_) {
     const HeadState& a = *Find(c.a);
     const HeadState& b = *Find(c.b);
     if (!a.go_since || !b.go_since) continue;
-    const Time since = std::max(*a.go_since, *b.go_since);
+    const MonoTime since = std::max(*a.go_since, *b.go_since);
     if (now - since < persistence_) continue;
     MonitorLatch latch;
     latch.a = c.a;

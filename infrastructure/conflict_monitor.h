@@ -40,8 +40,8 @@ struct MonitorLatch {
   SignalHeadId b{0};  ///< the other
   Lamps lamps_a;      ///< what `a` showed when the monitor latched
   Lamps lamps_b;      ///< what `b` showed
-  Time since{};       ///< when both started showing green or yellow
-  Time at{};          ///< when the monitor latched
+  MonoTime since{};   ///< when both started showing green or yellow
+  MonoTime at{};      ///< when the monitor latched
   /// "signal_1 showed green and signal_2 showed yellow together for 0.30 s; their movements
   /// conflict (r2c2:E>W:0>0 with r2c2:N>S:0>0)".
   std::string message;
@@ -62,9 +62,9 @@ class ConflictMonitor {
                   const std::vector<SignalHeadId>& hosted, Duration persistence);
 
   /// The lamps `head` shows at `now`; nothing when unknown. Heads not monitored are ignored.
-  void Observe(SignalHeadId head, const std::optional<Lamps>& lamps, Time now);
+  void Observe(SignalHeadId head, const std::optional<Lamps>& lamps, MonoTime now);
   /// Checks the pairs at `now`. Returns the latch when it latches now (once).
-  std::optional<MonitorLatch> Update(Time now);
+  std::optional<MonitorLatch> Update(MonoTime now);
   /// Clears the latch; returns whether it was latched.
   bool Reset();
 
@@ -86,7 +86,7 @@ class ConflictMonitor {
  private:
   struct HeadState {
     std::optional<Lamps> lamps;
-    std::optional<Time> go_since;  // showing green or yellow without a break since
+    std::optional<MonoTime> go_since;  // showing green or yellow without a break since
   };
   HeadState* Find(SignalHeadId head);
 

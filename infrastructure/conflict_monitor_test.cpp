@@ -11,6 +11,9 @@
 namespace autodrive::infrastructure {
 namespace {
 
+// Simulated time as a plain variable: both timelines are the simulated time.
+void AdvanceSim(SimClock& clock, MonoTime t) { clock.AdvanceTo(Time(t.time_since_epoch())); }
+
 using namespace std::chrono_literals;
 
 // A pair of approaches by side letter ("EN") -> the conflicting movement pairs between their
@@ -152,7 +155,7 @@ const Lamps kYellow = LampsFor(Aspect::kYellow);
 const Lamps kGreen = LampsFor(Aspect::kGreen);
 
 // Observes both heads and updates, as the host does every tick.
-std::optional<MonitorLatch> Tick(ConflictMonitor& monitor, Time now, const Lamps& a,
+std::optional<MonitorLatch> Tick(ConflictMonitor& monitor, MonoTime now, const Lamps& a,
                                  const Lamps& b) {
   monitor.Observe(kHead1, a, now);
   monitor.Observe(kHead2, b, now);
@@ -164,14 +167,14 @@ TEST(ConflictMonitor, LatchesWhenTwoConflictingHeadsShowGoForThePersistenceAndNo
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
   ASSERT_EQ(monitor.conflicts().size(), 1u);
   SimClock clock;
-  const Time t0 = TimeFromSeconds(10);
-  clock.AdvanceTo(t0);
+  const MonoTime t0 = MonoFromSeconds(10);
+  AdvanceSim(clock, t0);
   // Head 1 green from t0; head 2 yellow from t0 + 100 ms; ticks at 50 Hz.
   std::optional<MonitorLatch> latch;
-  while (!latch && clock.Now() < t0 + 2s) {
-    const bool two_go = clock.Now() >= t0 + 100ms;
-    latch = Tick(monitor, clock.Now(), kGreen, two_go ? kYellow : kRed);
-    if (!latch) clock.AdvanceTo(clock.Now() + 20ms);
+  while (!latch && clock.Monotonic() < t0 + 2s) {
+    const bool two_go = clock.Monotonic() >= t0 + 100ms;
+    latch = Tick(monitor, clock.Monotonic(), kGreen, two_go ? kYellow : kRed);
+    if (!latch) AdvanceSim(clock, clock.Monotonic() + 20ms);
   }
   ASSERT_TRUE(latch.has_value());
   EXPECT_EQ(latch->since, t0 + 100ms);
@@ -187,7 +190,7 @@ TEST(ConflictMonitor, LatchesWhenTwoConflictingHeadsShowGoForThePersistenceAndNo
 TEST(ConflictMonitor, OneTickShortOfThePersistenceDoesNotLatch) {
   const maps::Map map = TwoHeadMap(true);
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   EXPECT_FALSE(Tick(monitor, t0, kGreen, kGreen));
   EXPECT_FALSE(Tick(monitor, t0 + 299ms, kGreen, kGreen));
   EXPECT_FALSE(monitor.latched());
@@ -197,7 +200,7 @@ TEST(ConflictMonitor, OneTickShortOfThePersistenceDoesNotLatch) {
 TEST(ConflictMonitor, ABreakInGoStartsTheCountAgain) {
   const maps::Map map = TwoHeadMap(true);
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   EXPECT_FALSE(Tick(monitor, t0, kGreen, kGreen));
   EXPECT_FALSE(Tick(monitor, t0 + 200ms, kGreen, kGreen));
   EXPECT_FALSE(Tick(monitor, t0 + 220ms, kGreen, kRed));  // a switching transient
@@ -211,7 +214,7 @@ TEST(ConflictMonitor, HeadsThatDoNotConflictMayShowGoTogether) {
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
   EXPECT_TRUE(monitor.conflicts().empty());
   for (int i = 0; i < 100; ++i) {
-    EXPECT_FALSE(Tick(monitor, TimeFromSeconds(0.1 * i), kGreen, kGreen));
+    EXPECT_FALSE(Tick(monitor, MonoFromSeconds(0.1 * i), kGreen, kGreen));
   }
 }
 
@@ -219,10 +222,10 @@ TEST(ConflictMonitor, RedAgainstGreenAndUnknownLampsDoNotLatch) {
   const maps::Map map = TwoHeadMap(true);
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
   for (int i = 0; i < 50; ++i) {
-    EXPECT_FALSE(Tick(monitor, TimeFromSeconds(0.1 * i), kGreen, kRed));
+    EXPECT_FALSE(Tick(monitor, MonoFromSeconds(0.1 * i), kGreen, kRed));
   }
   for (int i = 50; i < 100; ++i) {
-    const Time now = TimeFromSeconds(0.1 * i);
+    const MonoTime now = MonoFromSeconds(0.1 * i);
     monitor.Observe(kHead1, kGreen, now);
     monitor.Observe(kHead2, std::nullopt, now);  // offline
     EXPECT_FALSE(monitor.Update(now));
@@ -235,8 +238,8 @@ TEST(ConflictMonitor, AStuckGreenLampUnderARedIsSeen) {
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
   Lamps red_and_green = kRed;
   red_and_green.green = true;
-  EXPECT_FALSE(Tick(monitor, TimeFromSeconds(1), red_and_green, kGreen));
-  const auto latch = Tick(monitor, TimeFromSeconds(1.3), red_and_green, kGreen);
+  EXPECT_FALSE(Tick(monitor, MonoFromSeconds(1), red_and_green, kGreen));
+  const auto latch = Tick(monitor, MonoFromSeconds(1.3), red_and_green, kGreen);
   ASSERT_TRUE(latch.has_value());
   EXPECT_EQ(latch->lamps_a, red_and_green);
 }
@@ -244,14 +247,14 @@ TEST(ConflictMonitor, AStuckGreenLampUnderARedIsSeen) {
 TEST(ConflictMonitor, StaysLatchedUntilResetAndReportsTheLatchOnce) {
   const maps::Map map = TwoHeadMap(true);
   ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
-  EXPECT_FALSE(Tick(monitor, TimeFromSeconds(1), kGreen, kGreen));
-  EXPECT_TRUE(Tick(monitor, TimeFromSeconds(2), kGreen, kGreen));
-  EXPECT_FALSE(Tick(monitor, TimeFromSeconds(3), kRed, kRed)) << "reported once";
+  EXPECT_FALSE(Tick(monitor, MonoFromSeconds(1), kGreen, kGreen));
+  EXPECT_TRUE(Tick(monitor, MonoFromSeconds(2), kGreen, kGreen));
+  EXPECT_FALSE(Tick(monitor, MonoFromSeconds(3), kRed, kRed)) << "reported once";
   EXPECT_TRUE(monitor.latched()) << "the conflict ended, the latch stays";
   EXPECT_TRUE(monitor.Reset());
   EXPECT_FALSE(monitor.latched());
   EXPECT_FALSE(monitor.Reset());
-  EXPECT_FALSE(Tick(monitor, TimeFromSeconds(4), kRed, kRed));
+  EXPECT_FALSE(Tick(monitor, MonoFromSeconds(4), kRed, kRed));
 }
 
 TEST(ConflictMonitor, WatchesOnlyTheHostedHeads) {

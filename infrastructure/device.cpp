@@ -74,7 +74,7 @@ std::string_view ToString(Mode mode) {
   return "?";
 }
 
-TrafficLightDevice::TrafficLightDevice(const DeviceParams& params, Time now)
+TrafficLightDevice::TrafficLightDevice(const DeviceParams& params, MonoTime now)
     : params_(params),
       name_(SignalHeadName(params.id)),
       flash_start_(now),
@@ -83,7 +83,7 @@ TrafficLightDevice::TrafficLightDevice(const DeviceParams& params, Time now)
   AUTODRIVE_CHECK(params.scm_heartbeat_timeout > Duration::zero());
 }
 
-void TrafficLightDevice::OnHeartbeat(const ScmHeartbeat& heartbeat, Time now) {
+void TrafficLightDevice::OnHeartbeat(const ScmHeartbeat& heartbeat, MonoTime now) {
   last_scm_sequence_ = heartbeat.sequence_number;
   switch (heartbeat.state) {
     case ScmState::kStarting:
@@ -106,7 +106,7 @@ void TrafficLightDevice::OnHeartbeat(const ScmHeartbeat& heartbeat, Time now) {
   }
 }
 
-void TrafficLightDevice::OnCommand(std::int32_t wire_value, Time now) {
+void TrafficLightDevice::OnCommand(std::int32_t wire_value, MonoTime now) {
   const std::optional<Aspect> aspect = AspectFromWire(wire_value);
   if (!aspect) {
     ++malformed_commands_;
@@ -133,7 +133,7 @@ void TrafficLightDevice::OnCommand(std::int32_t wire_value, Time now) {
   Raise(Severity::kWarning, "illegal_sequence", name_ + " " + *refusal_, true);
 }
 
-void TrafficLightDevice::Update(Time now) {
+void TrafficLightDevice::Update(MonoTime now) {
   if (alive_ && now - last_running_ > params_.scm_heartbeat_timeout) {
     alive_ = false;
     EnterFailSafe(std::string(kLostHeartbeat), now);
@@ -163,12 +163,12 @@ void TrafficLightDevice::OnFeedback(const LampFeedback& feedback) {
   }
 }
 
-void TrafficLightDevice::ForceFlash(const std::string& reason, Time now) {
+void TrafficLightDevice::ForceFlash(const std::string& reason, MonoTime now) {
   forced_ = reason;
   Show(Aspect::kFlashingRed, now);
 }
 
-void TrafficLightDevice::ReleaseForce(Time now) {
+void TrafficLightDevice::ReleaseForce(MonoTime now) {
   if (!forced_) return;
   forced_.reset();
   if (!fail_safe_) fail_safe_ = std::string(kMonitorReset);
@@ -177,7 +177,7 @@ void TrafficLightDevice::ReleaseForce(Time now) {
   TryLeaveFailSafe(now);
 }
 
-Lamps TrafficLightDevice::LampsAt(Time now) const {
+Lamps TrafficLightDevice::LampsAt(MonoTime now) const {
   if (!IsFlashing(shown_)) return LampsFor(shown_);
   const Duration since = now - flash_start_;
   const bool on =
@@ -226,13 +226,13 @@ std::string TrafficLightDevice::detail() const {
 
 std::vector<DeviceEvent> TrafficLightDevice::TakeEvents() { return std::exchange(events_, {}); }
 
-void TrafficLightDevice::Show(Aspect aspect, Time now) {
+void TrafficLightDevice::Show(Aspect aspect, MonoTime now) {
   if (aspect == shown_) return;  // a flashing aspect keeps its phase
   shown_ = aspect;
   flash_start_ = now;
 }
 
-void TrafficLightDevice::EnterFailSafe(const std::string& reason, Time now) {
+void TrafficLightDevice::EnterFailSafe(const std::string& reason, MonoTime now) {
   fail_safe_ = reason;
   needs_fresh_command_ = true;
   command_usable_ = false;
@@ -243,7 +243,7 @@ void TrafficLightDevice::EnterFailSafe(const std::string& reason, Time now) {
   }
 }
 
-void TrafficLightDevice::TryLeaveFailSafe(Time now) {
+void TrafficLightDevice::TryLeaveFailSafe(MonoTime now) {
   if (!fail_safe_ || forced_ || !alive_ || !command_ || !command_usable_) return;
   if (!IsLegalTransition(Aspect::kFlashingRed, *command_)) return;
   fail_safe_.reset();

@@ -2,7 +2,7 @@
 /// @file
 /// The logic of one traffic light head (`signal_<i>`): which commands it accepts, its local
 /// fail-safe on a lost SCM heartbeat, its flashing cadence and its health. Pure: no DDS, no
-/// I/O, no clock of its own; every call takes the current `Time` from the process's `Clock`,
+/// I/O, no clock of its own; every call takes the current `MonoTime` from the process's `Clock`,
 /// so the rules are tested on a `SimClock` (see docs/infrastructure.md, "Fail-safe rules").
 
 #include <cstdint>
@@ -95,29 +95,29 @@ struct DeviceParams {
 class TrafficLightDevice {
  public:
   /// A device that starts in flashing red, waiting for the SCM. `now` starts the flashing.
-  TrafficLightDevice(const DeviceParams& params, Time now);
+  TrafficLightDevice(const DeviceParams& params, MonoTime now);
 
   /// An SCM heartbeat (the caller filters sender "scm") received at `now`.
-  void OnHeartbeat(const ScmHeartbeat& heartbeat, Time now);
+  void OnHeartbeat(const ScmHeartbeat& heartbeat, MonoTime now);
   /// A command sample received at `now`: the wire value of `signal_<i>/command`. A value that
   /// is not an aspect (0..5) is refused and counted (never throws).
-  void OnCommand(std::int32_t wire_value, Time now);
+  void OnCommand(std::int32_t wire_value, MonoTime now);
   /// Lets time pass: detects a missing heartbeat. Call every tick, before `LampsAt`.
-  void Update(Time now);
+  void Update(MonoTime now);
   /// What the backend reports; sets health FAULT (failed lamps) or OFFLINE.
   void OnFeedback(const LampFeedback& feedback);
   /// The conflict monitor latched: show flashing red and ignore commands until released.
   /// `reason` goes into the detail.
-  void ForceFlash(const std::string& reason, Time now);
+  void ForceFlash(const std::string& reason, MonoTime now);
   /// The conflict monitor was reset: stay in flash until a new legal command comes (as after a
   /// lost heartbeat). No effect when not forced.
-  void ReleaseForce(Time now);
+  void ReleaseForce(MonoTime now);
 
   /// The aspect displayed now (flashing red in fail-safe).
   [[nodiscard]] Aspect aspect() const { return shown_; }
   /// The lamps to light at `now`: a flashing aspect is on for the first half of each period,
   /// counted from when it started.
-  [[nodiscard]] Lamps LampsAt(Time now) const;
+  [[nodiscard]] Lamps LampsAt(MonoTime now) const;
   /// NORMAL (showing what the SCM commands), FLASH (local fail-safe or forced by the monitor),
   /// DARK (commanded off).
   [[nodiscard]] Mode mode() const;
@@ -146,19 +146,19 @@ class TrafficLightDevice {
   [[nodiscard]] SignalHeadId id() const { return params_.id; }
 
  private:
-  void Show(Aspect aspect, Time now);
-  void EnterFailSafe(const std::string& reason, Time now);
-  void TryLeaveFailSafe(Time now);
+  void Show(Aspect aspect, MonoTime now);
+  void EnterFailSafe(const std::string& reason, MonoTime now);
+  void TryLeaveFailSafe(MonoTime now);
   void Raise(Severity severity, std::string code, std::string message, bool active);
 
   DeviceParams params_;
   std::string name_;
   Aspect shown_ = Aspect::kFlashingRed;
-  Time flash_start_;
+  MonoTime flash_start_;
 
   // SCM liveness.
   bool alive_ = false;
-  Time last_running_{};
+  MonoTime last_running_{};
   std::optional<std::uint64_t> session_;
   std::uint64_t last_scm_sequence_ = 0;
 

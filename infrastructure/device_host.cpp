@@ -71,7 +71,7 @@ struct DeviceHost::Head {
   std::optional<Lamps> lamps;  // as the backend reports them; nothing while offline
   std::optional<std::int32_t> published_state;
   std::optional<StatusKey> published_status;
-  Time next_status{};
+  MonoTime next_status{};
 };
 
 struct DeviceHost::Monitor {
@@ -80,7 +80,7 @@ struct DeviceHost::Monitor {
   BackendKind backend = BackendKind::kSimulated;
   std::unique_ptr<dds::Writer<msg::DeviceStatus>> status;
   std::optional<StatusKey> published_status;
-  Time next_status{};
+  MonoTime next_status{};
 };
 
 struct DeviceHost::Dds {
@@ -131,7 +131,8 @@ std::unique_ptr<LampBackend> MakeBackend(const HeadPlan& head, const InfraConfig
 }
 
 DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
-                       const dds::Participant& participant, Time now, BackendFactory make_backend)
+                       const dds::Participant& participant, const ClockReading& now,
+                       BackendFactory make_backend)
     : config_(config), plan_(std::move(plan)), source_("infra/" + config.name) {
   if (!make_backend) {
     make_backend = [this](const HeadPlan& h) { return MakeBackend(h, config_); };
@@ -145,8 +146,16 @@ DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
   params.flash_period = config_.flash_period_s;
   for (const HeadPlan& h : plan_.heads) {
     params.id = h.id;
-    auto head = std::unique_ptr<Head>(new Head{
-        h, TrafficLightDevice(params, now), nullptr, nullptr, nullptr, nullptr, {}, {}, {}, now});
+    auto head = std::unique_ptr<Head>(new Head{h,
+                                               TrafficLightDevice(params, now.mono),
+                                               nullptr,
+                                               nullptr,
+                                               nullptr,
+                                               nullptr,
+                                               {},
+                                               {},
+                                               {},
+                                               now.mono});
     head->backend = make_backend(h);
     AUTODRIVE_CHECK(head->backend != nullptr, "no backend for head " << h.id.value());
     head->commands =
@@ -176,7 +185,7 @@ DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
                       backend,
                       nullptr,
                       {},
-                      now});
+                      now.mono});
       m->status =
           std::make_unique<dds::Writer<msg::DeviceStatus>>(participant, dds::topics::Devices());
       const auto& all = plan_.map.intersection(x).signal_heads;
@@ -229,22 +238,22 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
   Ticker ticker(pace, kTickPeriod);
   do {
     try {
-      Step(clock.Now());
+      Step(clock.Read());
     } catch (const std::exception& e) {
       // The loop is the daemon's boundary: log and carry on with the next tick.
       spdlog::error("tick failed: {}", e.what());
     }
   } while (ticker.WaitNext());
-  Stop(clock.Now());
+  Stop(clock.Read());
 }
 
-void DeviceHost::Step(Time now) {
+void DeviceHost::Step(const ClockReading& now) {
   if (stopped_) return;
   TakeHeartbeats(now);
   TakeCommands(now);
   TakeOperatorRequests(now);
   for (auto& h : heads_) {
-    h->device.Update(now);
+    h->device.Update(now.mono);
     DriveLamps(*h, now);
   }
   CheckMonitors(now);
@@ -259,7 +268,7 @@ void DeviceHost::Step(Time now) {
   PublishHeartbeat(now, /*stopping=*/false);
 }
 
-void DeviceHost::TakeHeartbeats(Time now) {
+void DeviceHost::TakeHeartbeats(const ClockReading& now) {
   dds::Message<msg::Heartbeat> m;
   while (dds_->heartbeats.TakeOne(m)) {
     if (dds::View(m->sender) != kScmSender) continue;  // device hosts, including us
@@ -275,22 +284,22 @@ void DeviceHost::TakeHeartbeats(Time now) {
     const ScmHeartbeat heartbeat{m->session_id, m->sequence_number,
                                  static_cast<ScmState>(m->state)};
     last_scm_sequence_ = m->sequence_number;
-    for (auto& h : heads_) h->device.OnHeartbeat(heartbeat, now);
+    for (auto& h : heads_) h->device.OnHeartbeat(heartbeat, now.mono);
   }
 }
 
-void DeviceHost::TakeCommands(Time now) {
+void DeviceHost::TakeCommands(const ClockReading& now) {
   dds::Message<msg::Int32> m;
   for (auto& h : heads_) {
     while (h->commands->TakeOne(m)) {
       ++counters_.commands;
       spdlog::debug("{}: command {}", h->device.name(), m->data);
-      h->device.OnCommand(m->data, now);
+      h->device.OnCommand(m->data, now.mono);
     }
   }
 }
 
-void DeviceHost::TakeOperatorRequests(Time now) {
+void DeviceHost::TakeOperatorRequests(const ClockReading& now) {
   if (!dds_->operator_requests) return;
   dds::Message<msg::OperatorRequest> m;
   while (dds_->operator_requests->TakeOne(m)) {
@@ -301,7 +310,7 @@ void DeviceHost::TakeOperatorRequests(Time now) {
       }
       if (!mon->monitor.Reset()) continue;
       ++counters_.operator_resets;
-      for (Head* h : mon->heads) h->device.ReleaseForce(now);
+      for (Head* h : mon->heads) h->device.ReleaseForce(now.mono);
       PublishEvent(now, Severity::kCritical, "mmu_conflict",
                    mon->monitor.device_id() + " reset by operator " +
                        std::string(dds::View(m->client_id)) + " (request " +
@@ -311,8 +320,8 @@ void DeviceHost::TakeOperatorRequests(Time now) {
   }
 }
 
-void DeviceHost::DriveLamps(Head& head, Time now) {
-  head.backend->Show(head.device.aspect(), head.device.LampsAt(now));
+void DeviceHost::DriveLamps(Head& head, const ClockReading& now) {
+  head.backend->Show(head.device.aspect(), head.device.LampsAt(now.mono));
   const LampFeedback feedback = head.backend->Poll();
   head.device.OnFeedback(feedback);
   if (feedback.online) {
@@ -322,13 +331,13 @@ void DeviceHost::DriveLamps(Head& head, Time now) {
   }
 }
 
-void DeviceHost::CheckMonitors(Time now) {
+void DeviceHost::CheckMonitors(const ClockReading& now) {
   for (auto& mon : monitors_) {
-    for (const Head* h : mon->heads) mon->monitor.Observe(h->plan.id, h->lamps, now);
-    const std::optional<MonitorLatch> latch = mon->monitor.Update(now);
+    for (const Head* h : mon->heads) mon->monitor.Observe(h->plan.id, h->lamps, now.mono);
+    const std::optional<MonitorLatch> latch = mon->monitor.Update(now.mono);
     if (!latch) continue;
     for (Head* h : mon->heads) {
-      h->device.ForceFlash(mon->monitor.device_id() + " latched", now);
+      h->device.ForceFlash(mon->monitor.device_id() + " latched", now.mono);
       DriveLamps(*h, now);
     }
     PublishEvent(now, Severity::kCritical, "mmu_conflict",
@@ -339,12 +348,12 @@ void DeviceHost::CheckMonitors(Time now) {
   }
 }
 
-void DeviceHost::PublishEvent(Time now, Severity severity, const std::string& code,
+void DeviceHost::PublishEvent(const ClockReading& now, Severity severity, const std::string& code,
                               const std::string& message, std::uint32_t intersection_id,
                               const std::string& device_id, bool active) {
   LogEvent(severity, code, message, active);
   dds::Message<msg::Event> e;
-  e->header.stamp = dds::ToMsg(now);
+  e->header.stamp = dds::ToMsg(now.wire);
   e->event_id = ++event_sequence_;
   e->severity = static_cast<std::uint8_t>(severity);
   dds::SetString(e->source, source_);
@@ -368,15 +377,15 @@ void DeviceHost::PublishStates() {
   }
 }
 
-void DeviceHost::PublishStatuses(Time now, bool stopping) {
+void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
   const auto publish = [&](dds::Writer<msg::DeviceStatus>& writer, const std::string& device_id,
                            BackendKind backend, const StatusKey& key,
-                           std::optional<StatusKey>& published, Time& next) {
-    if (!stopping && published == key && now < next) return;
+                           std::optional<StatusKey>& published, MonoTime& next) {
+    if (!stopping && published == key && now.mono < next) return;
     published = key;
-    next = now + config_.status_period_s;
+    next = now.mono + config_.status_period_s;
     dds::Message<msg::DeviceStatus> s;
-    s->header.stamp = dds::ToMsg(now);
+    s->header.stamp = dds::ToMsg(now.wire);
     dds::SetString(s->device_id, device_id);
     s->kind = autodrive_msgs_msg_DeviceStatus_Constants_TRAFFIC_LIGHT;
     s->backend = BackendWire(backend);
@@ -417,11 +426,11 @@ void DeviceHost::PublishStatuses(Time now, bool stopping) {
   }
 }
 
-void DeviceHost::PublishHeartbeat(Time now, bool stopping) {
-  if (!stopping && next_heartbeat_ && now < *next_heartbeat_) return;
-  next_heartbeat_ = now + config_.status_period_s;
+void DeviceHost::PublishHeartbeat(const ClockReading& now, bool stopping) {
+  if (!stopping && next_heartbeat_ && now.mono < *next_heartbeat_) return;
+  next_heartbeat_ = now.mono + config_.status_period_s;
   dds::Message<msg::Heartbeat> m;
-  m->header.stamp = dds::ToMsg(now);
+  m->header.stamp = dds::ToMsg(now.wire);
   dds::SetString(m->sender, source_);
   m->session_id = session_id_;
   m->sequence_number = heartbeat_sequence_++;
@@ -432,7 +441,7 @@ void DeviceHost::PublishHeartbeat(Time now, bool stopping) {
   TryWrite(dds_->heartbeat, m, counters_);
 }
 
-void DeviceHost::Stop(Time now) {
+void DeviceHost::Stop(const ClockReading& now) {
   if (stopped_) return;
   stopped_ = true;
   for (auto& h : heads_) {

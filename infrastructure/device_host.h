@@ -57,7 +57,7 @@ class DeviceHost {
   /// `plan`, and the readers and writers in `participant`, which must outlive the host.
   /// Throws `DdsError` when DDS refuses.
   DeviceHost(const InfraConfig& config, HostPlan plan, const dds::Participant& participant,
-             Time now, BackendFactory make_backend = {});
+             const ClockReading& now, BackendFactory make_backend = {});
   DeviceHost(const DeviceHost&) = delete;
   DeviceHost& operator=(const DeviceHost&) = delete;
   ~DeviceHost();
@@ -65,7 +65,7 @@ class DeviceHost {
   /// One tick at `now`: takes what arrived, updates devices and monitors, drives the lamps,
   /// publishes. Never throws on bad input or failed writes (they are logged and counted).
   /// Does nothing after `Stop`.
-  void Step(Time now);
+  void Step(const ClockReading& now);
   /// Steps every `kTickPeriod` of `pace` with the time of `clock` until `pace` is interrupted,
   /// then `Stop`s. `pace` is a `WallClock` (the lamps' serial links need real time even while a
   /// simulation is paused); `clock` is the system's clock, the same `WallClock` on the real
@@ -73,7 +73,7 @@ class DeviceHost {
   void Run(Clock& clock, Clock& pace);
   /// Shutting down: heads go to flashing red (a physical head keeps flashing without us), a
   /// last DeviceStatus says OFFLINE, the heartbeat says STOPPING.
-  void Stop(Time now);
+  void Stop(const ClockReading& now);
 
   /// The device of a hosted head. Throws `InputError` when the head is not hosted here.
   [[nodiscard]] const TrafficLightDevice& device(SignalHeadId head) const;
@@ -93,17 +93,17 @@ class DeviceHost {
   struct Monitor;
   struct Dds;
   Head& FindHead(SignalHeadId head) const;
-  void TakeHeartbeats(Time now);
-  void TakeCommands(Time now);
-  void TakeOperatorRequests(Time now);
-  void DriveLamps(Head& head, Time now);
-  void CheckMonitors(Time now);
-  void PublishEvent(Time now, Severity severity, const std::string& code,
+  void TakeHeartbeats(const ClockReading& now);
+  void TakeCommands(const ClockReading& now);
+  void TakeOperatorRequests(const ClockReading& now);
+  void DriveLamps(Head& head, const ClockReading& now);
+  void CheckMonitors(const ClockReading& now);
+  void PublishEvent(const ClockReading& now, Severity severity, const std::string& code,
                     const std::string& message, std::uint32_t intersection_id,
                     const std::string& device_id, bool active);
   void PublishStates();
-  void PublishStatuses(Time now, bool stopping);
-  void PublishHeartbeat(Time now, bool stopping);
+  void PublishStatuses(const ClockReading& now, bool stopping);
+  void PublishHeartbeat(const ClockReading& now, bool stopping);
 
   InfraConfig config_;
   HostPlan plan_;
@@ -115,7 +115,7 @@ class DeviceHost {
   std::uint64_t heartbeat_sequence_ = 0;
   std::uint64_t event_sequence_ = 0;
   std::uint64_t last_scm_sequence_ = 0;
-  std::optional<Time> next_heartbeat_;
+  std::optional<MonoTime> next_heartbeat_;
   bool stopped_ = false;
   HostCounters counters_;
 };

@@ -71,7 +71,7 @@ class DeviceHostTest : public ::testing::Test {
       states_.emplace(h.id.value(), std::make_unique<dds::Reader<msg::Int32>>(
                                         scm_side_, dds::topics::SignalState(h.id)));
     }
-    host_ = std::make_unique<DeviceHost>(config_, std::move(plan), host_side_, now_,
+    host_ = std::make_unique<DeviceHost>(config_, std::move(plan), host_side_, Reading(),
                                          [this](const HeadPlan& h) {
                                            auto backend = std::make_unique<SimulatedBackend>();
                                            backends_[h.id.value()] = backend.get();
@@ -92,7 +92,7 @@ class DeviceHostTest : public ::testing::Test {
       heartbeat_.Write(m);
     }
     std::this_thread::sleep_for(2ms);  // lets DDS deliver: real time, not the host's
-    host_->Step(now_);
+    host_->Step(Reading());
     Collect();
   }
   // Ticks until `done()` or 1000 ticks (20 s of host time, ~5 s of real time).
@@ -161,7 +161,8 @@ class DeviceHostTest : public ::testing::Test {
   std::map<std::uint32_t, std::unique_ptr<dds::Reader<msg::Int32>>> states_;
   std::map<std::uint32_t, SimulatedBackend*> backends_;
   std::unique_ptr<DeviceHost> host_;
-  Time now_ = TimeFromSeconds(1000);
+  ClockReading Reading() const { return {now_, Time(now_.time_since_epoch()), 0}; }
+  MonoTime now_ = MonoFromSeconds(1000);
   bool scm_alive_ = true;
   int ticks_ = 0;
   std::uint64_t scm_sequence_ = 0;
@@ -269,7 +270,7 @@ TEST_F(DeviceHostTest, TheMonitorSeesAGreenLampStuckOnUnderARed) {
 
 TEST_F(DeviceHostTest, StoppingSaysStoppingAndOffline) {
   Reach(1, {Aspect::kRed});
-  host_->Stop(now_);
+  host_->Stop(Reading());
   ASSERT_TRUE(TickUntil([&] { return status_["signal_1"].health == 3; }));
   EXPECT_EQ(status_["signal_1"].detail, "device host infra/test stopped");
   EXPECT_EQ(backends_[1]->aspect(), Aspect::kFlashingRed);

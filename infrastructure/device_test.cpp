@@ -9,6 +9,9 @@
 namespace autodrive::infrastructure {
 namespace {
 
+// Simulated time as a plain variable: both timelines are the simulated time.
+void AdvanceSim(SimClock& clock, MonoTime t) { clock.AdvanceTo(Time(t.time_since_epoch())); }
+
 using namespace std::chrono_literals;
 
 constexpr std::array<Aspect, 6> kAspects = {Aspect::kOff,         Aspect::kRed,
@@ -35,7 +38,7 @@ std::vector<std::string> Codes(TrafficLightDevice& d) {
 }
 
 // A device under SCM control (heartbeat at `now`) showing `target`, reached by legal commands.
-TrafficLightDevice DeviceShowing(Aspect target, Time now) {
+TrafficLightDevice DeviceShowing(Aspect target, MonoTime now) {
   TrafficLightDevice d(Params(), now);
   d.OnHeartbeat(Running(1), now);
   d.OnCommand(ToWire(Aspect::kRed), now);
@@ -87,7 +90,7 @@ TEST(Transitions, RefusalsSayWhichRuleWasBroken) {
 }
 
 TEST(TrafficLightDevice, FollowsEveryLegalCommandAndRefusesEveryIllegalOne) {
-  const Time t0 = TimeFromSeconds(100);
+  const MonoTime t0 = MonoFromSeconds(100);
   for (const Aspect from : kAspects) {
     for (const Aspect to : kAspects) {
       SCOPED_TRACE(std::string(ToString(from)) + " -> " + std::string(ToString(to)));
@@ -117,27 +120,27 @@ TEST(TrafficLightDevice, FollowsEveryLegalCommandAndRefusesEveryIllegalOne) {
 }
 
 TEST(TrafficLightDevice, GreenToRedIsRefusedWithTheRuleInTheDetail) {
-  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, TimeFromSeconds(1));
-  d.OnCommand(ToWire(Aspect::kRed), TimeFromSeconds(2));
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, MonoFromSeconds(1));
+  d.OnCommand(ToWire(Aspect::kRed), MonoFromSeconds(2));
   EXPECT_EQ(d.aspect(), Aspect::kGreen);
   EXPECT_EQ(d.health(), Health::kDegraded);
   EXPECT_EQ(d.detail(), "refused green -> red: a green must end in yellow");
 }
 
 TEST(TrafficLightDevice, AnAcceptedCommandEndsTheDegradedHealth) {
-  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, TimeFromSeconds(1));
-  d.OnCommand(ToWire(Aspect::kRed), TimeFromSeconds(2));
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, MonoFromSeconds(1));
+  d.OnCommand(ToWire(Aspect::kRed), MonoFromSeconds(2));
   ASSERT_EQ(d.health(), Health::kDegraded);
-  d.OnCommand(ToWire(Aspect::kYellow), TimeFromSeconds(3));
+  d.OnCommand(ToWire(Aspect::kYellow), MonoFromSeconds(3));
   EXPECT_EQ(d.aspect(), Aspect::kYellow);
   EXPECT_EQ(d.health(), Health::kOk);
   EXPECT_EQ(d.detail(), "");
 }
 
 TEST(TrafficLightDevice, ACommandThatIsNotAnAspectIsRefusedAndCounted) {
-  TrafficLightDevice d = DeviceShowing(Aspect::kRed, TimeFromSeconds(1));
+  TrafficLightDevice d = DeviceShowing(Aspect::kRed, MonoFromSeconds(1));
   for (const std::int32_t bad : {6, -1, 1000000, std::numeric_limits<std::int32_t>::min()}) {
-    d.OnCommand(bad, TimeFromSeconds(2));
+    d.OnCommand(bad, MonoFromSeconds(2));
     EXPECT_EQ(d.aspect(), Aspect::kRed);
   }
   EXPECT_EQ(d.malformed_commands(), 4u);
@@ -147,7 +150,7 @@ TEST(TrafficLightDevice, ACommandThatIsNotAnAspectIsRefusedAndCounted) {
 }
 
 TEST(TrafficLightDevice, StartsInFlashingRedUntilItHasAHeartbeatAndACommand) {
-  const Time t0 = TimeFromSeconds(10);
+  const MonoTime t0 = MonoFromSeconds(10);
   {
     TrafficLightDevice d(Params(), t0);
     EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
@@ -174,7 +177,7 @@ TEST(TrafficLightDevice, StartsInFlashingRedUntilItHasAHeartbeatAndACommand) {
 }
 
 TEST(TrafficLightDevice, AtStartUpAGreenMustWaitForRed) {
-  const Time t0 = TimeFromSeconds(10);
+  const MonoTime t0 = MonoFromSeconds(10);
   TrafficLightDevice d(Params(), t0);
   d.OnHeartbeat(Running(1), t0);
   d.OnCommand(ToWire(Aspect::kGreen), t0 + 10ms);  // the SCM is mid-cycle
@@ -189,24 +192,24 @@ TEST(TrafficLightDevice, AtStartUpAGreenMustWaitForRed) {
 
 TEST(TrafficLightDevice, FlashesWhenTheHeartbeatIsMissingLongerThanTheTimeoutAndNotBefore) {
   SimClock clock;
-  clock.AdvanceTo(TimeFromSeconds(50));
-  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, clock.Now());
+  AdvanceSim(clock, MonoFromSeconds(50));
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, clock.Monotonic());
   // Heartbeats every 100 ms for 5 s keep it green.
   for (int i = 0; i < 50; ++i) {
-    clock.AdvanceTo(clock.Now() + 100ms);
-    d.OnHeartbeat(Running(static_cast<std::uint64_t>(i + 2)), clock.Now());
-    d.Update(clock.Now());
-    ASSERT_EQ(d.aspect(), Aspect::kGreen) << ToString(clock.Now());
+    AdvanceSim(clock, clock.Monotonic() + 100ms);
+    d.OnHeartbeat(Running(static_cast<std::uint64_t>(i + 2)), clock.Monotonic());
+    d.Update(clock.Monotonic());
+    ASSERT_EQ(d.aspect(), Aspect::kGreen) << ToString(clock.Monotonic());
   }
-  const Time last = clock.Now();
+  const MonoTime last = clock.Monotonic();
   // Then they stop: exactly the timeout later it still holds ...
-  clock.AdvanceTo(last + 1s);
-  d.Update(clock.Now());
+  AdvanceSim(clock, last + 1s);
+  d.Update(clock.Monotonic());
   EXPECT_EQ(d.aspect(), Aspect::kGreen);
   EXPECT_TRUE(d.scm_alive());
   // ... and a nanosecond more is too long.
-  clock.AdvanceTo(last + 1s + 1ns);
-  d.Update(clock.Now());
+  AdvanceSim(clock, last + 1s + 1ns);
+  d.Update(clock.Monotonic());
   EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
   EXPECT_EQ(d.mode(), Mode::kFlash);
   EXPECT_FALSE(d.scm_alive());
@@ -219,7 +222,7 @@ TEST(TrafficLightDevice, FlashesWhenTheHeartbeatIsMissingLongerThanTheTimeoutAnd
 }
 
 TEST(TrafficLightDevice, AStoppingHeartbeatFlashesAtOnce) {
-  const Time t0 = TimeFromSeconds(5);
+  const MonoTime t0 = MonoFromSeconds(5);
   TrafficLightDevice d = DeviceShowing(Aspect::kGreen, t0);
   d.OnHeartbeat(ScmHeartbeat{77, 2, ScmState::kStopping}, t0 + 10ms);
   EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
@@ -228,7 +231,7 @@ TEST(TrafficLightDevice, AStoppingHeartbeatFlashesAtOnce) {
 }
 
 TEST(TrafficLightDevice, AStartingHeartbeatDoesNotCountAsRunning) {
-  const Time t0 = TimeFromSeconds(5);
+  const MonoTime t0 = MonoFromSeconds(5);
   TrafficLightDevice d(Params(), t0);
   d.OnCommand(ToWire(Aspect::kRed), t0);
   d.OnHeartbeat(ScmHeartbeat{77, 0, ScmState::kStarting}, t0 + 10ms);
@@ -237,7 +240,7 @@ TEST(TrafficLightDevice, AStartingHeartbeatDoesNotCountAsRunning) {
 }
 
 TEST(TrafficLightDevice, ANewScmSessionIsTreatedAsALostHeartbeat) {
-  const Time t0 = TimeFromSeconds(5);
+  const MonoTime t0 = MonoFromSeconds(5);
   TrafficLightDevice d = DeviceShowing(Aspect::kGreen, t0);
   d.OnHeartbeat(Running(1, /*session=*/99), t0 + 100ms);
   EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
@@ -248,25 +251,25 @@ TEST(TrafficLightDevice, ANewScmSessionIsTreatedAsALostHeartbeat) {
 
 TEST(TrafficLightDevice, AfterTheHeartbeatReturnsItFlashesUntilANewLegalCommand) {
   SimClock clock;
-  clock.AdvanceTo(TimeFromSeconds(1));
-  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, clock.Now());
-  clock.AdvanceTo(clock.Now() + 1500ms);
-  d.Update(clock.Now());
+  AdvanceSim(clock, MonoFromSeconds(1));
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, clock.Monotonic());
+  AdvanceSim(clock, clock.Monotonic() + 1500ms);
+  d.Update(clock.Monotonic());
   ASSERT_EQ(d.aspect(), Aspect::kFlashingRed);
   // The heartbeat returns; the latched command is still green, and nothing new came.
   for (int i = 0; i < 30; ++i) {
-    clock.AdvanceTo(clock.Now() + 100ms);
-    d.OnHeartbeat(Running(static_cast<std::uint64_t>(100 + i)), clock.Now());
-    d.Update(clock.Now());
+    AdvanceSim(clock, clock.Monotonic() + 100ms);
+    d.OnHeartbeat(Running(static_cast<std::uint64_t>(100 + i)), clock.Monotonic());
+    d.Update(clock.Monotonic());
     ASSERT_EQ(d.aspect(), Aspect::kFlashingRed);
   }
   EXPECT_EQ(d.detail(), "lost SCM heartbeat; waiting for a new red, off or flashing command");
   // A new green cannot end the flash; it is not an error either (the SCM may be mid-cycle).
-  d.OnCommand(ToWire(Aspect::kGreen), clock.Now());
+  d.OnCommand(ToWire(Aspect::kGreen), clock.Monotonic());
   EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
   EXPECT_EQ(d.health(), Health::kOk);
   (void)d.TakeEvents();
-  d.OnCommand(ToWire(Aspect::kRed), clock.Now() + 10ms);
+  d.OnCommand(ToWire(Aspect::kRed), clock.Monotonic() + 10ms);
   EXPECT_EQ(d.aspect(), Aspect::kRed);
   EXPECT_EQ(d.mode(), Mode::kNormal);
   const auto events = d.TakeEvents();
@@ -276,7 +279,7 @@ TEST(TrafficLightDevice, AfterTheHeartbeatReturnsItFlashesUntilANewLegalCommand)
 }
 
 TEST(TrafficLightDevice, ACommandReceivedWhileTheHeartbeatWasMissingIsNotANewCommand) {
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   TrafficLightDevice d = DeviceShowing(Aspect::kRed, t0);
   d.Update(t0 + 2s);
   ASSERT_EQ(d.aspect(), Aspect::kFlashingRed);
@@ -289,7 +292,7 @@ TEST(TrafficLightDevice, ACommandReceivedWhileTheHeartbeatWasMissingIsNotANewCom
 }
 
 TEST(TrafficLightDevice, FlashingAspectsAreOnForTheFirstHalfOfEachPeriod) {
-  const Time t0 = TimeFromSeconds(20);
+  const MonoTime t0 = MonoFromSeconds(20);
   TrafficLightDevice d(Params(), t0);  // start-up: flashing red from t0
   const Lamps red_on = LampsFor(Aspect::kRed);
   const Lamps dark;
@@ -303,25 +306,25 @@ TEST(TrafficLightDevice, FlashingAspectsAreOnForTheFirstHalfOfEachPeriod) {
 
   // Sampled at the host's 50 Hz for 10 s: on half the time, switching twice per second.
   SimClock clock;
-  clock.AdvanceTo(t0);
+  AdvanceSim(clock, t0);
   int on = 0;
   int switches = 0;
   bool previous = true;
   for (int i = 0; i < 500; ++i) {
-    const bool lit = d.LampsAt(clock.Now()).red;
+    const bool lit = d.LampsAt(clock.Monotonic()).red;
     on += lit ? 1 : 0;
     switches += (lit != previous) ? 1 : 0;
     previous = lit;
-    clock.AdvanceTo(clock.Now() + 20ms);
+    AdvanceSim(clock, clock.Monotonic() + 20ms);
   }
   EXPECT_EQ(on, 250);
   EXPECT_EQ(switches, 19);  // 10 periods: off at 0.5, on at 1.0, ..., off at 9.5
 }
 
 TEST(TrafficLightDevice, FlashingYellowFlashesTheYellowLampFromWhenItWasCommanded) {
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   TrafficLightDevice d = DeviceShowing(Aspect::kRed, t0);
-  const Time t1 = t0 + 333ms;
+  const MonoTime t1 = t0 + 333ms;
   d.OnCommand(ToWire(Aspect::kFlashingYellow), t1);
   EXPECT_EQ(d.LampsAt(t1), LampsFor(Aspect::kYellow));
   EXPECT_EQ(d.LampsAt(t1 + 600ms), Lamps{});
@@ -330,7 +333,7 @@ TEST(TrafficLightDevice, FlashingYellowFlashesTheYellowLampFromWhenItWasCommande
 }
 
 TEST(TrafficLightDevice, LeavingFailSafeForACommandedFlashingRedKeepsThePhase) {
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   TrafficLightDevice d(Params(), t0);
   d.OnHeartbeat(Running(1), t0 + 700ms);
   d.OnCommand(ToWire(Aspect::kFlashingRed), t0 + 700ms);
@@ -339,13 +342,13 @@ TEST(TrafficLightDevice, LeavingFailSafeForACommandedFlashingRedKeepsThePhase) {
 }
 
 TEST(TrafficLightDevice, CommandedOffIsDark) {
-  TrafficLightDevice d = DeviceShowing(Aspect::kOff, TimeFromSeconds(1));
+  TrafficLightDevice d = DeviceShowing(Aspect::kOff, MonoFromSeconds(1));
   EXPECT_EQ(d.mode(), Mode::kDark);
-  EXPECT_EQ(d.LampsAt(TimeFromSeconds(2)), Lamps{});
+  EXPECT_EQ(d.LampsAt(MonoFromSeconds(2)), Lamps{});
 }
 
 TEST(TrafficLightDevice, AFailedLampMakesItFaultyUntilRepaired) {
-  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, TimeFromSeconds(1));
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, MonoFromSeconds(1));
   LampFeedback feedback;
   feedback.faults = {{Lamp::kGreen, "open_circuit"}};
   d.OnFeedback(feedback);
@@ -367,7 +370,7 @@ TEST(TrafficLightDevice, AFailedLampMakesItFaultyUntilRepaired) {
 }
 
 TEST(TrafficLightDevice, AnOfflineBackendMakesItOffline) {
-  TrafficLightDevice d = DeviceShowing(Aspect::kRed, TimeFromSeconds(1));
+  TrafficLightDevice d = DeviceShowing(Aspect::kRed, MonoFromSeconds(1));
   LampFeedback feedback;
   feedback.online = false;
   feedback.offline_reason = "no answer";
@@ -380,7 +383,7 @@ TEST(TrafficLightDevice, AnOfflineBackendMakesItOffline) {
 }
 
 TEST(TrafficLightDevice, WhileForcedItFlashesAndIgnoresCommandsThenWaitsForANewOne) {
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   TrafficLightDevice d = DeviceShowing(Aspect::kGreen, t0);
   d.ForceFlash("mmu_x latched", t0 + 1s);
   EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);

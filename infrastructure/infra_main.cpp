@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
     }
     spdlog::info("infra/{}: {} heads of map {}, partition '{}', {} clock", config.name,
                  plan.heads.size(), plan.map.name, partition, ToString(clock->kind()));
-    DeviceHost host(config, std::move(plan), participant, clock->Now());
+    DeviceHost host(config, std::move(plan), participant, clock->Read());
     host.Run(*clock, wall);
     return 0;
   } catch (const std::exception& e) {

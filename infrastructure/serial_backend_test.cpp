@@ -100,7 +100,7 @@ TEST(SerialBackend, CommandedAspectsComeBackAsLampFeedback) {
 TEST(SerialBackend, ABurntOutLampMakesTheDeviceFaultyNamingTheLamp) {
   Emulator mcu = StartEmulator();
   SerialBackend backend(Options(mcu.port));
-  const Time t0 = TimeFromSeconds(1);
+  const MonoTime t0 = MonoFromSeconds(1);
   TrafficLightDevice device(DeviceParams{SignalHeadId(5), 1s, 1s}, t0);
   device.OnHeartbeat(ScmHeartbeat{1, 1, ScmState::kRunning}, t0);
   device.OnCommand(ToWire(Aspect::kRed), t0);

@@ -13,7 +13,7 @@ std::string Label(const IntersectionModel& m, std::size_t g) {
 std::string Secs(Duration d) { return fmt::format("{:.3f} s", ToSeconds(d)); }
 }  // namespace
 
-ConflictMonitor::ConflictMonitor(const IntersectionModel& model, Time now)
+ConflictMonitor::ConflictMonitor(const IntersectionModel& model, MonoTime now)
     : model_(&model),
       aspects_(model.groups.size()),
       since_(model.groups.size(), now),
@@ -21,7 +21,8 @@ ConflictMonitor::ConflictMonitor(const IntersectionModel& model, Time now)
   for (std::size_t g = 0; g < aspects_.size(); ++g) aspects_[g] = model.groups[g].flash_aspect;
 }
 
-std::optional<Violation> ConflictMonitor::Check(Time now, const std::vector<Aspect>& next) const {
+std::optional<Violation> ConflictMonitor::Check(MonoTime now,
+                                                const std::vector<Aspect>& next) const {
   const auto& m = *model_;
   AUTODRIVE_CHECK(next.size() == aspects_.size(),
                   "monitor of " << m.name << " got " << next.size() << " aspects");
@@ -100,17 +101,17 @@ std::optional<Violation> ConflictMonitor::Check(Time now, const std::vector<Aspe
   return std::nullopt;
 }
 
-void ConflictMonitor::Record(Time now, const std::vector<Aspect>& next) {
+void ConflictMonitor::Record(MonoTime now, const std::vector<Aspect>& next) {
   AUTODRIVE_CHECK(next.size() == aspects_.size(), "monitor got the wrong number of aspects");
   for (std::size_t g = 0; g < next.size(); ++g) {
     if (aspects_[g] == next[g]) continue;
     aspects_[g] = next[g];
     since_[g] = now;
-    red_since_[g] = next[g] == Aspect::kRed ? std::optional<Time>(now) : std::nullopt;
+    red_since_[g] = next[g] == Aspect::kRed ? std::optional<MonoTime>(now) : std::nullopt;
   }
 }
 
-std::optional<Violation> ConflictMonitor::CheckAndRecord(Time now,
+std::optional<Violation> ConflictMonitor::CheckAndRecord(MonoTime now,
                                                          const std::vector<Aspect>& next) {
   auto v = Check(now, next);
   if (!v) Record(now, next);

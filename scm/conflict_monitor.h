@@ -32,22 +32,23 @@ struct Violation {
 class ConflictMonitor {
  public:
   /// Starts with every group as the controller starts it (flash) at `now`.
-  ConflictMonitor(const IntersectionModel& model, Time now);
+  ConflictMonitor(const IntersectionModel& model, MonoTime now);
 
   /// Judges the output `aspects` (by group index) shown from `now` on. On a violation returns
   /// it and does not record the output (the caller shows flash instead and calls `Record`).
-  [[nodiscard]] std::optional<Violation> Check(Time now, const std::vector<Aspect>& aspects) const;
+  [[nodiscard]] std::optional<Violation> Check(MonoTime now,
+                                               const std::vector<Aspect>& aspects) const;
   /// Records what is actually shown from `now` on.
-  void Record(Time now, const std::vector<Aspect>& aspects);
+  void Record(MonoTime now, const std::vector<Aspect>& aspects);
   /// `Check`, then `Record` when it passes.
-  std::optional<Violation> CheckAndRecord(Time now, const std::vector<Aspect>& aspects);
+  std::optional<Violation> CheckAndRecord(MonoTime now, const std::vector<Aspect>& aspects);
 
  private:
   const IntersectionModel* model_;
   std::vector<Aspect> aspects_;
-  std::vector<Time> since_;
+  std::vector<MonoTime> since_;
   /// When each group last became steady red (nothing while it is not red).
-  std::vector<std::optional<Time>> red_since_;
+  std::vector<std::optional<MonoTime>> red_since_;
 };
 
 }  // namespace autodrive::scm

@@ -31,6 +31,13 @@ std::string Secs(Duration d) { return fmt::format("{:.1f} s", ToSeconds(d)); }
 
 }  // namespace
 
+DayClock DayClock::At(Duration since_midnight) {
+  const Duration day = std::chrono::hours(24);
+  Duration d = since_midnight % day;
+  if (d < Duration{0}) d += day;
+  return DayClock{static_cast<int>(std::chrono::duration_cast<std::chrono::minutes>(d).count()), d};
+}
+
 std::string_view ToString(Mode mode) {
   for (const auto& [m, name] : kModeNames) {
     if (m == mode) return name;
@@ -65,8 +72,8 @@ std::string_view ToString(Stage stage) {
   return "?";
 }
 
-IntersectionController::IntersectionController(const IntersectionModel& model, Time now, Mode mode,
-                                               std::optional<std::size_t> operator_plan)
+IntersectionController::IntersectionController(const IntersectionModel& model, MonoTime now,
+                                               Mode mode, std::optional<std::size_t> operator_plan)
     : model_(&model),
       aspects_(model.groups.size()),
       since_(model.groups.size(), now),
@@ -111,8 +118,8 @@ bool IntersectionController::InPhase(std::size_t group) const {
   return stage_ == Stage::kGreen && Contains(plan().phases[phase_].groups, group);
 }
 
-Time IntersectionController::PhaseMinEnd() const {
-  Time end = green_start_;
+MonoTime IntersectionController::PhaseMinEnd() const {
+  MonoTime end = green_start_;
   for (std::size_t g : plan().phases[phase_].groups) {
     end = std::max(end, since_[g] + model_->groups[g].timing.min_green);
   }
@@ -123,14 +130,14 @@ Duration IntersectionController::PhaseMaxGreen(std::size_t phase) const {
   return plan().phases[phase].green;
 }
 
-void IntersectionController::Show(std::size_t g, Aspect aspect, Time now) {
+void IntersectionController::Show(std::size_t g, Aspect aspect, MonoTime now) {
   if (aspects_[g] != aspect) {
     aspects_[g] = aspect;
     since_[g] = now;
   }
 }
 
-void IntersectionController::EnterFlash(Time now, bool dark) {
+void IntersectionController::EnterFlash(MonoTime now, bool dark) {
   stage_ = dark ? Stage::kDark : Stage::kFlash;
   for (std::size_t g = 0; g < aspects_.size(); ++g) {
     Show(g, dark ? Aspect::kOff : model_->groups[g].flash_aspect, now);
@@ -140,16 +147,16 @@ void IntersectionController::EnterFlash(Time now, bool dark) {
                dark ? "the intersection went dark" : "the intersection went to flash");
 }
 
-void IntersectionController::EnterAllRed(Time now, Duration d) {
+void IntersectionController::EnterAllRed(MonoTime now, Duration d) {
   stage_ = Stage::kAllRed;
   stage_end_ = now + d;
   for (std::size_t g = 0; g < aspects_.size(); ++g) Show(g, Aspect::kRed, now);
 }
 
-std::size_t IntersectionController::FirstPhase(std::size_t plan, Time at) const {
+std::size_t IntersectionController::FirstPhase(std::size_t plan, MonoTime at) const {
   const Plan& p = model_->plans[plan];
   if (TargetMode(plan) != Mode::kFixed || p.cycle <= Duration{0}) return 0;
-  const Duration pos = (at.time_since_epoch() - p.offset) % p.cycle;
+  const Duration pos = (at - midnight_ - p.offset) % p.cycle;
   const Duration in_cycle = pos < Duration{0} ? pos + p.cycle : pos;
   for (std::size_t k = 0; k < p.phases.size(); ++k) {
     if (in_cycle < p.phase_starts[k] + p.phases[k].green) return k;
@@ -157,7 +164,7 @@ std::size_t IntersectionController::FirstPhase(std::size_t plan, Time at) const 
   return 0;
 }
 
-Time IntersectionController::PlannedEnd(std::size_t phase, Time now) const {
+MonoTime IntersectionController::PlannedEnd(std::size_t phase, MonoTime now) const {
   const Plan& p = plan();
   Duration lo{0};
   for (std::size_t g : p.phases[phase].groups) {
@@ -166,7 +173,7 @@ Time IntersectionController::PlannedEnd(std::size_t phase, Time now) const {
   const Duration hi = std::max(lo, p.phases[phase].green);
   if (TargetMode(plan_) != Mode::kFixed || p.cycle <= Duration{0}) return now + hi;
   // Keep to the cycle: end where the plan's cycle says, within the phase's min and max.
-  Duration pos = (now.time_since_epoch() - p.offset) % p.cycle;
+  Duration pos = (now - midnight_ - p.offset) % p.cycle;
   if (pos < Duration{0}) pos += p.cycle;
   Duration delta = p.phase_starts[phase] + p.phases[phase].green - pos;
   if (delta > p.cycle / 2) delta -= p.cycle;
@@ -174,7 +181,7 @@ Time IntersectionController::PlannedEnd(std::size_t phase, Time now) const {
   return now + std::clamp(delta, lo, hi);
 }
 
-void IntersectionController::StartPhase(std::size_t phase, Time now) {
+void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   stage_ = Stage::kGreen;
   phase_ = phase;
   next_phase_.reset();
@@ -189,7 +196,7 @@ void IntersectionController::StartPhase(std::size_t phase, Time now) {
   }
 }
 
-void IntersectionController::BeginClearance(std::optional<std::size_t> next, Time now) {
+void IntersectionController::BeginClearance(std::optional<std::size_t> next, MonoTime now) {
   next_phase_ = next;
   Duration yellow{0};
   Duration red{0};
@@ -212,16 +219,16 @@ void IntersectionController::BeginClearance(std::optional<std::size_t> next, Tim
   stage_end_ = yellow_end_ + red;
 }
 
-bool IntersectionController::ShouldTerminate(Time now, const std::vector<bool>& calls) const {
+bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
   if (now < PhaseMinEnd()) return false;
   const Mode mode = TargetMode(plan_);
   if (active_) {
     const auto& r = active_->request;
     if (!InPhase(r.group)) return true;  // go and serve it
-    const Time hold = r.preemption
-                          ? std::min(r.end, active_->accepted + model_->priority.max_preemption)
-                          : std::min(r.end, green_start_ + PhaseMaxGreen(phase_) +
-                                                model_->priority.max_extension);
+    const MonoTime hold = r.preemption
+                              ? std::min(r.end, active_->accepted + model_->priority.max_preemption)
+                              : std::min(r.end, green_start_ + PhaseMaxGreen(phase_) +
+                                                    model_->priority.max_extension);
     if (now < hold) return false;
     if (r.preemption) return true;
   }
@@ -265,14 +272,16 @@ std::size_t IntersectionController::ChooseNext(std::size_t plan,
   return (from + 1) % n;
 }
 
-void IntersectionController::Step(Time now, const std::vector<bool>& in_calls, int minute_of_day) {
+void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_calls,
+                                  const DayClock& day) {
+  midnight_ = now - day.since_midnight;
   // Groups without a detector in the running plan are on recall: always called.
   calls_.assign(model_->groups.size(), true);
   for (const auto& d : plan().detectors) calls_[d.group] = false;
   for (const auto& d : plan().detectors) {
     if (Call(in_calls, d.group)) calls_[d.group] = true;
   }
-  scheduled_plan_ = model_->ScheduledPlan(minute_of_day);
+  scheduled_plan_ = model_->ScheduledPlan(day.minute_of_day);
   const std::size_t wanted_plan = operator_plan_.value_or(*scheduled_plan_);
   UpdateRequest(now);
 
@@ -350,8 +359,22 @@ void IntersectionController::Step(Time now, const std::vector<bool>& in_calls, i
           const bool to_flash = target == Mode::kFlash || target == Mode::kDark;
           const bool any_green = std::ranges::find(aspects_, Aspect::kGreen) != aspects_.end();
           if (!next_phase_ || (to_flash && !any_green)) {
+            // While the next phase was coming, SPaT promised each red group no change before its
+            // earliest green. Keep that promise (only a fail-safe flash may break one): hold all
+            // red until the latest of them, then go to flash or dark.
+            MonoTime hold = now;
+            if (next_phase_) {
+              for (std::size_t g = 0; g < aspects_.size(); ++g) {
+                if (aspects_[g] != Aspect::kRed) continue;
+                if (const auto earliest = EarliestGreen(g, now)) hold = std::max(hold, *earliest);
+              }
+            }
             plan_ = wanted_plan;
-            EnterFlash(now, TargetMode(plan_) == Mode::kDark);
+            if (hold > now) {
+              EnterAllRed(now, hold - now);
+            } else {
+              EnterFlash(now, TargetMode(plan_) == Mode::kDark);
+            }
           } else {
             StartPhase(*next_phase_, now);
           }
@@ -373,12 +396,12 @@ enum class Policy { kMin, kLikely, kMax };
 // The walk below predicts when phases end: at their min green (kMin), as the plan expects
 // (kLikely) or at their max green plus any priority extension (kMax).
 template <typename F>
-std::optional<Time> IntersectionController::WalkToGreen(std::size_t g, F green_end) const {
+std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F green_end) const {
   const Plan& p = plan();
   const std::size_t n = p.phases.size();
   if (n == 0) return std::nullopt;
   std::size_t from = 0;
-  Time t{};
+  MonoTime t{};
   auto clearance = [&](std::size_t a, std::size_t b) {
     Duration yellow{0};
     Duration red{0};
@@ -424,7 +447,7 @@ std::optional<Time> IntersectionController::WalkToGreen(std::size_t g, F green_e
   return std::nullopt;
 }
 
-std::optional<Time> IntersectionController::EarliestGreen(std::size_t g, Time now) const {
+std::optional<MonoTime> IntersectionController::EarliestGreen(std::size_t g, MonoTime now) const {
   // The soonest the group can turn green if the controller went to it next (a request or an
   // actuated skip can do that): a lower bound whatever happens.
   const Plan& p = plan();
@@ -445,16 +468,19 @@ std::optional<Time> IntersectionController::EarliestGreen(std::size_t g, Time no
   switch (stage_) {
     case Stage::kGreen: {
       if (InPhase(g)) return now;
-      std::vector<std::size_t> ending;
+      // The clearance of the groups of this phase that must end before g may go.
+      Duration yellow{0};
+      Duration red{0};
       for (std::size_t h : p.phases[phase_].groups) {
         if (!model_->conflicts[g][h] && h != g) continue;
-        ending.push_back(h);
+        yellow = std::max(yellow, model_->groups[h].timing.yellow);
+        red = std::max(red, model_->groups[h].timing.red_clearance);
       }
-      return std::max(now, PhaseMinEnd()) + clearance_of(ending);
+      return std::max(now, PhaseMinEnd()) + yellow + red;
     }
     case Stage::kYellow:
     case Stage::kRedClearance: {
-      const Time end = stage_ == Stage::kYellow ? yellow_end_ + red_clearance_ : stage_end_;
+      const MonoTime end = stage_ == Stage::kYellow ? yellow_end_ + red_clearance_ : stage_end_;
       if (!next_phase_) return std::nullopt;
       const auto& next = p.phases[*next_phase_].groups;
       if (Contains(next, g)) return std::max(now, end);
@@ -467,22 +493,29 @@ std::optional<Time> IntersectionController::EarliestGreen(std::size_t g, Time no
   }
 }
 
-std::vector<GroupSignal> IntersectionController::Signals(Time now) const {
-  std::vector<GroupSignal> out(aspects_.size());
+std::vector<GroupSignal> IntersectionController::Signals(MonoTime now) const {
+  std::vector<GroupSignal> out;
+  SignalsInto(now, out);
+  return out;
+}
+
+void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>& out) const {
+  out.resize(aspects_.size());
+  for (auto& s : out) s = GroupSignal{};
   const Mode mode = effective_mode();
   const bool phased = stage_ == Stage::kGreen || stage_ == Stage::kYellow ||
                       stage_ == Stage::kRedClearance || stage_ == Stage::kAllRed;
   const Duration extension_allowance =
       model_->priority.enabled ? model_->priority.max_extension : Duration{0};
   auto green_end = [&](Policy policy) {
-    return [&, policy](std::size_t k, Time start, bool current) -> Time {
+    return [&, policy](std::size_t k, MonoTime start, bool current) -> MonoTime {
       const Plan& p = plan();
       Duration min_green{0};
       for (std::size_t h : p.phases[k].groups) {
         min_green = std::max(min_green, model_->groups[h].timing.min_green);
       }
       if (current) {
-        const Time min_end = std::max(now, PhaseMinEnd());
+        const MonoTime min_end = std::max(now, PhaseMinEnd());
         switch (policy) {
           case Policy::kMin:
             return min_end;
@@ -534,7 +567,7 @@ std::vector<GroupSignal> IntersectionController::Signals(Time now) const {
         auto end_of_run = [&](Policy policy) {
           const auto f = green_end(policy);
           const Plan& p = plan();
-          Time t = f(phase_, green_start_, true);
+          MonoTime t = f(phase_, green_start_, true);
           std::size_t from = phase_;
           for (std::size_t step = 1; step < p.phases.size(); ++step) {
             const std::size_t k = (from + 1) % p.phases.size();
@@ -570,10 +603,9 @@ std::vector<GroupSignal> IntersectionController::Signals(Time now) const {
       }
     }
   }
-  return out;
 }
 
-CommandResult IntersectionController::SetMode(Mode mode, Time now) {
+CommandResult IntersectionController::SetMode(Mode mode, MonoTime now) {
   (void)now;
   if (mode == Mode::kActuated || mode == Mode::kFixed || mode == Mode::kManual) {
     const std::size_t plan = operator_plan_.value_or(scheduled_plan_.value_or(plan_));
@@ -594,7 +626,7 @@ CommandResult IntersectionController::SetMode(Mode mode, Time now) {
   return CommandResult::Ok(fmt::format("{} mode {}{}", model_->name, ToString(mode), note));
 }
 
-CommandResult IntersectionController::SetPlan(std::string_view name, Time now) {
+CommandResult IntersectionController::SetPlan(std::string_view name, MonoTime now) {
   (void)now;
   if (name == "auto") {
     operator_plan_.reset();
@@ -618,7 +650,7 @@ CommandResult IntersectionController::SetPlan(std::string_view name, Time now) {
       fmt::format("{} runs plan {} from the next safe point", model_->name, p.name));
 }
 
-CommandResult IntersectionController::Advance(Time now) {
+CommandResult IntersectionController::Advance(MonoTime now) {
   if (TargetMode(plan_) != Mode::kManual || latched_) {
     return CommandResult::Refused(fmt::format("advance needs manual mode; {} runs {}", model_->name,
                                               ToString(effective_mode())));
@@ -628,7 +660,7 @@ CommandResult IntersectionController::Advance(Time now) {
         fmt::format("{} is in {}; advance works during a green", model_->name, ToString(stage_)));
   }
   advance_ = true;
-  const Time min_end = PhaseMinEnd();
+  const MonoTime min_end = PhaseMinEnd();
   if (now < min_end) {
     return CommandResult::Ok(
         fmt::format("advancing when min green is served, in {}", Secs(min_end - now)));
@@ -636,7 +668,7 @@ CommandResult IntersectionController::Advance(Time now) {
   return CommandResult::Ok("advancing");
 }
 
-CommandResult IntersectionController::Reset(Time now) {
+CommandResult IntersectionController::Reset(MonoTime now) {
   if (!latched_) {
     return CommandResult::Refused(
         fmt::format("{} is not in fail-safe flash; nothing to reset", model_->name));
@@ -648,14 +680,14 @@ CommandResult IntersectionController::Reset(Time now) {
   return CommandResult::Ok(fmt::format("{} reset: restarting through all red", model_->name));
 }
 
-void IntersectionController::FailSafe(Time now, std::string reason) {
+void IntersectionController::FailSafe(MonoTime now, std::string reason) {
   if (!latched_) latch_reason_ = std::move(reason);
   latched_ = true;
   advance_ = false;
   EnterFlash(now, false);
 }
 
-void IntersectionController::EndRequest(Time now, std::uint8_t status, std::string reason) {
+void IntersectionController::EndRequest(MonoTime now, std::uint8_t status, std::string reason) {
   (void)now;
   if (!active_) return;
   updates_.push_back({active_->request.vehicle, active_->request.request_id, status,
@@ -663,7 +695,7 @@ void IntersectionController::EndRequest(Time now, std::uint8_t status, std::stri
   active_.reset();
 }
 
-void IntersectionController::UpdateRequest(Time now) {
+void IntersectionController::UpdateRequest(MonoTime now) {
   if (!active_) return;
   const bool green = InPhase(active_->request.group);
   if (green && !active_->served) {
@@ -677,7 +709,7 @@ void IntersectionController::UpdateRequest(Time now) {
   }
 }
 
-RequestUpdate IntersectionController::Request(const ServiceRequest& r, Time now) {
+RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime now) {
   RequestUpdate u{r.vehicle, r.request_id, kRejected, r.group, std::nullopt, ""};
   if (r.group >= model_->groups.size()) {
     u.reason = "unknown signal group";
@@ -721,7 +753,7 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, Time now)
 }
 
 RequestUpdate IntersectionController::Cancel(std::string_view vehicle, std::uint32_t request_id,
-                                             Time now) {
+                                             MonoTime now) {
   RequestUpdate u{std::string(vehicle), request_id, kRejected, std::nullopt, std::nullopt, ""};
   if (!active_ || active_->request.vehicle != vehicle ||
       active_->request.request_id != request_id) {

@@ -36,12 +36,26 @@ enum class Stage { kStartupFlash, kFlash, kDark, kAllRed, kGreen, kYellow, kRedC
 /// What one signal group shows, since when, and when that is expected to change (SPaT).
 struct GroupSignal {
   Aspect aspect = Aspect::kFlashingRed;
-  Time since{};
-  Time min_end{};                  ///< earliest end of the current aspect; always set
-  std::optional<Time> max_end;     ///< latest end, when known
-  std::optional<Time> likely_end;  ///< best estimate, when known
-  float likely_confidence = 0.0f;  ///< 0..1
-  std::optional<Time> next_green;  ///< when the group's next green should start (not green)
+  MonoTime since{};
+  MonoTime min_end{};                  ///< earliest end of the current aspect; always set
+  std::optional<MonoTime> max_end;     ///< latest end, when known
+  std::optional<MonoTime> likely_end;  ///< best estimate, when known
+  float likely_confidence = 0.0f;      ///< 0..1
+  std::optional<MonoTime> next_green;  ///< when the group's next green should start (not green)
+};
+
+/// Where the SCM host's local day is, for what runs by time of day: the schedule of plans and
+/// the fixed-time cycle, whose reference is local midnight plus each plan's offset (so that a
+/// plan with offset 10 s starts its first phase at 00:00:10 local time and every cycle after;
+/// intersections that share a cycle length stay coordinated). Taken from system time (wall or
+/// simulated) by the caller at each step; a wall-clock step or a daylight-saving change moves
+/// the cycle, which the controller follows within each phase's min and max green.
+struct DayClock {
+  int minute_of_day = 0;       ///< 0..1439, local time
+  Duration since_midnight{0};  ///< since local midnight, local time, in [0, 24 h]
+
+  /// The day clock `since_midnight` after midnight.
+  [[nodiscard]] static DayClock At(Duration since_midnight);
 };
 
 /// The answer to an operator command.
@@ -58,7 +72,7 @@ struct ServiceRequest {
   std::uint32_t request_id = 0;
   bool preemption = false;  ///< emergency: served as soon as safe and held
   std::size_t group = 0;    ///< group index
-  Time end{};               ///< when the vehicle expects to have cleared (eta + duration)
+  MonoTime end{};           ///< when the vehicle expects to have cleared (eta + duration)
   /// How long the vehicle needs the green to clear: a request served late still gets this
   /// much green from when its green starts.
   Duration duration{0};
@@ -70,7 +84,7 @@ struct RequestUpdate {
   std::uint32_t request_id = 0;
   std::uint8_t status = 0;
   std::optional<std::size_t> group;
-  std::optional<Time> expected_green;
+  std::optional<MonoTime> expected_green;
   std::string reason;
 };
 
@@ -80,37 +94,41 @@ class IntersectionController {
  public:
   /// Starts in the start-up sequence at `now`, then runs `mode` with `plan` (a plan index chosen
   /// by the operator) or, without one, the scheduled plan.
-  IntersectionController(const IntersectionModel& model, Time now, Mode mode = Mode::kAuto,
+  IntersectionController(const IntersectionModel& model, MonoTime now, Mode mode = Mode::kAuto,
                          std::optional<std::size_t> operator_plan = std::nullopt);
 
   /// Advances to `now` (never backwards). `calls[g]` is true when a detector of group g is
-  /// occupied; shorter or empty means no call. `minute_of_day` selects the scheduled plan.
-  void Step(Time now, const std::vector<bool>& calls, int minute_of_day);
+  /// occupied; shorter or empty means no call. `day` selects the scheduled plan and places the
+  /// fixed-time cycle.
+  void Step(MonoTime now, const std::vector<bool>& calls, const DayClock& day);
 
   /// Operator: run `mode`. Fixed, actuated and manual need a phase plan; actuated needs
   /// detectors.
-  CommandResult SetMode(Mode mode, Time now);
+  CommandResult SetMode(Mode mode, MonoTime now);
   /// Operator: run plan `name` from the next safe point, or "auto" to follow the schedule.
-  CommandResult SetPlan(std::string_view name, Time now);
+  CommandResult SetPlan(std::string_view name, MonoTime now);
   /// Operator (manual mode): end the current phase once its min green is served.
-  CommandResult Advance(Time now);
+  CommandResult Advance(MonoTime now);
   /// Clears a fail-safe latch; the intersection restarts through all red.
-  CommandResult Reset(Time now);
+  CommandResult Reset(MonoTime now);
   /// Goes to fail-safe flash at once and latches (reason kept for status).
-  void FailSafe(Time now, std::string reason);
+  void FailSafe(MonoTime now, std::string reason);
   /// While false the start-up flash does not end (the lights are not all there yet).
   void SetDevicesReady(bool ready) { devices_ready_ = ready; }
 
   /// A V2I request: the first answer (GRANTED or REJECTED); later changes come from
   /// `TakeRequestUpdates`.
-  RequestUpdate Request(const ServiceRequest& request, Time now);
+  RequestUpdate Request(const ServiceRequest& request, MonoTime now);
   /// Cancels the vehicle's request.
-  RequestUpdate Cancel(std::string_view vehicle, std::uint32_t request_id, Time now);
+  RequestUpdate Cancel(std::string_view vehicle, std::uint32_t request_id, MonoTime now);
   /// Status changes since the last call (completions, cancellations).
   std::vector<RequestUpdate> TakeRequestUpdates();
 
   /// Each group's signal with SPaT timing, valid after the last `Step` or command.
-  [[nodiscard]] std::vector<GroupSignal> Signals(Time now) const;
+  [[nodiscard]] std::vector<GroupSignal> Signals(MonoTime now) const;
+  /// `Signals` into `out` (resized to the number of groups), without allocating once `out` has
+  /// the capacity: the daemon's loop uses it.
+  void SignalsInto(MonoTime now, std::vector<GroupSignal>& out) const;
   /// The aspects alone, by group index.
   [[nodiscard]] const std::vector<Aspect>& aspects() const { return aspects_; }
 
@@ -133,45 +151,46 @@ class IntersectionController {
  private:
   struct Active {
     ServiceRequest request;
-    Time accepted{};
+    MonoTime accepted{};
     bool served = false;  ///< its group has been green since it was accepted
   };
   [[nodiscard]] Mode TargetMode(std::size_t plan) const;
   [[nodiscard]] bool InPhase(std::size_t group) const;
-  [[nodiscard]] Time PhaseMinEnd() const;
+  [[nodiscard]] MonoTime PhaseMinEnd() const;
   [[nodiscard]] Duration PhaseMaxGreen(std::size_t phase) const;
-  [[nodiscard]] bool ShouldTerminate(Time now, const std::vector<bool>& calls) const;
+  [[nodiscard]] bool ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const;
   [[nodiscard]] std::size_t ChooseNext(std::size_t plan, const std::vector<bool>& calls) const;
-  [[nodiscard]] std::size_t FirstPhase(std::size_t plan, Time at) const;
-  [[nodiscard]] Time PlannedEnd(std::size_t phase, Time now) const;
+  [[nodiscard]] std::size_t FirstPhase(std::size_t plan, MonoTime at) const;
+  [[nodiscard]] MonoTime PlannedEnd(std::size_t phase, MonoTime now) const;
   /// The time group `g` turns green if the sequence runs with each phase's green ending at
   /// `green_end(phase, start)`.
-  [[nodiscard]] std::optional<Time> EarliestGreen(std::size_t g, Time now) const;
+  [[nodiscard]] std::optional<MonoTime> EarliestGreen(std::size_t g, MonoTime now) const;
   template <typename F>
-  [[nodiscard]] std::optional<Time> WalkToGreen(std::size_t g, F green_end) const;
-  void Show(std::size_t g, Aspect aspect, Time now);
-  void EnterFlash(Time now, bool dark);
-  void EnterAllRed(Time now, Duration d);
-  void StartPhase(std::size_t phase, Time now);
-  void BeginClearance(std::optional<std::size_t> next, Time now);
-  void UpdateRequest(Time now);
-  void EndRequest(Time now, std::uint8_t status, std::string reason);
+  [[nodiscard]] std::optional<MonoTime> WalkToGreen(std::size_t g, F green_end) const;
+  void Show(std::size_t g, Aspect aspect, MonoTime now);
+  void EnterFlash(MonoTime now, bool dark);
+  void EnterAllRed(MonoTime now, Duration d);
+  void StartPhase(std::size_t phase, MonoTime now);
+  void BeginClearance(std::optional<std::size_t> next, MonoTime now);
+  void UpdateRequest(MonoTime now);
+  void EndRequest(MonoTime now, std::uint8_t status, std::string reason);
 
   const IntersectionModel* model_;
   std::vector<Aspect> aspects_;
-  std::vector<Time> since_;
+  std::vector<MonoTime> since_;
   Stage stage_ = Stage::kStartupFlash;
-  Time stage_end_{};
+  MonoTime stage_end_{};
   Mode mode_ = Mode::kAuto;
   std::size_t plan_ = 0;
   std::optional<std::size_t> operator_plan_;
   std::optional<std::size_t> scheduled_plan_;
   std::size_t phase_ = 0;
   std::optional<std::size_t> next_phase_;  ///< during a clearance; none: to flash or dark
-  Time green_start_{};
-  Time planned_end_{};
-  Time last_call_{};
-  Time yellow_end_{};
+  MonoTime green_start_{};
+  MonoTime midnight_{};  ///< local midnight on the control timeline, from the last step's day
+  MonoTime planned_end_{};
+  MonoTime last_call_{};
+  MonoTime yellow_end_{};
   Duration red_clearance_{0};  ///< of the clearance under way
   bool advance_ = false;
   bool devices_ready_ = true;

@@ -26,21 +26,28 @@ const City& SmallTown() {
   return city;
 }
 
+/// The day clock of a test: local midnight at the control timeline's origin, so the cycle of a
+/// fixed plan (anchored at local midnight plus its offset) lines up with multiples of the cycle;
+/// `minute` chooses the scheduled plan independently.
+DayClock Day(MonoTime now, int minute) {
+  return DayClock{minute, now.time_since_epoch() % std::chrono::hours(24)};
+}
+
 constexpr int kNoon = 12 * 60;     // the day plan (fixed)
 constexpr int kEvening = 20 * 60;  // the evening plan (actuated)
 
 /// A start time where the day plan's cycle (52 s) begins, so its phases line up with the clock.
-Time CycleStart() { return Time(seconds(52 * 1000)); }
+MonoTime CycleStart() { return MonoTime(seconds(52 * 1000)); }
 
 /// Drives a controller in fixed ticks and checks every output with a monitor.
 struct Rig {
-  explicit Rig(const IntersectionModel& x, Time start = CycleStart())
+  explicit Rig(const IntersectionModel& x, MonoTime start = CycleStart())
       : model(x), now(start), controller(x, start), monitor(x, start) {}
   /// Steps until `until`, with `calls`; fails the test on any monitor violation.
-  void RunTo(Time until, const std::vector<bool>& calls = {}, int minute = kNoon) {
+  void RunTo(MonoTime until, const std::vector<bool>& calls = {}, int minute = kNoon) {
     while (now < until) {
       now = std::min(until, now + tick);
-      controller.Step(now, calls, minute);
+      controller.Step(now, calls, Day(now, minute));
       const auto v = monitor.CheckAndRecord(now, controller.aspects());
       ASSERT_FALSE(v) << v->message;
     }
@@ -50,7 +57,7 @@ struct Rig {
   }
   Aspect Of(std::size_t g) const { return controller.aspects()[g]; }
   const IntersectionModel& model;
-  Time now;
+  MonoTime now;
   Duration tick = milliseconds(100);
   IntersectionController controller;
   ConflictMonitor monitor;
@@ -86,7 +93,7 @@ TEST(Controller, FixedTimeRunsThePhasesInTurnKeepingToTheCycle) {
   Rig rig(DrivingSchool().intersections[0]);
   rig.RunTo(CycleStart() + seconds(52));  // settle into the cycle
   // Cycle position 0 (phase 1 green from 0 to 8 s, yellow to 11, all red to 13, phase 2 ...).
-  const Time c = CycleStart() + seconds(52);
+  const MonoTime c = CycleStart() + seconds(52);
   rig.RunTo(c + milliseconds(100));
   EXPECT_EQ(rig.Of(0), Aspect::kGreen);
   rig.RunTo(c + milliseconds(7900));
@@ -108,8 +115,8 @@ TEST(Controller, FixedTimePredictionsMatchWhatHappens) {
   rig.RunTo(CycleStart() + seconds(60));
   // Record each group's predictions now, then check them against the changes that follow.
   const auto predicted = rig.controller.Signals(rig.now);
-  std::vector<std::optional<Time>> changed(4);
-  std::vector<std::optional<Time>> green_at(4);
+  std::vector<std::optional<MonoTime>> changed(4);
+  std::vector<std::optional<MonoTime>> green_at(4);
   const auto start = rig.controller.aspects();
   while (rig.now < CycleStart() + seconds(60 + 52)) {
     rig.RunFor(milliseconds(100));
@@ -306,7 +313,7 @@ struct MonitorRig {
     return monitor.CheckAndRecord(now, a);
   }
   const IntersectionModel& model;
-  Time now;
+  MonoTime now;
   ConflictMonitor monitor;
 };
 constexpr Aspect R = Aspect::kRed, Y = Aspect::kYellow, G = Aspect::kGreen,
@@ -374,13 +381,13 @@ TEST(ConflictMonitor, AllowsGoingToFlashAtAnyTimeButNotGreenStraightFromFlash) {
 /// The safety rules, checked from the outside on the controller's raw output.
 class RuleChecker {
  public:
-  RuleChecker(const IntersectionModel& x, Time now)
+  RuleChecker(const IntersectionModel& x, MonoTime now)
       : x_(x),
         last_(x.groups.size(), Aspect::kFlashingRed),
         since_(x.groups.size(), now),
         red_since_(x.groups.size()) {}
   /// Returns a description of the first broken rule, or "".
-  std::string Check(Time now, const std::vector<Aspect>& a) {
+  std::string Check(MonoTime now, const std::vector<Aspect>& a) {
     const std::size_t n = a.size();
     for (std::size_t i = 0; i < n; ++i) {
       for (std::size_t j = i + 1; j < n; ++j) {
@@ -411,7 +418,7 @@ class RuleChecker {
       if (a[g] != last_[g]) {
         last_[g] = a[g];
         since_[g] = now;
-        red_since_[g] = a[g] == Aspect::kRed ? std::optional<Time>(now) : std::nullopt;
+        red_since_[g] = a[g] == Aspect::kRed ? std::optional<MonoTime>(now) : std::nullopt;
       }
     }
     return "";
@@ -420,8 +427,8 @@ class RuleChecker {
  private:
   const IntersectionModel& x_;
   std::vector<Aspect> last_;
-  std::vector<Time> since_;
-  std::vector<std::optional<Time>> red_since_;
+  std::vector<MonoTime> since_;
+  std::vector<std::optional<MonoTime>> red_since_;
 };
 
 void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
@@ -433,7 +440,8 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
   int grants = 0;
   for (int s = 0; s < sequences; ++s) {
     const auto& x = city.intersections[static_cast<std::size_t>(s) % city.intersections.size()];
-    Time now = Time(seconds(1'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
+    MonoTime now =
+        MonoTime(seconds(1'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
     const auto modes = {Mode::kAuto,   Mode::kFixed, Mode::kActuated,
                         Mode::kManual, Mode::kFlash, Mode::kDark};
     IntersectionController c(
@@ -495,7 +503,7 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
       }
       now += milliseconds(tick_ms(rng));
       const auto before = c.aspects();
-      c.Step(now, calls, minute);
+      c.Step(now, calls, Day(now, minute));
       note(what);
       // SPaT timing: with no command in between, a change never comes before the min end the
       // last tick promised, nor later than one tick after its max end.

@@ -53,12 +53,13 @@ std::uint8_t EventState(Aspect a) {
   return autodrive_msgs_msg_SignalGroupState_Constants_UNAVAILABLE;
 }
 
-int MinuteOfDay(Time now) {
+DayClock DayAt(Time now) {
   const std::time_t t =
       std::chrono::duration_cast<std::chrono::seconds>(now.time_since_epoch()).count();
   std::tm tm{};
   localtime_r(&t, &tm);
-  return tm.tm_hour * 60 + tm.tm_min;
+  const Duration sub = now.time_since_epoch() - std::chrono::seconds(t);
+  return DayClock::At(std::chrono::seconds(tm.tm_hour * 3600 + tm.tm_min * 60 + tm.tm_sec) + sub);
 }
 
 /// One traffic light head as the SCM supervises it.
@@ -69,14 +70,14 @@ struct Head {
   std::string name;  ///< "signal_<i>"
   std::unique_ptr<dds::Writer<msg::Int32>> writer;
   std::optional<Aspect> commanded;
-  Time commanded_at{};
+  MonoTime commanded_at{};
   bool seen = false;
-  Time last_status{};
+  MonoTime last_status{};
   std::uint8_t health = 0;
   std::uint8_t mode = 0;
   std::optional<Aspect> displayed;
   std::string detail;
-  std::optional<Time> mismatch_since;
+  std::optional<MonoTime> mismatch_since;
   bool lost = false;
   bool faulty = false;
 };
@@ -112,8 +113,8 @@ struct Scm::Impl {
   std::uint64_t session = 0;
   std::uint64_t heartbeat_seq = 0;
   std::uint64_t event_seq = 0;
-  Time started{};
-  Time next_spat{};
+  MonoTime started{};
+  MonoTime next_spat{};
   std::uint32_t map_revision = 0;
   /// (intersection id, MAP lane id) -> the map's lane.
   std::map<std::pair<std::uint32_t, std::uint32_t>, LaneId> map_lanes;
@@ -138,17 +139,18 @@ struct Scm::Impl {
             IntersectionId intersection = IntersectionId(0), std::string_view device = "",
             std::string_view actor = "scm", bool active = false);
   void LoadConfiguration();
-  void SetUpCity(Time now, bool restore);
-  void PublishMapAndSigns(Time now);
+  void SetUpCity(const ClockReading& now, bool restore);
+  void PublishMapAndSigns(const ClockReading& now);
   void SaveState(Runtime& x);
-  void Supervise(Time now);
-  void RunControllers(Time now);
-  void PublishSpat(Time now);
-  void PublishHeartbeat(Time now, std::uint8_t state);
-  void HandleOperator(Time now);
-  void HandleSignalRequests(Time now);
-  void Reply(const msg::OperatorRequest& request, const OperatorResult& result, Time now);
-  OperatorResult Execute(const OperatorCommand& command, Time now);
+  void Supervise(const ClockReading& now);
+  void RunControllers(const ClockReading& now);
+  void PublishSpat(const ClockReading& now);
+  void PublishHeartbeat(const ClockReading& now, std::uint8_t state);
+  void HandleOperator(const ClockReading& now);
+  void HandleSignalRequests(const ClockReading& now);
+  void Reply(const msg::OperatorRequest& request, const OperatorResult& result,
+             const ClockReading& now);
+  OperatorResult Execute(const OperatorCommand& command, const ClockReading& now);
   Runtime* FindIntersection(const std::string& name);
   std::string Describe(const Runtime& x) const;
 };
@@ -216,7 +218,7 @@ void Scm::Impl::LoadConfiguration() {
   store.SaveAppliedConfig(options.config_path.string(), text, "scm", clock.Now());
 }
 
-void Scm::Impl::SetUpCity(Time now, bool restore) {
+void Scm::Impl::SetUpCity(const ClockReading& now, bool restore) {
   std::map<IntersectionId, IntersectionStateRecord> saved;
   if (restore) {
     for (const auto& s : store.LoadIntersectionStates()) saved[s.intersection] = s;
@@ -237,8 +239,8 @@ void Scm::Impl::SetUpCity(Time now, bool restore) {
       spdlog::info("{}: restoring mode {} and plan {}", model.name, ToString(mode),
                    plan ? model.plans[*plan].name : std::string("(schedule)"));
     }
-    x.controller.emplace(model, now, mode, plan);
-    x.monitor.emplace(model, now);
+    x.controller.emplace(model, now.mono, mode, plan);
+    x.monitor.emplace(model, now.mono);
     x.last_aspects = x.controller->aspects();
     x.saved_mode = std::string(ToString(mode));
     x.saved_plan = plan ? model.plans[*plan].name : "auto";
@@ -267,7 +269,7 @@ void Scm::Impl::SetUpCity(Time now, bool restore) {
   PublishMapAndSigns(now);
 }
 
-void Scm::Impl::PublishMapAndSigns(Time now) {
+void Scm::Impl::PublishMapAndSigns(const ClockReading& now) {
   ++map_revision;
   SignalGroupAssignment groups;
   for (const auto& model : city->intersections) {
@@ -286,10 +288,10 @@ void Scm::Impl::PublishMapAndSigns(Time now) {
         map_lanes.insert_or_assign({x.intersection_id, lane.lane_id}, it->second);
     }
   }
-  map->header.stamp = dds::ToMsg(now);
+  map->header.stamp = dds::ToMsg(now.wire);
   map_writer->Write(map);
   auto signs = BuildSignRegistry(city->map, city->config.name, map_revision);
-  signs->header.stamp = dds::ToMsg(now);
+  signs->header.stamp = dds::ToMsg(now.wire);
   signs_writer->Write(signs);
 }
 
@@ -307,7 +309,7 @@ void Scm::Impl::SaveState(Runtime& x) {
   }
 }
 
-void Scm::Impl::Supervise(Time now) {
+void Scm::Impl::Supervise(const ClockReading& now) {
   // Device status from the lights (and the infrastructure's own monitors).
   for (auto& m : device_reader->TakeAll()) {
     const std::string id = m->device_id ? m->device_id : "";
@@ -317,7 +319,7 @@ void Scm::Impl::Supervise(Time now) {
             m->health == autodrive_msgs_msg_DeviceStatus_Constants_FAULT &&
             !x.controller->latched()) {
           x.fault = "the infrastructure's conflict monitor latched flash";
-          x.controller->FailSafe(now, x.fault);
+          x.controller->FailSafe(now.mono, x.fault);
           Emit(Severity::kCritical, "mmu_flash",
                fmt::format("{}: the infrastructure's conflict monitor latched flash: {}",
                            x.model->name, m->detail ? m->detail : ""),
@@ -337,7 +339,7 @@ void Scm::Impl::Supervise(Time now) {
     Head& h = heads[it->second];
     if (!h.seen) spdlog::info("{} reports ({})", h.name, m->detail ? m->detail : "");
     h.seen = true;
-    h.last_status = now;
+    h.last_status = now.mono;
     h.health = m->health;
     h.mode = m->mode;
     h.displayed = AspectFromWire(m->displayed_state);
@@ -358,12 +360,12 @@ void Scm::Impl::Supervise(Time now) {
         all_seen = false;
         continue;
       }
-      if (now - h.last_status > city->device_timeout) {
+      if (now.mono - h.last_status > city->device_timeout) {
         if (!h.lost) {
           h.lost = true;
           Emit(Severity::kAlarm, "device_lost",
                fmt::format("{} lost: no status for {:.2f} s", h.name,
-                           ToSeconds(now - h.last_status)),
+                           ToSeconds(now.mono - h.last_status)),
                x.model->id, h.name, "scm", true);
         }
         lost.push_back(h.name);
@@ -377,7 +379,7 @@ void Scm::Impl::Supervise(Time now) {
              true);
         if (!x.controller->latched()) {
           x.fault = fmt::format("{} has a fault", h.name);
-          x.controller->FailSafe(now, x.fault);
+          x.controller->FailSafe(now.mono, x.fault);
         }
       } else if (!fault && h.faulty) {
         h.faulty = false;
@@ -385,11 +387,11 @@ void Scm::Impl::Supervise(Time now) {
       // What it shows against what it was told, once it has had time to follow.
       if (h.commanded && h.displayed && !h.lost && *h.displayed != *h.commanded &&
           !x.controller->latched()) {
-        if (!h.mismatch_since) h.mismatch_since = now;
-        if (now - *h.mismatch_since > city->device_mismatch) {
+        if (!h.mismatch_since) h.mismatch_since = now.mono;
+        if (now.mono - *h.mismatch_since > city->device_mismatch) {
           x.fault = fmt::format("{} shows {} but was commanded {}", h.name, ToString(*h.displayed),
                                 ToString(*h.commanded));
-          x.controller->FailSafe(now, x.fault);
+          x.controller->FailSafe(now.mono, x.fault);
           Emit(Severity::kAlarm, "device_mismatch", x.fault, x.model->id, h.name, "scm", true);
         }
       } else {
@@ -401,7 +403,7 @@ void Scm::Impl::Supervise(Time now) {
       std::string names;
       for (const auto& n : lost) names += (names.empty() ? "" : ", ") + n;
       x.fault = "devices lost: " + names;
-      x.controller->FailSafe(now, x.fault);
+      x.controller->FailSafe(now.mono, x.fault);
       Emit(Severity::kCritical, "failsafe_flash",
            fmt::format("{} in fail-safe flash: {}", x.model->name, x.fault), x.model->id, "", "scm",
            true);
@@ -409,26 +411,27 @@ void Scm::Impl::Supervise(Time now) {
   }
 }
 
-void Scm::Impl::RunControllers(Time now) {
-  const int minute = MinuteOfDay(now);
+void Scm::Impl::RunControllers(const ClockReading& now) {
+  const DayClock day = DayAt(now.wire);
   for (auto& x : xs) {
     auto& c = *x.controller;
     std::vector<bool> calls(x.model->groups.size(), false);
     for (const auto& d : c.plan().detectors) {
-      if (!calls[d.group] && fleet->Occupied({d.lane, d.from_stop_line_m, d.to_stop_line_m}, now)) {
+      if (!calls[d.group] &&
+          fleet->Occupied({d.lane, d.from_stop_line_m, d.to_stop_line_m}, now.wire)) {
         calls[d.group] = true;
       }
     }
     const bool was_latched = c.latched();
-    c.Step(now, calls, minute);
+    c.Step(now.mono, calls, day);
     auto aspects = c.aspects();
-    if (const auto v = x.monitor->Check(now, aspects)) {
+    if (const auto v = x.monitor->Check(now.mono, aspects)) {
       ++counters.monitor_violations;
-      c.FailSafe(now, "conflict monitor: " + v->message);
+      c.FailSafe(now.mono, "conflict monitor: " + v->message);
       aspects = c.aspects();
       Emit(Severity::kCritical, "monitor_" + v->rule, v->message, x.model->id, "", "scm", true);
     }
-    x.monitor->Record(now, aspects);
+    x.monitor->Record(now.mono, aspects);
     if (c.latched() && !was_latched) {
       spdlog::error("{}: fail-safe flash latched: {}", x.model->name, c.latch_reason());
     }
@@ -441,7 +444,7 @@ void Scm::Impl::RunControllers(Time now) {
       const Aspect a = aspects[h.group];
       if (h.commanded != a) {
         h.commanded = a;
-        h.commanded_at = now;
+        h.commanded_at = now.mono;
         h.mismatch_since.reset();
         msg::Int32 m{ToWire(a)};
         h.writer->Write(m);
@@ -449,7 +452,7 @@ void Scm::Impl::RunControllers(Time now) {
     }
     for (const auto& u : c.TakeRequestUpdates()) {
       dds::Message<msg::SignalRequestStatus> m;
-      m->header.stamp = dds::ToMsg(now);
+      m->header.stamp = dds::ToMsg(now.wire);
       dds::SetString(m->vehicle_id, u.vehicle);
       m->request_id = u.request_id;
       m->intersection_id = x.model->id.value();
@@ -461,9 +464,9 @@ void Scm::Impl::RunControllers(Time now) {
   }
 }
 
-void Scm::Impl::PublishSpat(Time now) {
+void Scm::Impl::PublishSpat(const ClockReading& now) {
   dds::Message<msg::Spat> m;
-  m->header.stamp = dds::ToMsg(now);
+  m->header.stamp = dds::ToMsg(now.wire);
   dds::SetString(m->header.frame_id, "map");
   dds::SetString(m->city, city->config.name);
   dds::ResizeSequence(m->intersections, static_cast<std::uint32_t>(xs.size()));
@@ -495,9 +498,9 @@ void Scm::Impl::PublishSpat(Time now) {
     if (c.priority_active())
       status |= autodrive_msgs_msg_IntersectionState_Constants_SIGNAL_PRIORITY_ACTIVE;
     s.status = status;
-    s.timestamp = dds::ToMsg(now);
+    s.timestamp = dds::ToMsg(now.wire);
     dds::SetString(s.plan, c.plan().name);
-    const auto signals = c.Signals(now);
+    const auto signals = c.Signals(now.mono);
     dds::ResizeSequence(s.signal_groups, static_cast<std::uint32_t>(signals.size()));
     auto gs = dds::Elements(s.signal_groups);
     for (std::size_t g = 0; g < signals.size(); ++g) {
@@ -505,26 +508,26 @@ void Scm::Impl::PublishSpat(Time now) {
       auto& o = gs[g];
       o.signal_group = x.model->groups[g].id.value();
       o.event_state = EventState(sig.aspect);
-      o.min_end_time = dds::ToMsg(sig.min_end);
+      o.min_end_time = dds::ToMsg(now.ToWire(sig.min_end));
       o.has_max_end_time = sig.max_end.has_value();
-      if (sig.max_end) o.max_end_time = dds::ToMsg(*sig.max_end);
+      if (sig.max_end) o.max_end_time = dds::ToMsg(now.ToWire(*sig.max_end));
       o.has_likely_time = sig.likely_end.has_value();
-      if (sig.likely_end) o.likely_time = dds::ToMsg(*sig.likely_end);
+      if (sig.likely_end) o.likely_time = dds::ToMsg(now.ToWire(*sig.likely_end));
       o.likely_time_confidence = sig.likely_confidence;
       o.has_next_time = sig.next_green.has_value();
-      if (sig.next_green) o.next_time = dds::ToMsg(*sig.next_green);
+      if (sig.next_green) o.next_time = dds::ToMsg(now.ToWire(*sig.next_green));
     }
   }
   spat_writer->Write(m);
   ++counters.spat_published;
-  fleet->DropStale(now);
-  auto fleet_state = fleet->State(now);
+  fleet->DropStale(now.wire);
+  auto fleet_state = fleet->State(now.wire);
   fleet_writer->Write(fleet_state);
 }
 
-void Scm::Impl::PublishHeartbeat(Time now, std::uint8_t state) {
+void Scm::Impl::PublishHeartbeat(const ClockReading& now, std::uint8_t state) {
   dds::Message<msg::Heartbeat> m;
-  m->header.stamp = dds::ToMsg(now);
+  m->header.stamp = dds::ToMsg(now.wire);
   dds::SetString(m->sender, "scm");
   m->session_id = session;
   m->sequence_number = ++heartbeat_seq;
@@ -549,7 +552,7 @@ std::string Scm::Impl::Describe(const Runtime& x) const {
                      c.latched() ? " latched=\"" + c.latch_reason() + "\"" : "");
 }
 
-OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
+OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, const ClockReading& now) {
   using R = OperatorResult;
   auto need_x = [&](Runtime*& x) -> std::optional<R> {
     if (cmd.intersection.empty()) return R::Invalid(cmd.name + " needs an intersection");
@@ -565,11 +568,12 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
   Runtime* x = nullptr;
   if (cmd.name == "status") {
     R r = R::Ok(fmt::format("city {}: {} signalised intersections, {} lights, up {:.0f} s",
-                            city->config.name, xs.size(), heads.size(), ToSeconds(now - started)));
+                            city->config.name, xs.size(), heads.size(),
+                            ToSeconds(now.mono - started)));
     r.values.emplace_back("city", city->config.name);
     r.values.emplace_back("config", city->config_path.string());
     r.values.emplace_back("clock", ToString(clock.kind()));
-    r.values.emplace_back("uptime_s", fmt::format("{:.1f}", ToSeconds(now - started)));
+    r.values.emplace_back("uptime_s", fmt::format("{:.1f}", ToSeconds(now.mono - started)));
     std::size_t lost = 0;
     for (const auto& h : heads) lost += h.lost ? 1 : 0;
     r.values.emplace_back("lights", std::to_string(heads.size()));
@@ -587,7 +591,7 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
   if (cmd.name == "show") {
     if (auto bad = need_x(x)) return *bad;
     R r = R::Ok(x->model->name + ": " + Describe(*x));
-    const auto signals = x->controller->Signals(now);
+    const auto signals = x->controller->Signals(now.mono);
     for (std::size_t g = 0; g < signals.size(); ++g) {
       const auto& s = signals[g];
       std::string heads_text;
@@ -600,9 +604,9 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
       r.values.emplace_back(
           fmt::format("group {} {}", x->model->groups[g].id.value(), x->model->groups[g].name),
           fmt::format("{} since {:.1f} s, min end in {:.1f} s{};{}", ToString(s.aspect),
-                      ToSeconds(now - s.since), ToSeconds(s.min_end - now),
+                      ToSeconds(now.mono - s.since), ToSeconds(s.min_end - now.mono),
                       s.likely_end
-                          ? fmt::format(", likely in {:.1f} s", ToSeconds(*s.likely_end - now))
+                          ? fmt::format(", likely in {:.1f} s", ToSeconds(*s.likely_end - now.mono))
                           : "",
                       heads_text));
     }
@@ -618,12 +622,12 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
         return R::Invalid(fmt::format(
             "unknown mode \"{}\" (auto, fixed, actuated, manual, flash, dark)", cmd.Arg("mode")));
       }
-      res = c.SetMode(*mode, now);
+      res = c.SetMode(*mode, now.mono);
     } else if (cmd.name == "plan") {
       if (cmd.Arg("plan").empty()) return R::Invalid("plan needs a plan name (or auto)");
-      res = c.SetPlan(cmd.Arg("plan"), now);
+      res = c.SetPlan(cmd.Arg("plan"), now.mono);
     } else if (cmd.name == "advance") {
-      res = c.Advance(now);
+      res = c.Advance(now.mono);
     } else {
       // A reset does not clear a cause that is still there.
       for (std::size_t hi : x->heads) {
@@ -634,7 +638,7 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
               fmt::format("{} still reports a fault ({}); reset refused", h.name, h.detail));
       }
       const std::string reason = c.latch_reason();
-      res = c.Reset(now);
+      res = c.Reset(now.mono);
       if (res.ok) {
         x->fault.clear();
         for (std::size_t hi : x->heads) heads[hi].mismatch_since.reset();
@@ -695,7 +699,7 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
       return R::Ok(fmt::format("{} is valid: city {}, {} signalised intersections", path,
                                next->config.name, next->intersections.size()));
     }
-    store.SaveAppliedConfig(path, cmd.Arg("yaml"), cmd.client, now);
+    store.SaveAppliedConfig(path, cmd.Arg("yaml"), cmd.client, now.wire);
     Emit(Severity::kWarning, "config_applied",
          fmt::format("configuration {} applied (city {}); every intersection restarts through "
                      "the start-up sequence",
@@ -711,9 +715,10 @@ OperatorResult Scm::Impl::Execute(const OperatorCommand& cmd, Time now) {
   return R::Invalid(fmt::format("unknown command \"{}\" ({})", cmd.name, OperatorCommandNames()));
 }
 
-void Scm::Impl::Reply(const msg::OperatorRequest& request, const OperatorResult& result, Time now) {
+void Scm::Impl::Reply(const msg::OperatorRequest& request, const OperatorResult& result,
+                      const ClockReading& now) {
   dds::Message<msg::OperatorReply> m;
-  m->header.stamp = dds::ToMsg(now);
+  m->header.stamp = dds::ToMsg(now.wire);
   dds::SetString(m->client_id, request.client_id ? request.client_id : "");
   m->request_id = request.request_id;
   m->result = result.result;
@@ -727,7 +732,7 @@ void Scm::Impl::Reply(const msg::OperatorRequest& request, const OperatorResult&
   reply_writer->Write(m);
 }
 
-void Scm::Impl::HandleOperator(Time now) {
+void Scm::Impl::HandleOperator(const ClockReading& now) {
   for (auto& m : operator_reader->TakeAll()) {
     ++counters.operator_requests;
     OperatorResult result;
@@ -747,7 +752,7 @@ void Scm::Impl::HandleOperator(Time now) {
   }
 }
 
-void Scm::Impl::HandleSignalRequests(Time now) {
+void Scm::Impl::HandleSignalRequests(const ClockReading& now) {
   for (auto& m : request_reader->TakeAll()) {
     ++counters.signal_requests;
     const std::string vehicle = m->vehicle_id ? m->vehicle_id : "";
@@ -761,7 +766,7 @@ void Scm::Impl::HandleSignalRequests(Time now) {
     if (x == nullptr) {
       u.reason = fmt::format("intersection {} is not signalised here", m->intersection_id);
     } else if (m->request_type == autodrive_msgs_msg_SignalRequest_Constants_CANCEL) {
-      u = x->controller->Cancel(vehicle, m->request_id, now);
+      u = x->controller->Cancel(vehicle, m->request_id, now.mono);
     } else {
       // The movement from the MAP's in lane to its out lane (any, when out is 0).
       std::optional<std::size_t> group;
@@ -789,8 +794,8 @@ void Scm::Impl::HandleSignalRequests(Time now) {
         ++counters.malformed_requests;
         u.reason = fmt::format("unknown request type {}", m->request_type);
       } else {
-        Time eta = dds::FromMsg(m->eta);
-        if (eta < now) eta = now;
+        MonoTime eta = now.FromWire(dds::FromMsg(m->eta));
+        if (eta < now.mono) eta = now.mono;
         const Duration d =
             std::clamp(dds::FromMsg(m->duration), Duration{0}, Duration(std::chrono::minutes(5)));
         ServiceRequest r{
@@ -801,7 +806,7 @@ void Scm::Impl::HandleSignalRequests(Time now) {
             *group,
             eta + d,
             d};
-        u = x->controller->Request(r, now);
+        u = x->controller->Request(r, now.mono);
       }
     }
     Emit(Severity::kInfo, "signal_request",
@@ -809,14 +814,14 @@ void Scm::Impl::HandleSignalRequests(Time now) {
                      m->intersection_id, u.status, u.reason),
          IntersectionId(m->intersection_id), "", vehicle, false);
     dds::Message<msg::SignalRequestStatus> s;
-    s->header.stamp = dds::ToMsg(now);
+    s->header.stamp = dds::ToMsg(now.wire);
     dds::SetString(s->vehicle_id, vehicle);
     s->request_id = m->request_id;
     s->intersection_id = m->intersection_id;
     s->status = u.status;
     s->signal_group = (x && u.group) ? x->model->groups[*u.group].id.value() : 0;
     s->has_expected_green = u.expected_green.has_value();
-    if (u.expected_green) s->expected_green = dds::ToMsg(*u.expected_green);
+    if (u.expected_green) s->expected_green = dds::ToMsg(now.ToWire(*u.expected_green));
     dds::SetString(s->reason, u.reason);
     request_status_writer->Write(s);
   }
@@ -849,9 +854,9 @@ Scm::Scm(const ScmOptions& options, Clock& clock) : impl_(std::make_unique<Impl>
   const auto devices = t::Devices();
   d.device_reader = std::make_unique<dds::Reader<msg::DeviceStatus>>(*d.participant, devices.name,
                                                                      dds::Qos::LatchedState(1024));
-  const Time now = clock.Now();
-  d.started = now;
-  d.next_spat = now;
+  const ClockReading now = clock.Read();
+  d.started = now.mono;
+  d.next_spat = now.mono;
   d.SetUpCity(now, true);
   d.Emit(Severity::kInfo, "scm_started",
          fmt::format("SCM started: city {}, {} signalised intersections, {} lights, {} clock",
@@ -863,7 +868,7 @@ Scm::~Scm() = default;
 const City& Scm::city() const { return *impl_->city; }
 ScmCounters Scm::counters() const { return impl_->counters; }
 
-void Scm::Tick(Time now) {
+void Scm::Tick(const ClockReading& now) {
   auto& d = *impl_;
   ++d.counters.ticks;
   // Vehicle positions from the devkit's ips topics (heading from the motion).
@@ -883,7 +888,7 @@ void Scm::Tick(Time now) {
       VehicleObservation o;
       o.vehicle = v;
       o.source = PoseSource::kSimGroundTruth;
-      o.observed = now;
+      o.observed = now.wire;
       o.X_MV = RigidTransform2(pos, last.second).ToRigidTransform3();
       try {
         d.fleet->Observe(o);
@@ -896,11 +901,11 @@ void Scm::Tick(Time now) {
   d.HandleSignalRequests(now);
   d.Supervise(now);
   d.RunControllers(now);
-  if (now >= d.next_spat) {
+  if (now.mono >= d.next_spat) {
     d.PublishSpat(now);
     d.PublishHeartbeat(now, autodrive_msgs_msg_Heartbeat_Constants_RUNNING);
     d.next_spat += d.options.spat_period;
-    if (d.next_spat < now) d.next_spat = now + d.options.spat_period;
+    if (d.next_spat < now.mono) d.next_spat = now.mono + d.options.spat_period;
   }
 }
 
@@ -909,7 +914,7 @@ void Scm::Run() {
   Ticker ticker(d.clock, d.options.tick);
   while (!d.stop.load() && ticker.WaitNext()) {
     try {
-      Tick(d.clock.Now());
+      Tick(d.clock.Read());
     } catch (const std::exception& e) {
       // A bug or a broken database must not stop the signals: log, count, carry on.
       spdlog::error("tick failed: {}", e.what());
@@ -920,7 +925,7 @@ void Scm::Run() {
 
 void Scm::PublishStopping() {
   auto& d = *impl_;
-  const Time now = d.clock.Now();
+  const ClockReading now = d.clock.Read();
   d.PublishHeartbeat(now, autodrive_msgs_msg_Heartbeat_Constants_STOPPING);
   d.Emit(Severity::kWarning, "scm_stopped", "SCM stopping: the lights flash on their own");
 }

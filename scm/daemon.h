@@ -61,7 +61,7 @@ class Scm {
   void Stop();
 
   /// One pass of the loop at `now`: requests, devices, controllers, monitor, outputs.
-  void Tick(Time now);
+  void Tick(const ClockReading& now);
 
   [[nodiscard]] const City& city() const;
   [[nodiscard]] ScmCounters counters() const;

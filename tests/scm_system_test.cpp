@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -69,9 +70,20 @@ class ScmSystem : public ::testing::Test {
         partition_, "--log-level", "warn"});
   }
   void StartScm(const std::string& city = "driving_school") {
-    scm_ = std::make_unique<ChildProcess>(std::vector<std::string>{
-        Bin("autodrive-scm"), "--config", Config("config/cities/" + city + ".yaml"), "--partition",
-        partition_, "--db", (dir_ / "scm.db").string(), "--log-level", "warn"});
+    scm_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{
+            Bin("autodrive-scm"), "--config", Config("config/cities/" + city + ".yaml"),
+            "--partition", partition_, "--db", (dir_ / "scm.db").string(), "--log-level", "warn"},
+        std::vector<std::string>{NoonTimeZone()});
+  }
+  /// A TZ setting in which it is now about noon, so that the cities' schedules run their day
+  /// plans whatever time of day the test runs at.
+  static std::string NoonTimeZone() {
+    const std::time_t t = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&t, &utc);
+    // POSIX TZ "XXX<h>": local time is UTC minus h hours.
+    return "TZ=XXX" + std::to_string(utc.tm_hour - 12);
   }
   Output Scmctl(std::vector<std::string> args) {
     std::vector<std::string> argv{Bin("scmctl"), "--partition", partition_, "--timeout", "5"};

@@ -13,9 +13,18 @@ SimClockSubscriber::SimClockSubscriber(const Participant& participant, SimClock&
     while (reader.TakeOne(m)) {
       received_.fetch_add(1);
       try {
-        if (!clock_.AdvanceTo(FromMsg(m->clock))) {
-          rejected_.fetch_add(1);
-          spdlog::warn("/clock went backwards to {}; ignored", ToString(FromMsg(m->clock)));
+        const Time t = FromMsg(m->clock);
+        switch (clock_.AdvanceTo(t)) {
+          case SimClock::Advance::kForward:
+            break;
+          case SimClock::Advance::kIgnored:
+            rejected_.fetch_add(1);
+            spdlog::warn("/clock went back a little to {} (reordered?); ignored", ToString(t));
+            break;
+          case SimClock::Advance::kRestarted:
+            spdlog::warn("/clock went back to {}: the simulation restarted, new clock session {}",
+                         ToString(t), clock_.restarts());
+            break;
         }
       } catch (const InputError& e) {
         rejected_.fetch_add(1);

@@ -254,7 +254,7 @@ TEST(DdsLayer, PoseConversionsRoundTripAndRejectAZeroQuaternion) {
   EXPECT_THROW((void)FromMsg(msg::Pose{}), InputError);  // all-zero quaternion
 }
 
-TEST(DdsLayer, SimClockFollowsClockMessagesAndIgnoresBackwardOnes) {
+TEST(DdsLayer, SimClockFollowsClockMessagesAndTellsReorderingFromARestart) {
   Participant p(Isolated());
   SimClock clock;
   SimClockSubscriber subscriber(p, clock);
@@ -262,12 +262,15 @@ TEST(DdsLayer, SimClockFollowsClockMessagesAndIgnoresBackwardOnes) {
   ASSERT_TRUE(writer.WaitForReaders(1, 5s));
   writer.Write(msg::Clock{ToMsg(TimeFromSeconds(12.5))});
   ASSERT_TRUE(Eventually([&] { return clock.Now() == TimeFromSeconds(12.5); }));
-  writer.Write(msg::Clock{ToMsg(TimeFromSeconds(3))});
+  writer.Write(msg::Clock{ToMsg(TimeFromSeconds(12.2))});  // a little back: reordered, ignored
   ASSERT_TRUE(Eventually([&] { return subscriber.rejected() == 1; }));
   EXPECT_EQ(clock.Now(), TimeFromSeconds(12.5));
+  writer.Write(msg::Clock{ToMsg(TimeFromSeconds(3))});  // far back: the simulation restarted
+  ASSERT_TRUE(Eventually([&] { return clock.Read().session == 1; }));
+  EXPECT_EQ(clock.Now(), TimeFromSeconds(3));
   writer.Write(msg::Clock{msg::Time{20, 2'000'000'000u}});  // malformed
   ASSERT_TRUE(Eventually([&] { return subscriber.rejected() == 2; }));
-  EXPECT_EQ(subscriber.received(), 3u);
+  EXPECT_EQ(subscriber.received(), 4u);
 }
 
 }  // namespace

@@ -97,8 +97,9 @@ int RunSource(const Options& o, Clock& clock) {
   heartbeat->state = 1;  // RUNNING
 
   const Duration period = FromSeconds(1.0 / o.rate_hz);
-  const Time start = clock.Now();
-  const Time end = start + FromSeconds(o.duration_s);
+  const ClockReading first = clock.Read();
+  const Time start = first.wire;
+  const MonoTime end = first.mono + FromSeconds(o.duration_s);
   Ticker ticker(clock, period);
   std::uint64_t sent = 0;
   std::uint64_t beats = 0;

@@ -1,0 +1,50 @@
+#pragma once
+/// @file
+/// The waiting point of a daemon's loop: data on its readers, a wake-up from another thread, or
+/// the next deadline of its clock, whichever comes first.
+
+#include <dds/dds.h>
+
+#include "common/dds/entity.h"
+#include "common/dds/participant.h"
+#include "common/dds/reader.h"
+#include "common/time.h"
+
+namespace autodrive::dds {
+
+/// Blocks a loop until one of its readers has data, `Wake()` is called (from any thread), or
+/// the clock's control timeline reaches a deadline. On the wall clock the deadline is a real
+/// time-out; on a simulated clock the clock itself wakes the waitset when `/clock` reaches the
+/// deadline (`Clock::WakeAt`). Never allocates, so a loop that waits on it stays
+/// allocation-free. Registers itself as the clock's waker: one per clock. Not movable.
+class LoopWaitSet {
+ public:
+  /// `participant` and `clock` must outlive it.
+  LoopWaitSet(const Participant& participant, Clock& clock);
+  LoopWaitSet(const LoopWaitSet&) = delete;
+  LoopWaitSet& operator=(const LoopWaitSet&) = delete;
+  ~LoopWaitSet();
+
+  /// Wakes the loop whenever `reader` holds a sample. The reader must outlive the waitset. A
+  /// loop that leaves samples in a reader is woken again at once.
+  template <MessageType T>
+  void Attach(const Reader<T>& reader) {
+    AttachReader(reader.handle());
+  }
+  /// Blocks until data, `Wake()`, `deadline` on the clock, a new clock session or an interrupt.
+  /// Returns true when woken by data or `Wake()`, false otherwise (read the clock to know).
+  bool WaitUntil(MonoTime deadline);
+  /// Makes a concurrent or the next `WaitUntil` return at once. Thread-safe; never throws.
+  void Wake() noexcept;
+
+ private:
+  static constexpr int kMaxConditions = 64;
+  void AttachReader(dds_entity_t reader);
+  Clock& clock_;
+  Entity waitset_;
+  Entity guard_;
+  Entity conditions_[kMaxConditions];
+  int attached_ = 0;
+};
+
+}  // namespace autodrive::dds
