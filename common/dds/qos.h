@@ -41,6 +41,15 @@ struct Qos {
   /// is better than a late one. Only ROS subscribers that are best-effort too will match.
   static Qos BestEffortStream(std::int32_t depth = 5);
 
+  /// The same profile for a writer on a loop that must never block: `max_blocking` 0, so a
+  /// write that would wait for slow readers' acknowledgements fails at once (the caller counts
+  /// it and retries or drops). Readers are unaffected (they ignore `max_blocking`).
+  [[nodiscard]] Qos NonBlocking() const {
+    Qos q = *this;
+    q.max_blocking = Duration{0};
+    return q;
+  }
+
   bool operator==(const Qos&) const = default;
   /// "reliable/transient_local/keep_last(1)" style text.
   [[nodiscard]] std::string ToString() const;

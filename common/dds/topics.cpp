@@ -1,5 +1,7 @@
 #include "common/dds/topics.h"
 
+#include <algorithm>
+
 #include "common/error.h"
 
 namespace autodrive::dds::topics {
@@ -171,6 +173,19 @@ TopicSpec<msg::SignalRequestStatus> SignalRequestStatus() {
 }
 TopicSpec<msg::OperatorRequest> OperatorRequests() {
   return Spec<msg::OperatorRequest>("/autodrive/scm/operator/request", Qos::Command());
+}
+TopicSpec<msg::OperatorRequest> OperatorRequests(std::string_view operator_name) {
+  AUTODRIVE_THROW_UNLESS(!operator_name.empty() && operator_name.size() <= 64 &&
+                             std::ranges::all_of(operator_name, IsNameChar) &&
+                             !(operator_name.front() >= '0' && operator_name.front() <= '9'),
+                         "an operator name must be 1 to 64 letters, digits or '_', not starting "
+                         "with a digit, got '"
+                             << operator_name << "'");
+  return Spec<msg::OperatorRequest>(
+      "/autodrive/scm/operator/" + std::string(operator_name) + "/request", Qos::Command());
+}
+TopicSpec<msg::DeviceCommand> DeviceCommands() {
+  return Spec<msg::DeviceCommand>("/autodrive/scm/device_command", Qos::Command());
 }
 TopicSpec<msg::OperatorReply> OperatorReplies() {
   return Spec<msg::OperatorReply>("/autodrive/scm/operator/reply", Qos::Command());

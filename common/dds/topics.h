@@ -83,8 +83,17 @@ TopicSpec<msg::DeviceStatus> Devices();          ///< latched, last one per writ
 TopicSpec<msg::Heartbeat> Heartbeat();           ///< stream (last 16): SCM and device hosts
 TopicSpec<msg::SignalRequest> SignalRequests();  ///< command (V2I, from vehicles)
 TopicSpec<msg::SignalRequestStatus> SignalRequestStatus();  ///< command (V2I, to vehicles)
-TopicSpec<msg::OperatorRequest> OperatorRequests();         ///< command
-TopicSpec<msg::OperatorReply> OperatorReplies();            ///< command
+/// Operator requests anyone may send (read-only commands: status, show, events, ...). A
+/// state-changing command on it is refused.
+TopicSpec<msg::OperatorRequest> OperatorRequests();  ///< command
+/// `/autodrive/scm/operator/<name>/request`: the requests of operator `name`, the only topic on
+/// which the SCM accepts state-changing commands, from the operators its city allows. With DDS
+/// Security only that operator's identity may write it. Throws `InputError` unless `name` is a
+/// valid ROS name token (letters, digits, '_'; not starting with a digit).
+TopicSpec<msg::OperatorRequest> OperatorRequests(std::string_view operator_name);
+TopicSpec<msg::OperatorReply> OperatorReplies();  ///< command
+/// SCM -> device hosts (reset a conflict monitor); command. Only the SCM writes it.
+TopicSpec<msg::DeviceCommand> DeviceCommands();
 
 // --- Simulation -------------------------------------------------------------------------------
 /// `/clock` (rosgraph_msgs/Clock), best effort keep last 1 exactly like ROS 2's ClockQoS, so

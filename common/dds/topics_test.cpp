@@ -1,5 +1,6 @@
 #include "common/dds/topics.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <regex>
@@ -107,7 +108,9 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
                                  ROW(SignalRequests()),
                                  ROW(SignalRequestStatus()),
                                  ROW(OperatorRequests()),
+                                 ROW(OperatorRequests("alice")),
                                  ROW(OperatorReplies()),
+                                 ROW(DeviceCommands()),
                                  ROW(Clock())};
 #undef ROW
   const std::regex type_re("^[a-z][a-z0-9_]*::msg::dds_::[A-Z][A-Za-z0-9]*_$");
@@ -130,6 +133,27 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
   EXPECT_EQ(Spat().qos.durability, Qos::Durability::kVolatile);
   EXPECT_EQ(TypeName<decltype(Lidar(v))::Type>(), "sensor_msgs::msg::dds_::LaserScan_");
   EXPECT_EQ(TypeName<decltype(Spat())::Type>(), "autodrive_msgs::msg::dds_::Spat_");
+}
+
+TEST(TopicNames, EachOperatorHasItsOwnRequestTopicAndNamesAreOneToken) {
+  EXPECT_EQ(OperatorRequests("alice").name, "rt/autodrive/scm/operator/alice/request");
+  EXPECT_EQ(OperatorRequests().name, "rt/autodrive/scm/operator/request");
+  EXPECT_EQ(DeviceCommands().name, "rt/autodrive/scm/device_command");
+  for (const char* bad : {"", "a/b", "1st", "al ice", "x/../y"}) {
+    try {
+      (void)OperatorRequests(bad);
+      FAIL() << bad;
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), ::testing::HasSubstr("an operator name must be 1 to 64 letters"));
+    }
+  }
+}
+
+TEST(Qos, NonBlockingKeepsTheProfileButNeverWaits) {
+  const Qos q = Qos::Command().NonBlocking();
+  EXPECT_EQ(q.max_blocking, Duration{0});
+  EXPECT_EQ(q.ToString(), Qos::Command().ToString());
+  EXPECT_GT(Qos::Command().max_blocking, Duration{0});
 }
 
 TEST(Qos, ProfilesPrintAndRejectBadDepths) {
