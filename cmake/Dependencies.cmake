@@ -43,6 +43,8 @@ if(NOT CLI11_FOUND)
   set_target_properties(CLI11::CLI11 PROPERTIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES ${CLI11_INCLUDE_DIR})
 endif()
 find_package(SQLite3 REQUIRED)
+# XML writing for maps/ (SUMO plain XML, SVG): pugixml (libpugixml-dev), target pugixml::pugixml.
+find_package(pugixml REQUIRED CONFIG)
 find_path(HTTPLIB_INCLUDE_DIR httplib.h REQUIRED)
 find_package(Threads REQUIRED)
 if(AUTODRIVE_BUILD_TESTS)
@@ -54,4 +56,5 @@ endif()
 
 message(STATUS "AutoDRIVE dependencies: CycloneDDS ${CycloneDDS_VERSION}, idlc ${AUTODRIVE_IDLC}, "
                "libsumocpp ${SUMO_LIBSUMOCPP}, Eigen ${Eigen3_VERSION}, CGAL ${CGAL_VERSION}, "
-               "ODE ${ODE_VERSION}, OpenCV ${OpenCV_VERSION}, apriltag ${apriltag_VERSION}")
+               "ODE ${ODE_VERSION}, OpenCV ${OpenCV_VERSION}, apriltag ${apriltag_VERSION}, "
+               "pugixml ${pugixml_VERSION}")

@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "maps/internal/xml.h"
 
 namespace autodrive::maps {
 
@@ -194,95 +195,93 @@ std::string Hex(Colour c) {
   return s;
 }
 
-std::string XmlEscape(std::string_view text) {
-  std::string out;
-  for (char ch : text) {
-    switch (ch) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += ch;
-    }
-  }
-  return out;
-}
-
+// The SVG as a pugixml document: one element per drawing call, in drawing order, all children
+// of `<svg>`; pugixml escapes the text and attribute values.
 class SvgCanvas final : public Canvas {
  public:
+  // Throws InputError when the title holds a character XML cannot carry.
   SvgCanvas(int width, int height, const std::string& title) {
-    out_ << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-         << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\""
-         << height << "\" viewBox=\"0 0 " << width << " " << height << "\">\n"
-         << "<title>" << XmlEscape(title) << "</title>\n";
+    internal::AddXmlDeclaration(doc_);
+    const std::string w = std::to_string(width);
+    const std::string h = std::to_string(height);
+    svg_ = internal::AppendElement(doc_, "svg",
+                                   {{"xmlns", "http://www.w3.org/2000/svg"},
+                                    {"width", w},
+                                    {"height", h},
+                                    {"viewBox", "0 0 " + w + " " + h}});
+    internal::SetText(internal::AppendElement(svg_, "title"), title);
     Rect(Vec(0.0, 0.0), Vec(static_cast<double>(width), static_cast<double>(height)), kBackground);
   }
-  [[nodiscard]] std::string Finish() {
-    out_ << "</svg>\n";
-    return out_.str();
-  }
+  SvgCanvas(const SvgCanvas&) = delete;
+  SvgCanvas& operator=(const SvgCanvas&) = delete;
+
+  // The document as text, two spaces of indentation per level.
+  [[nodiscard]] std::string Xml() const { return internal::XmlText(doc_, "  "); }
 
   void Rect(const Vec& min, const Vec& max, Colour fill) override {
-    out_ << "<rect x=\"" << Num(min.x()) << "\" y=\"" << Num(min.y()) << "\" width=\""
-         << Num(max.x() - min.x()) << "\" height=\"" << Num(max.y() - min.y()) << "\" fill=\""
-         << Hex(fill) << "\"/>\n";
+    internal::AppendElement(svg_, "rect",
+                            {{"x", Num(min.x())},
+                             {"y", Num(min.y())},
+                             {"width", Num(max.x() - min.x())},
+                             {"height", Num(max.y() - min.y())},
+                             {"fill", Hex(fill)}});
   }
   void FillRegions(const std::vector<std::vector<Points>>& regions, Colour fill,
                    std::string_view cls) override {
     // One path per region; a hairline stroke of the fill's colour hides the seams viewers
     // leave between anti-aliased neighbours.
     for (const auto& rings : regions) {
-      out_ << "<path class=\"" << cls << "\" fill=\"" << Hex(fill) << "\" stroke=\"" << Hex(fill)
-           << "\" stroke-width=\"0.5\" fill-rule=\"evenodd\" d=\"";
+      std::string d;
       for (const auto& ring : rings) {
         for (std::size_t i = 0; i < ring.size(); ++i) {
-          out_ << (i == 0 ? "M" : "L") << Num(ring[i].x()) << "," << Num(ring[i].y()) << " ";
+          d += (i == 0 ? "M" : "L") + Num(ring[i].x()) + "," + Num(ring[i].y()) + " ";
         }
-        out_ << "Z ";
+        d += "Z ";
       }
-      out_ << "\"/>\n";
+      internal::AppendElement(svg_, "path",
+                              {{"class", std::string(cls)},
+                               {"fill", Hex(fill)},
+                               {"stroke", Hex(fill)},
+                               {"stroke-width", "0.5"},
+                               {"fill-rule", "evenodd"},
+                               {"d", d}});
     }
   }
   void Line(const Points& points, Colour colour, double width_px, bool closed) override {
     if (points.size() < 2) return;
-    out_ << "<" << (closed ? "polygon" : "polyline") << " points=\"" << PointList(points)
-         << "\" fill=\"none\" stroke=\"" << Hex(colour) << "\" stroke-width=\""
-         << Num(std::max(1.0, width_px)) << "\"/>\n";
+    internal::AppendElement(svg_, closed ? "polygon" : "polyline",
+                            {{"points", PointList(points)},
+                             {"fill", "none"},
+                             {"stroke", Hex(colour)},
+                             {"stroke-width", Num(std::max(1.0, width_px))}});
   }
   void Polygon(const Points& points, Colour fill, std::optional<Colour> stroke,
                double stroke_px) override {
-    out_ << "<polygon points=\"" << PointList(points) << "\" fill=\"" << Hex(fill) << "\"";
-    if (stroke)
-      out_ << " stroke=\"" << Hex(*stroke) << "\" stroke-width=\"" << Num(stroke_px) << "\"";
-    out_ << "/>\n";
+    pugi::xml_node polygon = internal::AppendElement(
+        svg_, "polygon", {{"points", PointList(points)}, {"fill", Hex(fill)}});
+    if (stroke) AppendStroke(polygon, *stroke, stroke_px);
   }
   void Circle(const Vec& centre, double radius_px, Colour fill, std::optional<Colour> stroke,
               double stroke_px) override {
-    out_ << "<circle cx=\"" << Num(centre.x()) << "\" cy=\"" << Num(centre.y()) << "\" r=\""
-         << Num(radius_px) << "\" fill=\"" << Hex(fill) << "\"";
-    if (stroke)
-      out_ << " stroke=\"" << Hex(*stroke) << "\" stroke-width=\"" << Num(stroke_px) << "\"";
-    out_ << "/>\n";
+    pugi::xml_node circle = internal::AppendElement(svg_, "circle",
+                                                    {{"cx", Num(centre.x())},
+                                                     {"cy", Num(centre.y())},
+                                                     {"r", Num(radius_px)},
+                                                     {"fill", Hex(fill)}});
+    if (stroke) AppendStroke(circle, *stroke, stroke_px);
   }
   void Text(const Vec& at, const std::string& text, double height_px, Colour colour,
             bool centred) override {
     // The font size is about 1.4 times the height of a capital letter.
-    out_ << "<text x=\"" << Num(at.x()) << "\" y=\"" << Num(at.y())
-         << "\" font-family=\"sans-serif\" font-size=\"" << Num(height_px * 1.4)
-         << "\" dominant-baseline=\"central\" text-anchor=\"" << (centred ? "middle" : "start")
-         << "\" fill=\"" << Hex(colour) << "\">" << XmlEscape(text) << "</text>\n";
+    pugi::xml_node element = internal::AppendElement(svg_, "text",
+                                                     {{"x", Num(at.x())},
+                                                      {"y", Num(at.y())},
+                                                      {"font-family", "sans-serif"},
+                                                      {"font-size", Num(height_px * 1.4)},
+                                                      {"dominant-baseline", "central"},
+                                                      {"text-anchor", centred ? "middle" : "start"},
+                                                      {"fill", Hex(colour)}});
+    internal::SetText(element, text);
   }
 
  private:
@@ -292,8 +291,13 @@ class SvgCanvas final : public Canvas {
     if (!s.empty()) s.pop_back();
     return s;
   }
+  static void AppendStroke(pugi::xml_node element, Colour stroke, double stroke_px) {
+    internal::AppendAttribute(element, "stroke", Hex(stroke));
+    internal::AppendAttribute(element, "stroke-width", Num(stroke_px));
+  }
 
-  std::ostringstream out_;
+  pugi::xml_document doc_;
+  pugi::xml_node svg_;
 };
 
 // ---- Geometry along polylines (map frame) ---------------------------------------------------
@@ -613,7 +617,7 @@ void RenderSvg(const Map& map, const std::string& path, const RenderOptions& opt
   const Eigen::Vector2i size = ImageSizePx(map, options);
   SvgCanvas canvas(size.x(), size.y(), map.name);
   Scene(map, options, canvas).Draw();
-  const std::string svg = canvas.Finish();
+  const std::string svg = canvas.Xml();
   WriteFile(path, "SVG picture", svg.data(), svg.size());
 }
 

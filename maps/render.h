@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Pictures of a built map, for people: a PNG (drawn with OpenCV) and an SVG (plain text) of the
+/// Pictures of a built map, for people: a PNG (drawn with OpenCV) and an SVG (pugixml) of the
 /// same scene. Drawn, bottom to top: the ground and a faint tile grid, the road surface, parking
 /// bays, lane markings (solid white at the kerb, dashed white between lanes of one direction,
 /// dashed yellow between opposite directions; none on parking tiles), movement paths through
@@ -56,8 +56,10 @@ void RenderPng(const Map& map, const std::string& path, const RenderOptions& opt
 /// Draws the same picture as `RenderPng` as an SVG text file at `path`, in the same pixel
 /// coordinates: one `<path class="road">` per road-surface region (holes by the even-odd rule),
 /// lines as `<polyline>`, shapes as `<polygon>`, `<circle>` and `<rect>`, and the map's name in
-/// the `<title>` and a `<text>`. Replaces any file there.
-/// @throws InputError if the options are invalid, the picture too big, or the file cannot be
+/// the `<title>` and a `<text>`; one element per line, indented by two spaces. The document is
+/// built with pugixml, which escapes every name. Replaces any file there.
+/// @throws InputError if the options are invalid, the picture too big, the map's name holds a
+/// control character (which XML cannot carry; nothing is written then), or the file cannot be
 /// written (naming the path and the reason).
 void RenderSvg(const Map& map, const std::string& path, const RenderOptions& options = {});
 

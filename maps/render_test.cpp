@@ -3,13 +3,14 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <pugixml.hpp>
 
 #include "common/error.h"
 #include "common/test_support.h"
@@ -170,71 +171,99 @@ TEST(RenderPng, BadOptionsAndUnwritablePathsThrow) {
   fs::remove_all(dir);
 }
 
-std::size_t Count(const std::string& text, const std::string& what) {
-  std::size_t n = 0;
-  for (std::size_t pos = text.find(what); pos != std::string::npos;
-       pos = text.find(what, pos + what.size())) {
-    ++n;
-  }
-  return n;
+// Parses the XML file at `path` with pugixml into `doc`; a fatal failure when it does not parse.
+void LoadXml(const fs::path& path, pugi::xml_document& doc) {
+  const pugi::xml_parse_result result = doc.load_file(path.c_str());
+  ASSERT_EQ(result.status, pugi::status_ok)
+      << path << ": " << result.description() << " at offset " << result.offset;
 }
 
-// Checks that the tags nest: every <x ...> is closed by </x> in order or is self-closing.
-// Returns "" or what is wrong.
-std::string CheckTagsNest(const std::string& xml) {
-  std::vector<std::string> open;
-  std::size_t pos = 0;
-  while ((pos = xml.find('<', pos)) != std::string::npos) {
-    const std::size_t end = xml.find('>', pos);
-    if (end == std::string::npos) return "unterminated tag at " + std::to_string(pos);
-    const std::string tag = xml.substr(pos + 1, end - pos - 1);
-    pos = end + 1;
-    if (tag.empty()) return "empty tag";
-    if (tag.front() == '?' || tag.front() == '!') continue;
-    if (tag.find('<') != std::string::npos) return "'<' inside tag " + tag;
-    if (tag.back() == '/') continue;
-    const std::string name =
-        tag.substr(tag.front() == '/' ? 1 : 0, tag.find(' ') - (tag.front() == '/' ? 1 : 0));
-    if (tag.front() == '/') {
-      if (open.empty() || open.back() != name) return "unexpected </" + name + ">";
-      open.pop_back();
-    } else {
-      open.push_back(name);
-    }
-  }
-  return open.empty() ? "" : "unclosed <" + open.back() + ">";
+// The children of `parent` named `name`.
+std::vector<pugi::xml_node> Children(pugi::xml_node parent, const char* name) {
+  std::vector<pugi::xml_node> out;
+  for (pugi::xml_node child : parent.children(name)) out.push_back(child);
+  return out;
 }
 
-TEST(RenderSvg, HasOnePathPerRoadRegionTheNameAndNestedTags) {
-  for (const Layout& base :
+TEST(RenderSvg, ParsesAsXmlWithOnePathPerRoadRegionAndOneSubpathPerRing) {
+  for (const Layout& layout :
        {FourWay(), MakeLayout({{"curve", "curve@270"}, {"curve@90", "curve@180"}})}) {
-    Layout layout = base;
-    layout.name = "lab <A> & \"B\"";
     const Map map = Build(layout);
     const fs::path dir = TempDir("svg");
     const fs::path path = dir / "map.svg";
     RenderSvg(map, path.string());
-    std::ifstream in(path);
-    const std::string svg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
+    pugi::xml_document doc;
+    ASSERT_NO_FATAL_FAILURE(LoadXml(path, doc));
+    const pugi::xml_node svg = doc.document_element();
+    EXPECT_STREQ(svg.name(), "svg");
+    EXPECT_STREQ(svg.attribute("xmlns").value(), "http://www.w3.org/2000/svg");
     const Eigen::Vector2i size = ImageSizePx(map);
-    EXPECT_NE(svg.find("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" +
-                       std::to_string(size.x()) + "\" height=\"" + std::to_string(size.y()) + "\""),
-              std::string::npos);
-    EXPECT_EQ(CheckTagsNest(svg), "");
+    EXPECT_EQ(svg.attribute("width").as_int(), size.x());
+    EXPECT_EQ(svg.attribute("height").as_int(), size.y());
+    EXPECT_EQ(std::string(svg.attribute("viewBox").value()),
+              "0 0 " + std::to_string(size.x()) + " " + std::to_string(size.y()));
+    // The title first, then the white background over the whole picture.
+    EXPECT_STREQ(svg.first_child().name(), "title");
+    const pugi::xml_node background = svg.child("rect");
+    EXPECT_EQ(background.attribute("width").as_int(), size.x());
+    EXPECT_STREQ(background.attribute("fill").value(), "#ffffff");
+
     ASSERT_GE(map.road_surface.size(), 1u);
-    EXPECT_EQ(Count(svg, "<path"), map.road_surface.size());
-    EXPECT_EQ(Count(svg, "<path class=\"road\""), map.road_surface.size());
-    // Each road path has one subpath per ring (outer and holes).
+    const std::vector<pugi::xml_node> paths = Children(svg, "path");
+    EXPECT_EQ(paths.size(), map.road_surface.size());
+    // Each road path has one subpath per ring (outer and holes), closed by Z.
     std::size_t rings = 0;
     for (const auto& r : map.road_surface) rings += 1 + r.holes.size();
-    EXPECT_EQ(Count(svg, "Z "), rings);
-    EXPECT_EQ(Count(svg, "<title>lab &lt;A&gt; &amp; &quot;B&quot;</title>"), 1u);
-    EXPECT_EQ(Count(svg, ">lab &lt;A&gt; &amp; &quot;B&quot;  (2 x 2 tiles"),
-              base.grid.size() == 2 ? 1u : 0u);
-    EXPECT_EQ(Count(svg, "<circle"), 3 * map.signal_heads.size());
+    std::size_t subpaths = 0;
+    for (const pugi::xml_node& p : paths) {
+      EXPECT_STREQ(p.attribute("class").value(), "road");
+      EXPECT_STREQ(p.attribute("fill-rule").value(), "evenodd");
+      const std::string d = p.attribute("d").value();
+      EXPECT_EQ(d.front(), 'M') << d;
+      subpaths += static_cast<std::size_t>(std::count(d.begin(), d.end(), 'Z'));
+    }
+    EXPECT_EQ(subpaths, rings);
+    EXPECT_EQ(Children(svg, "circle").size(), 3 * map.signal_heads.size());
     fs::remove_all(dir);
   }
+}
+
+TEST(RenderSvg, GivesBackAMapNameWithXmlSpecialCharactersExactly) {
+  Layout layout = FourWay("stop");
+  // Every character XML escapes, and an attempt to close the element and inject another.
+  layout.name = "lab <A> & \"B\" 'C' ></title><script>alert(1)</script><!--";
+  const Map map = Build(layout);
+  const fs::path dir = TempDir("svg_name");
+  const fs::path path = dir / "map.svg";
+  RenderSvg(map, path.string());
+  pugi::xml_document doc;
+  ASSERT_NO_FATAL_FAILURE(LoadXml(path, doc));
+  const pugi::xml_node svg = doc.document_element();
+  const std::vector<pugi::xml_node> titles = Children(svg, "title");
+  ASSERT_EQ(titles.size(), 1u);
+  EXPECT_EQ(std::string(titles[0].text().get()), layout.name);
+  // The legend above the map: the name and the grid.
+  std::vector<std::string> texts;
+  for (const pugi::xml_node& t : Children(svg, "text")) texts.emplace_back(t.text().get());
+  EXPECT_EQ(texts.size(), map.signs.size() + 2);  // a letter per sign, the legend, the scale
+  EXPECT_NE(std::find(texts.begin(), texts.end(), layout.name + "  (3 x 3 tiles of 1 m)"),
+            texts.end());
+  EXPECT_TRUE(
+      doc.find_node([](pugi::xml_node n) { return std::string(n.name()) == "script"; }).empty());
+  fs::remove_all(dir);
+}
+
+TEST(RenderSvg, RefusesAMapNameWithAControlCharacterAndWritesNothing) {
+  Layout layout = FourWay();
+  layout.name = "lab\x01one";
+  const Map map = Build(layout);
+  const fs::path dir = TempDir("svg_control");
+  const fs::path path = dir / "map.svg";
+  EXPECT_EQ(test::ErrorMessage([&] { RenderSvg(map, path.string()); }),
+            "the text of <title> \"lab\\x01one\" holds the control character 0x01, which XML "
+            "cannot carry");
+  EXPECT_FALSE(fs::exists(path));
+  fs::remove_all(dir);
 }
 
 }  // namespace

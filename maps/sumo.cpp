@@ -14,6 +14,7 @@
 
 #include "common/error.h"
 #include "common/process.h"
+#include "maps/internal/xml.h"
 
 namespace autodrive::maps {
 namespace {
@@ -423,47 +424,61 @@ class Exporter {
     edges_.push_back(std::move(e));
   }
 
+  // The plain XML files, built as pugixml documents (every value escaped by pugixml) and
+  // written with four spaces of indentation per level.
+  static constexpr const char* kIndent = "    ";
+
   std::string NodesXml() const {
-    std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n";
-    s += "<!-- written by autodrive::maps::ExportSumo -->\n<nodes>\n";
+    pugi::xml_document doc;
+    internal::AddXmlDeclaration(doc);
+    internal::AppendComment(doc, " written by autodrive::maps::ExportSumo ");
+    pugi::xml_node root = internal::AppendElement(doc, "nodes");
     for (const NodeInfo& n : nodes_) {
-      s += "    <node id=\"" + n.id + "\" x=\"" + Num(n.position.x()) + "\" y=\"" +
-           Num(n.position.y()) + "\" type=\"" + n.type + "\"";
-      if (!n.tl.empty()) s += " tl=\"" + n.tl + "\"";
-      s += " shape=\"" + Shape(n.shape) + "\"/>\n";
+      pugi::xml_node node = internal::AppendElement(
+          root, "node",
+          {{"id", n.id}, {"x", Num(n.position.x())}, {"y", Num(n.position.y())}, {"type", n.type}});
+      if (!n.tl.empty()) internal::AppendAttribute(node, "tl", n.tl);
+      internal::AppendAttribute(node, "shape", Shape(n.shape));
     }
-    return s + "</nodes>\n";
+    return internal::XmlText(doc, kIndent);
   }
 
   std::string EdgesXml() const {
-    std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<edges>\n";
+    pugi::xml_document doc;
+    internal::AddXmlDeclaration(doc);
+    pugi::xml_node root = internal::AppendElement(doc, "edges");
     for (const EdgeInfo& e : edges_) {
-      const std::size_t n = e.lanes.size();
-      s += "    <edge id=\"" + e.id + "\" from=\"" + e.from_node + "\" to=\"" + e.to_node +
-           "\" numLanes=\"" + std::to_string(n) + "\" speed=\"" + Num(o_.speed_mps) +
-           "\" width=\"" + Num(map_.lane_width_m) + "\" spreadType=\"center\" shape=\"" +
-           Shape(e.shape) + "\"";
-      if (e.lane_shapes.empty()) {
-        s += "/>\n";
-        continue;
-      }
-      s += ">\n";
+      pugi::xml_node edge = internal::AppendElement(root, "edge",
+                                                    {{"id", e.id},
+                                                     {"from", e.from_node},
+                                                     {"to", e.to_node},
+                                                     {"numLanes", std::to_string(e.lanes.size())},
+                                                     {"speed", Num(o_.speed_mps)},
+                                                     {"width", Num(map_.lane_width_m)},
+                                                     {"spreadType", "center"},
+                                                     {"shape", Shape(e.shape)}});
       for (std::size_t i = 0; i < e.lane_shapes.size(); ++i) {
-        s += "        <lane index=\"" + std::to_string(i) + "\" shape=\"" +
-             Shape(e.lane_shapes[i]) + "\"/>\n";
+        internal::AppendElement(edge, "lane",
+                                {{"index", std::to_string(i)}, {"shape", Shape(e.lane_shapes[i])}});
       }
-      s += "    </edge>\n";
     }
-    return s + "</edges>\n";
+    return internal::XmlText(doc, kIndent);
   }
 
-  std::string Connection(const SumoLaneRef& from, const SumoLaneRef& to) const {
-    return "    <connection from=\"" + from.edge + "\" to=\"" + to.edge + "\" fromLane=\"" +
-           std::to_string(from.index) + "\" toLane=\"" + std::to_string(to.index) + "\"";
+  // `<connection from=.. to=.. fromLane=.. toLane=..>` appended to `parent`.
+  static pugi::xml_node AppendConnection(pugi::xml_node parent, const SumoLaneRef& from,
+                                         const SumoLaneRef& to) {
+    return internal::AppendElement(parent, "connection",
+                                   {{"from", from.edge},
+                                    {"to", to.edge},
+                                    {"fromLane", std::to_string(from.index)},
+                                    {"toLane", std::to_string(to.index)}});
   }
 
   std::string ConnectionsXml() const {
-    std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<connections>\n";
+    pugi::xml_document doc;
+    internal::AddXmlDeclaration(doc);
+    pugi::xml_node root = internal::AppendElement(doc, "connections");
     // Across plain junctions: each lane to its successors, and a turning loop's halves.
     for (const Lane& lane : map_.lanes) {
       const auto& pieces = out_.lane_pieces.at(lane.id);
@@ -475,27 +490,33 @@ class Exporter {
           for (LaneId l : lane.successors) next.push_back(out_.lane_pieces.at(l).front());
         }
         for (const SumoLaneRef& to : next) {
-          s += Connection(pieces[i], to) + " length=\"" + Num(kPlainConnectionLength_m) + "\"/>\n";
+          internal::AppendAttribute(AppendConnection(root, pieces[i], to), "length",
+                                    Num(kPlainConnectionLength_m));
         }
       }
     }
+    // The movements, each after a comment with its name.
     for (const Movement& m : map_.movements) {
       const SumoMovement& sm = out_.movements.at(m.id);
-      s += Connection(sm.from, sm.to) + " shape=\"" + Shape(Resample(m.path)) + "\"/>  <!-- " +
-           m.name + " -->\n";
+      internal::AppendComment(root, " " + m.name + " ");
+      internal::AppendAttribute(AppendConnection(root, sm.from, sm.to), "shape",
+                                Shape(Resample(m.path)));
     }
-    return s + "</connections>\n";
+    return internal::XmlText(doc, kIndent);
   }
 
   std::string TrafficLightsXml() const {
-    std::string s = "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<tlLogics>\n";
+    pugi::xml_document doc;
+    internal::AddXmlDeclaration(doc);
+    pugi::xml_node root = internal::AppendElement(doc, "tlLogics");
     for (const Intersection& x : map_.intersections) {
       if (x.control != Control::kSignal) continue;
       const std::string& id = junction_of_.at(x.id);
-      s += "    <tlLogic id=\"" + id + "\" type=\"static\" programID=\"0\" offset=\"0\">\n";
+      pugi::xml_node logic = internal::AppendElement(
+          root, "tlLogic", {{"id", id}, {"type", "static"}, {"programID", "0"}, {"offset", "0"}});
       const auto phase = [&](Duration d, const std::string& state, const std::string& name) {
-        return "        <phase duration=\"" + Num(ToSeconds(d)) + "\" state=\"" + state +
-               "\" name=\"" + name + "\"/>\n";
+        internal::AppendElement(
+            logic, "phase", {{"duration", Num(ToSeconds(d))}, {"state", state}, {"name", name}});
       };
       for (const Approach& a : x.approaches) {
         std::string green, yellow;
@@ -505,32 +526,43 @@ class Exporter {
           yellow += served ? 'y' : 'r';
         }
         const std::string side(1, SideLetter(a.side));
-        s += phase(o_.green, green, side + " green");
-        s += phase(o_.yellow, yellow, side + " yellow");
+        phase(o_.green, green, side + " green");
+        phase(o_.yellow, yellow, side + " yellow");
         if (o_.all_red > Duration::zero()) {
-          s += phase(o_.all_red, std::string(x.movements.size(), 'r'), side + " all red");
+          phase(o_.all_red, std::string(x.movements.size(), 'r'), side + " all red");
         }
       }
-      s += "    </tlLogic>\n";
       for (std::size_t i = 0; i < x.movements.size(); ++i) {
         const SumoMovement& sm = out_.movements.at(x.movements[i]);
-        s += Connection(sm.from, sm.to) + " tl=\"" + id + "\" linkIndex=\"" + std::to_string(i) +
-             "\"/>\n";
+        pugi::xml_node connection = AppendConnection(root, sm.from, sm.to);
+        internal::AppendAttribute(connection, "tl", id);
+        internal::AppendAttribute(connection, "linkIndex", std::to_string(i));
       }
     }
-    return s + "</tlLogics>\n";
+    return internal::XmlText(doc, kIndent);
   }
 
   std::string VehicleTypeXml() const {
     const SumoVehicleType& v = o_.vehicle_type;
-    return "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<additional>\n    <vType id=\"" + v.id +
-           "\" vClass=\"passenger\" guiShape=\"passenger\" length=\"" + Num(v.length_m) +
-           "\" width=\"" + Num(v.width_m) + "\" height=\"" + Num(v.height_m) + "\" maxSpeed=\"" +
-           Num(v.max_speed_mps) + "\" accel=\"" + Num(v.accel_mps2) + "\" decel=\"" +
-           Num(v.decel_mps2) + "\" emergencyDecel=\"" + Num(v.emergency_decel_mps2) +
-           "\" apparentDecel=\"" + Num(v.decel_mps2) + "\" minGap=\"" + Num(v.min_gap_m) +
-           "\" speedFactor=\"" + Num(v.speed_factor) + "\" speedDev=\"0\" sigma=\"" + Num(v.sigma) +
-           "\"/>\n</additional>\n";
+    pugi::xml_document doc;
+    internal::AddXmlDeclaration(doc);
+    internal::AppendElement(internal::AppendElement(doc, "additional"), "vType",
+                            {{"id", v.id},
+                             {"vClass", "passenger"},
+                             {"guiShape", "passenger"},
+                             {"length", Num(v.length_m)},
+                             {"width", Num(v.width_m)},
+                             {"height", Num(v.height_m)},
+                             {"maxSpeed", Num(v.max_speed_mps)},
+                             {"accel", Num(v.accel_mps2)},
+                             {"decel", Num(v.decel_mps2)},
+                             {"emergencyDecel", Num(v.emergency_decel_mps2)},
+                             {"apparentDecel", Num(v.decel_mps2)},
+                             {"minGap", Num(v.min_gap_m)},
+                             {"speedFactor", Num(v.speed_factor)},
+                             {"speedDev", "0"},
+                             {"sigma", Num(v.sigma)}});
+    return internal::XmlText(doc, kIndent);
   }
 
   void RunNetconvert() {

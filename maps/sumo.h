@@ -137,10 +137,12 @@ struct SumoExport {
 /// Writes the map's SUMO plain XML and vehicle type into `out_dir` (created if missing) and
 /// runs netconvert on them; files are named after the map (characters other than letters,
 /// digits, '-', '_' and '.' become '_'; "map" when the name is empty). Nothing is written
-/// outside `out_dir`. Throws `InputError` when the options are out of range, an intersection
-/// name is not a valid SUMO id or two intersections share one, a file cannot be written, or
-/// netconvert cannot be started or fails (the message has the command line and netconvert's
-/// output).
+/// outside `out_dir`. The plain XML files are pugixml documents, written with four spaces of
+/// indentation; each movement's connection follows a comment with the movement's name.
+/// Throws `InputError` when the options are out of range, an intersection name is not a valid
+/// SUMO id, holds a control character (which XML cannot carry) or two intersections share one,
+/// a file cannot be written, or netconvert cannot be started or fails (the message has the
+/// command line and netconvert's output).
 /// Throws `InputError` for a map without lanes (nothing to export).
 SumoExport ExportSumo(const Map& map, const std::string& out_dir, const SumoOptions& options = {});
 

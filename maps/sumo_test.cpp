@@ -8,9 +8,12 @@
 #include <cmath>
 #include <filesystem>
 #include <iterator>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
+
+#include <pugixml.hpp>
 
 #include "common/error.h"
 #include "common/test_support.h"
@@ -400,6 +403,84 @@ TEST(SumoExport, WritesItsFilesIntoTheOutputDirectoryOnly) {
   EXPECT_EQ(e.netconvert_command[0], "netconvert");
 }
 
+// Parses the XML file at `path` with pugixml, comments included, into `doc`; a fatal failure
+// when it does not parse.
+void LoadXml(const fs::path& path, pugi::xml_document& doc) {
+  const pugi::xml_parse_result result =
+      doc.load_file(path.c_str(), pugi::parse_default | pugi::parse_comments);
+  ASSERT_EQ(result.status, pugi::status_ok)
+      << path << ": " << result.description() << " at offset " << result.offset;
+}
+
+std::string Attribute(pugi::xml_node node, const char* name) {
+  return node.attribute(name).value();
+}
+
+TEST(SumoExport, PlainXmlFilesOfAMapWithXmlSpecialCharactersInItsNameParseAndGiveBackItsIds) {
+  Layout l = Mixed();
+  l.name = "lab <A> & \"B\" 'C'";
+  const Map map = Build(l);
+  const TempDir tmp;
+  const SumoExport e = ExportSumo(map, tmp.str());
+  EXPECT_EQ(e.node_file, tmp.path() / "lab__A_____B___C_.nod.xml");
+  pugi::xml_document nodes, edges, connections, lights, vtypes, net;
+  ASSERT_NO_FATAL_FAILURE(LoadXml(e.node_file, nodes));
+  ASSERT_NO_FATAL_FAILURE(LoadXml(e.edge_file, edges));
+  ASSERT_NO_FATAL_FAILURE(LoadXml(e.connection_file, connections));
+  ASSERT_NO_FATAL_FAILURE(LoadXml(e.tll_file, lights));
+  ASSERT_NO_FATAL_FAILURE(LoadXml(e.vtype_file, vtypes));
+  ASSERT_NO_FATAL_FAILURE(LoadXml(e.net_file, net));
+
+  // Every intersection is a node of its type, named like the intersection.
+  for (const Intersection& x : map.intersections) {
+    SCOPED_TRACE(x.name);
+    const pugi::xml_node node =
+        nodes.child("nodes").find_child_by_attribute("node", "id", x.name.c_str());
+    ASSERT_FALSE(node.empty());
+    EXPECT_EQ(Attribute(node, "type"),
+              x.control == Control::kSignal ? "traffic_light" : "right_before_left");
+    EXPECT_FALSE(
+        net.child("net").find_child_by_attribute("junction", "id", x.name.c_str()).empty());
+  }
+  // The edges are the export's, with their lane counts.
+  std::map<std::string, std::size_t> edge_lanes;
+  for (pugi::xml_node edge : edges.child("edges").children("edge")) {
+    edge_lanes[Attribute(edge, "id")] = edge.attribute("numLanes").as_uint();
+  }
+  std::map<std::string, std::size_t> expected_lanes;
+  for (const auto& [id, lanes] : e.edges) expected_lanes[id] = lanes.size();
+  EXPECT_EQ(edge_lanes, expected_lanes);
+  // Every movement is a connection after a comment with its name (which holds '>').
+  std::vector<std::string> named;
+  for (pugi::xml_node c : connections.child("connections").children()) {
+    if (c.type() != pugi::node_comment) continue;
+    const std::string text = c.value();
+    ASSERT_GE(text.size(), 2u);
+    const std::string name = text.substr(1, text.size() - 2);
+    const auto m = std::find_if(map.movements.begin(), map.movements.end(),
+                                [&](const Movement& mv) { return mv.name == name; });
+    ASSERT_NE(m, map.movements.end()) << "no movement named \"" << name << "\"";
+    const SumoMovement& sm = e.movement(m->id);
+    const pugi::xml_node connection = c.next_sibling();
+    EXPECT_STREQ(connection.name(), "connection") << name;
+    EXPECT_EQ(Attribute(connection, "from"), sm.from.edge) << name;
+    EXPECT_EQ(Attribute(connection, "to"), sm.to.edge) << name;
+    EXPECT_EQ(connection.attribute("fromLane").as_int(-1), sm.from.index) << name;
+    EXPECT_EQ(connection.attribute("toLane").as_int(-1), sm.to.index) << name;
+    named.push_back(name);
+  }
+  std::vector<std::string> expected_names;
+  for (const Movement& m : map.movements) expected_names.push_back(m.name);
+  EXPECT_EQ(named, expected_names);
+  // The signalised intersection's program, and the car type.
+  std::vector<std::string> programs;
+  for (pugi::xml_node t : lights.child("tlLogics").children("tlLogic")) {
+    programs.push_back(Attribute(t, "id"));
+  }
+  EXPECT_EQ(programs, std::vector<std::string>{"x_r2c1"});
+  EXPECT_EQ(Attribute(vtypes.child("additional").child("vType"), "id"), e.vehicle_type);
+}
+
 TEST(SumoExportErrors, MissingNetconvertNamesTheProgramAndTheCommand) {
   SumoOptions o;
   o.netconvert = "/nonexistent/netconvert";
@@ -450,6 +531,11 @@ TEST(SumoExportErrors, IntersectionNamesMustBeValidAndUniqueSumoIds) {
   EXPECT_EQ(test::ErrorMessage([&] { (void)ExportSumo(Build(clash), dir); }),
             "an intersection is named \"n_r1c0_W\", which is the SUMO junction id of a tile edge "
             "or turning loop; rename it");
+  Layout control = FourWaySignal();
+  control.grid[1][1] = Cell::FromConfigString("x4 name=main\x01");
+  EXPECT_EQ(test::ErrorMessage([&] { (void)ExportSumo(Build(control), dir); }),
+            "attribute id of <node> \"main\\x01\" holds the control character 0x01, which XML "
+            "cannot carry");
   SumoOptions o;
   o.speed_mps = 0;
   EXPECT_EQ(test::ErrorMessage([&] { (void)ExportSumo(Build(twice), dir, o); }),
