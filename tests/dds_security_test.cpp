@@ -470,6 +470,12 @@ TEST_F(DdsSecurity, TheKeystoreToolIsIdempotentAndNeverReplacesACa) {
       << refused.output;
   EXPECT_EQ(ReadFile(half / "public/identity_ca.cert.pem"), ca_before);
 
+  const ToolResult roles = RunKeystoreTool({"roles"});
+  EXPECT_EQ(roles.exit_code, 0) << roles.output;
+  EXPECT_NE(roles.output.find("operator  publish    rt/autodrive/scm/operator/NAME/request"),
+            std::string::npos)
+      << roles.output;
+
   const ToolResult no_role =
       RunKeystoreTool({"enclave", keystore_.string(), "/autodrive/x", "--role", "admin"});
   EXPECT_NE(no_role.exit_code, 0);
