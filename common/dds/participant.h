@@ -31,7 +31,9 @@ struct ParticipantOptions {
   /// ROS_SECURITY_STRATEGY, ROS_SECURITY_KEYSTORE, ROS_SECURITY_ENCLAVE_OVERRIDE), which
   /// leaves the participant unsecured unless ROS_SECURITY_ENABLE=true. Set it to override the
   /// environment; `SecurityOptions{}` is unsecured whatever the environment says.
-  std::optional<SecurityOptions> security;
+  /// (The initializer keeps `ParticipantOptions{domain, partition, config}` free of
+  /// -Wmissing-field-initializers.)
+  std::optional<SecurityOptions> security = std::nullopt;
 };
 
 namespace internal {
