@@ -141,7 +141,10 @@ class DdsSecurity : public ::testing::Test {
                         const std::string& type, std::vector<std::string> extra = {}) {
     std::vector<std::string> argv{
         ExecutableDir() + "/dds_test_peer", mode, partition, "--topic", topic, "--type", type};
-    if (!enclave.empty()) {
+    // Whatever the developer's shell says (ROS_SECURITY_*), the arguments decide.
+    if (enclave.empty()) {
+      argv.emplace_back("--unsecured");
+    } else {
       argv.insert(argv.end(), {"--keystore", keystore_.string(), "--enclave", enclave});
     }
     argv.insert(argv.end(), extra.begin(), extra.end());

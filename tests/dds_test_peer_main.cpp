@@ -16,8 +16,8 @@
 //                                       sample and "matched N" when the matched writers
 //                                       change, until stdin closes
 // Every mode joins with the DDS Security settings of the environment (as ROS 2), overridden by
-// --keystore and --enclave; write and read first print "joined secured ENCLAVE" or
-// "joined unsecured".
+// --keystore and --enclave, or by --unsecured; write and read first print "joined secured
+// ENCLAVE" or "joined unsecured".
 #include <poll.h>
 #include <unistd.h>
 
@@ -216,7 +216,11 @@ int main(int argc, char** argv) {
                  "write: how long to wait for a reader before writing anyway");
   security = dds::SecurityOptions::FromEnvironment();
   dds::AddSecurityOptions(app, security);
+  bool unsecured = false;
+  app.add_flag("--unsecured", unsecured, "join unsecured, whatever the environment says")
+      ->excludes("--keystore");
   CLI11_PARSE(app, argc, argv);
+  if (unsecured) security = dds::SecurityOptions{};
   try {
     if (mode == "echo") return Echo(partition, static_cast<int>(number));
     if (mode == "latch") return Latch(partition, number);
