@@ -5,6 +5,22 @@
 //   dds_test_peer latch PARTITION REV   publish a latched MapData with revision REV, print
 //                                       "ready", and keep it available until stdin closes
 //   dds_test_peer late PARTITION        join late, print "map REV CITY" for the latched MapData
+//
+// and for tests/dds_security_test.cpp, with --topic T --type int32|operator_request:
+//   dds_test_peer write PARTITION --value V   create a writer on T ("refused <error>" if that
+//                                       fails), print "matched N" once a reader matched or
+//                                       "unmatched" after --match-timeout-ms, write V (an
+//                                       Int32's data, an OperatorRequest's request_id), print
+//                                       "written", and keep the sample until stdin closes
+//   dds_test_peer read PARTITION        create a reader on T, print "ready", then "got V" per
+//                                       sample and "matched N" when the matched writers
+//                                       change, until stdin closes
+// Every mode joins with the DDS Security settings of the environment (as ROS 2), overridden by
+// --keystore and --enclave, or by --unsecured; write and read first print "joined secured
+// ENCLAVE" or "joined unsecured".
+#include <poll.h>
+#include <unistd.h>
+
 #include <iostream>
 #include <string>
 #include <thread>
@@ -12,8 +28,10 @@
 #include <CLI/CLI.hpp>
 
 #include "common/dds/reader.h"
+#include "common/dds/security_cli.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
+#include "common/error.h"
 
 namespace dds = autodrive::dds;
 namespace msg = autodrive::msg;
@@ -21,10 +39,110 @@ using namespace std::chrono_literals;
 
 namespace {
 
-dds::Participant Join(const std::string& partition) {
+dds::SecurityOptions security;  // from the environment and the command line
+
+// `announce`: print "joined secured ENCLAVE" or "joined unsecured" (write and read modes).
+dds::Participant Join(const std::string& partition, bool announce = false) {
   dds::ParticipantOptions options;
   options.partition = partition;
-  return dds::Participant(options);
+  options.security = security;
+  dds::Participant p(options);
+  if (announce) {
+    std::cout << (p.secured() ? "joined secured " + p.enclave() : std::string("joined unsecured"))
+              << std::endl;
+  }
+  return p;
+}
+
+// True once stdin is at end of file (the test closed it), without blocking.
+bool StdinClosed() {
+  pollfd pfd{STDIN_FILENO, POLLIN, 0};
+  if (::poll(&pfd, 1, 0) <= 0) return false;
+  char buffer[256];
+  return ::read(STDIN_FILENO, buffer, sizeof buffer) <= 0;
+}
+
+void WaitForStdinToClose() {
+  std::string line;
+  while (std::getline(std::cin, line)) {
+  }
+}
+
+struct Endpoint {
+  std::string topic;
+  std::string type;  // int32 | operator_request
+  std::int64_t value = 0;
+  int match_timeout_ms = 20000;
+};
+
+std::int64_t ValueOf(const msg::Int32& m) { return m.data; }
+std::int64_t ValueOf(const msg::OperatorRequest& m) {
+  return static_cast<std::int64_t>(m.request_id);
+}
+void SetValue(dds::Message<msg::Int32>& m, std::int64_t v) {
+  m->data = static_cast<std::int32_t>(v);
+}
+void SetValue(dds::Message<msg::OperatorRequest>& m, std::int64_t v) {
+  m->request_id = static_cast<std::uint64_t>(v);
+  dds::SetString(m->client_id, "dds_test_peer");
+  dds::SetString(m->command, "status");
+}
+// The QoS the system uses on such topics: light commands are latched, operator requests are
+// commands.
+dds::Qos QosOf(const msg::Int32*) { return dds::Qos::LatchedState(); }
+dds::Qos QosOf(const msg::OperatorRequest*) { return dds::Qos::Command(); }
+
+template <typename T>
+int WriteOne(const std::string& partition, const Endpoint& e) {
+  auto p = Join(partition, true);
+  std::optional<dds::Writer<T>> writer;
+  try {
+    writer.emplace(p, e.topic, QosOf(static_cast<const T*>(nullptr)));
+  } catch (const autodrive::DdsError& error) {
+    std::cout << "refused " << error.what() << std::endl;
+    WaitForStdinToClose();
+    return 3;
+  }
+  std::cout << "created" << std::endl;
+  if (writer->WaitForReaders(1, std::chrono::milliseconds(e.match_timeout_ms))) {
+    std::cout << "matched " << writer->matched_readers() << std::endl;
+  } else {
+    std::cout << "unmatched" << std::endl;
+  }
+  dds::Message<T> m;
+  SetValue(m, e.value);
+  writer->Write(m);
+  std::cout << "written" << std::endl;
+  WaitForStdinToClose();
+  return 0;
+}
+
+template <typename T>
+int ReadAll(const std::string& partition, const Endpoint& e) {
+  auto p = Join(partition, true);
+  std::optional<dds::Reader<T>> reader;
+  try {
+    reader.emplace(p, e.topic, QosOf(static_cast<const T*>(nullptr)));
+  } catch (const autodrive::DdsError& error) {
+    std::cout << "refused " << error.what() << std::endl;
+    WaitForStdinToClose();
+    return 3;
+  }
+  std::cout << "ready" << std::endl;
+  std::uint32_t matched = 0;
+  dds::Message<T> m;
+  while (!StdinClosed()) {
+    if (const std::uint32_t now = reader->matched_writers(); now != matched) {
+      matched = now;
+      std::cout << "matched " << matched << std::endl;
+    }
+    if (reader->WaitForData(50ms)) {
+      while (reader->TakeOne(m)) {
+        std::cout << "got " << ValueOf(m.get()) << std::endl;
+      }
+    }
+  }
+  return 0;
 }
 
 int Echo(const std::string& partition, int n) {
@@ -89,11 +207,37 @@ int main(int argc, char** argv) {
   app.add_option("mode", mode, "echo | latch | late")->required();
   app.add_option("partition", partition, "DDS partition")->required();
   app.add_option("number", number, "messages to echo, or revision to latch");
+  Endpoint endpoint;
+  app.add_option("--topic", endpoint.topic, "write/read: DDS topic name");
+  app.add_option("--type", endpoint.type, "write/read: message type")
+      ->check(CLI::IsMember({"int32", "operator_request"}));
+  app.add_option("--value", endpoint.value, "write: the value to write");
+  app.add_option("--match-timeout-ms", endpoint.match_timeout_ms,
+                 "write: how long to wait for a reader before writing anyway");
+  security = dds::SecurityOptions::FromEnvironment();
+  dds::AddSecurityOptions(app, security);
+  bool unsecured = false;
+  app.add_flag("--unsecured", unsecured, "join unsecured, whatever the environment says")
+      ->excludes("--keystore");
   CLI11_PARSE(app, argc, argv);
+  if (unsecured) security = dds::SecurityOptions{};
   try {
     if (mode == "echo") return Echo(partition, static_cast<int>(number));
     if (mode == "latch") return Latch(partition, number);
     if (mode == "late") return Late(partition);
+    if (mode == "write" || mode == "read") {
+      if (endpoint.topic.empty() || endpoint.type.empty()) {
+        std::cerr << "dds_test_peer: " << mode << " needs --topic and --type\n";
+        return 2;
+      }
+      const bool write = mode == "write";
+      if (endpoint.type == "int32") {
+        return write ? WriteOne<msg::Int32>(partition, endpoint)
+                     : ReadAll<msg::Int32>(partition, endpoint);
+      }
+      return write ? WriteOne<msg::OperatorRequest>(partition, endpoint)
+                   : ReadAll<msg::OperatorRequest>(partition, endpoint);
+    }
     std::cerr << "unknown mode " << mode << "\n";
     return 2;
   } catch (const std::exception& e) {

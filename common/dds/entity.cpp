@@ -10,8 +10,12 @@ namespace internal {
 
 dds_return_t ThrowIfError(dds_return_t rc, std::string_view what) {
   if (rc < 0) {
-    throw DdsError(
-        std::string(what) + " failed: " + dds_strretcode(rc) + " (" + std::to_string(rc) + ")", rc);
+    std::string message =
+        std::string(what) + " failed: " + dds_strretcode(rc) + " (" + std::to_string(rc) + ")";
+    if (rc == DDS_RETCODE_NOT_ALLOWED_BY_SECURITY) {
+      message += ": the participant's DDS Security permissions do not allow it";
+    }
+    throw DdsError(message, rc);
   }
   return rc;
 }

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cstdlib>
 #include <string_view>
+#include <utility>
 
 #include "common/dds/qos.h"
 #include "common/error.h"
@@ -23,7 +24,62 @@ std::optional<std::uint32_t> DomainFromEnvironment() {
   return id;
 }
 
+// The participants of this process per domain, secured and unsecured, and which domain
+// DDS_DOMAIN_DEFAULT turned out to be.
+struct DomainCounts {
+  std::mutex mutex;
+  std::map<std::uint32_t, std::pair<int, int>> secured_unsecured;
+  std::optional<std::uint32_t> default_domain;
+};
+
+DomainCounts& Counts() {
+  static DomainCounts counts;
+  return counts;
+}
+
 }  // namespace
+
+namespace internal {
+
+DomainSecurityClaim::DomainSecurityClaim(std::uint32_t domain, bool secured)
+    : domain_(domain), secured_(secured) {
+  DomainCounts& counts = Counts();
+  std::lock_guard lock(counts.mutex);
+  auto& [n_secured, n_unsecured] = counts.secured_unsecured[domain];
+  const int others = secured ? n_unsecured : n_secured;
+  if (others > 0) {
+    domain_.reset();
+    throw InputError("this process already has " + std::to_string(others) +
+                     (secured ? " unsecured" : " secured") + " participant(s) in DDS domain " +
+                     std::to_string(domain) + "; Cyclone DDS cannot also serve a" +
+                     (secured ? " secured" : "n unsecured") +
+                     " one there (secure all of them, or use another domain id)");
+  }
+  ++(secured ? n_secured : n_unsecured);
+}
+
+DomainSecurityClaim::DomainSecurityClaim(DomainSecurityClaim&& other) noexcept
+    : domain_(std::exchange(other.domain_, std::nullopt)), secured_(other.secured_) {}
+
+DomainSecurityClaim& DomainSecurityClaim::operator=(DomainSecurityClaim&& other) noexcept {
+  if (this != &other) {
+    Release();
+    domain_ = std::exchange(other.domain_, std::nullopt);
+    secured_ = other.secured_;
+  }
+  return *this;
+}
+
+void DomainSecurityClaim::Release() noexcept {
+  if (!domain_) return;
+  DomainCounts& counts = Counts();
+  std::lock_guard lock(counts.mutex);
+  auto& [n_secured, n_unsecured] = counts.secured_unsecured[*domain_];
+  --(secured_ ? n_secured : n_unsecured);
+  domain_.reset();
+}
+
+}  // namespace internal
 
 Participant::Participant(const ParticipantOptions& options) : partition_(options.partition) {
   std::optional<std::uint32_t> domain = options.domain_id;
@@ -37,10 +93,40 @@ Participant::Participant(const ParticipantOptions& options) : partition_(options
     domain_ = Entity(dds_create_domain(id, options.cyclone_config.c_str()),
                      "dds_create_domain(" + std::to_string(id) + ")");
   }
-  participant_ = Entity(dds_create_participant(id, nullptr, nullptr), "dds_create_participant");
+  const SecurityOptions security =
+      options.security ? *options.security : SecurityOptions::FromEnvironment();
+  const std::optional<EnclaveFiles> enclave = ResolveEnclave(security);
+  // Check before Cyclone sees the participant when the domain is known: explicit, or the
+  // default one once a participant found out which it is.
+  std::optional<std::uint32_t> known_domain = domain;
+  if (!known_domain) {
+    std::lock_guard lock(Counts().mutex);
+    known_domain = Counts().default_domain;
+  }
+  if (known_domain) {
+    claim_ = internal::DomainSecurityClaim(*known_domain, enclave.has_value());
+  }
+  if (enclave) {
+    const internal::QosPtr qos(dds_create_qos());
+    internal::SetSecurityProperties(qos.get(), *enclave, SecurityPluginDirectory());
+    participant_ =
+        Entity(dds_create_participant(id, qos.get(), nullptr),
+               "dds_create_participant with DDS Security (enclave " + enclave->enclave + " in " +
+                   enclave->directory.string() + "; Cyclone DDS's log on stderr says why)");
+    enclave_ = enclave->enclave;
+  } else {
+    participant_ = Entity(dds_create_participant(id, nullptr, nullptr), "dds_create_participant");
+  }
   dds_domainid_t actual = 0;
   internal::ThrowIfError(dds_get_domainid(participant_.handle(), &actual), "dds_get_domainid");
   domain_id_ = actual;
+  if (!known_domain) {
+    {
+      std::lock_guard lock(Counts().mutex);
+      Counts().default_domain = domain_id_;
+    }
+    claim_ = internal::DomainSecurityClaim(domain_id_, enclave.has_value());
+  }
   const auto partition_qos = internal::MakePartitionQos(partition_);
   publisher_ = Entity(dds_create_publisher(participant_.handle(), partition_qos.get(), nullptr),
                       "dds_create_publisher");

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "common/dds/entity.h"
+#include "common/dds/security.h"
 
 namespace autodrive::dds {
 
@@ -25,14 +26,50 @@ struct ParticipantOptions {
   /// reads `CYCLONEDDS_URI` as usual. Only the first participant of a domain in a process can
   /// set it.
   std::string cyclone_config;
+  /// DDS Security (see common/dds/security.h and docs/security.md). Unset: as ROS 2 does, from
+  /// the environment (`SecurityOptions::FromEnvironment()`: ROS_SECURITY_ENABLE,
+  /// ROS_SECURITY_STRATEGY, ROS_SECURITY_KEYSTORE, ROS_SECURITY_ENCLAVE_OVERRIDE), which
+  /// leaves the participant unsecured unless ROS_SECURITY_ENABLE=true. Set it to override the
+  /// environment; `SecurityOptions{}` is unsecured whatever the environment says.
+  /// (The initializer keeps `ParticipantOptions{domain, partition, config}` free of
+  /// -Wmissing-field-initializers.)
+  std::optional<SecurityOptions> security = std::nullopt;
 };
+
+namespace internal {
+/// Records, while it lives, that this process has a participant in a DDS domain, secured or
+/// not. Cyclone DDS 0.10.2 cannot hold both kinds in one domain of one process: after a secured
+/// participant, creating an unsecured one fails; after an unsecured one, creating a secured one
+/// leaves the unsecured one silently matching nothing. Move-only.
+class DomainSecurityClaim {
+ public:
+  DomainSecurityClaim() = default;
+  /// Throws `InputError` when this process has a participant of the other kind in `domain`.
+  DomainSecurityClaim(std::uint32_t domain, bool secured);
+  DomainSecurityClaim(DomainSecurityClaim&& other) noexcept;
+  DomainSecurityClaim& operator=(DomainSecurityClaim&& other) noexcept;
+  DomainSecurityClaim(const DomainSecurityClaim&) = delete;
+  DomainSecurityClaim& operator=(const DomainSecurityClaim&) = delete;
+  ~DomainSecurityClaim() { Release(); }
+
+ private:
+  void Release() noexcept;
+  std::optional<std::uint32_t> domain_;
+  bool secured_ = false;
+};
+}  // namespace internal
 
 /// A participant in one DDS domain, owning one publisher and one subscriber. Move-only.
 /// Deleting it deletes every writer, reader and waitset created from it.
 class Participant {
  public:
   /// Joins the domain. Throws `DdsError` when Cyclone cannot (bad configuration, no network
-  /// interface), `InputError` for a bad ROS_DOMAIN_ID.
+  /// interface, or with security an identity, governance or permissions document that Cyclone
+  /// rejects: its log on stderr says which), `InputError` for a bad ROS_DOMAIN_ID and for the
+  /// security settings `ResolveEnclave` and `SecurityPluginDirectory` refuse (no keystore when
+  /// enforced, a missing or unreadable enclave file, no plugins) and when this process already
+  /// has a participant of the other kind (secured or not) in the same domain, which Cyclone
+  /// DDS cannot serve (see `internal::DomainSecurityClaim`).
   explicit Participant(const ParticipantOptions& options = {});
 
   [[nodiscard]] dds_entity_t handle() const { return participant_.handle(); }
@@ -40,6 +77,10 @@ class Participant {
   [[nodiscard]] dds_entity_t subscriber() const { return subscriber_.handle(); }
   [[nodiscard]] std::uint32_t domain_id() const { return domain_id_; }
   [[nodiscard]] const std::string& partition() const { return partition_; }
+  /// True when DDS Security secures this participant.
+  [[nodiscard]] bool secured() const { return !enclave_.empty(); }
+  /// The enclave this participant authenticates as ("/autodrive/scm"); empty when unsecured.
+  [[nodiscard]] const std::string& enclave() const { return enclave_; }
 
   /// Records that `topic_name` carries `type_name` in this participant. Cyclone lets one name
   /// carry two types (whose readers and writers then silently never match); we refuse it.
@@ -47,12 +88,14 @@ class Participant {
   void ClaimTopic(const std::string& topic_name, std::string_view type_name) const;
 
  private:
-  Entity domain_;  // only when a configuration was given; deleted last
+  internal::DomainSecurityClaim claim_;  // released after everything below is deleted
+  Entity domain_;                        // only when a configuration was given
   Entity participant_;
   Entity publisher_;
   Entity subscriber_;
   std::uint32_t domain_id_ = 0;
   std::string partition_;
+  std::string enclave_;
   // Topic name -> type name. Behind a pointer so the participant stays movable.
   struct TopicTypes {
     std::mutex mutex;

@@ -1,0 +1,489 @@
+// DDS Security with real processes. A keystore made by scripts/autodrive-keystore (copied into
+// bin/) in the test's own temporary folder gives the lab's roles their identities; this test and
+// dds_test_peer processes join with them and show that lights obey only the SCM, that operators
+// and viewers can send only what their role allows, and that an unauthenticated participant
+// sees and sends nothing. Each process holds one identity (the test process one per test).
+#include <dds/dds.h>
+#include <gtest/gtest.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/dds/messages.h"
+#include "common/dds/reader.h"
+#include "common/dds/security.h"
+#include "common/dds/writer.h"
+#include "common/error.h"
+#include "common/process.h"
+#include "common/test_support.h"
+
+namespace autodrive {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+constexpr char kLightCommand[] = "rt/autodrive/signal_1/command";
+constexpr char kLight2Command[] = "rt/autodrive/signal_2/command";
+constexpr char kLightState[] = "rt/autodrive/signal_1/state";
+constexpr char kSharedRequest[] = "rt/autodrive/scm/operator/request";
+constexpr char kAliceRequest[] = "rt/autodrive/scm/operator/alice/request";
+constexpr char kBobRequest[] = "rt/autodrive/scm/operator/bob/request";
+
+constexpr char kScm[] = "/autodrive/scm";
+constexpr char kLights[] = "/autodrive/infra/lights1";
+constexpr char kAlice[] = "/autodrive/operator/alice";
+constexpr char kCarol[] = "/autodrive/viewer/carol";
+
+struct ToolResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+// Runs bin/autodrive-keystore with `args`, its stderr merged into its stdout.
+ToolResult RunKeystoreTool(const std::vector<std::string>& args) {
+  std::vector<std::string> argv{"/bin/sh", "-c", "exec \"$0\" \"$@\" 2>&1",
+                                ExecutableDir() + "/autodrive-keystore"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  ChildProcess tool(argv);
+  ToolResult result;
+  while (auto line = tool.ReadLine(120s)) {
+    result.output += *line + "\n";
+  }
+  result.exit_code = tool.Wait(120s).value_or(-1);
+  return result;
+}
+
+std::string ReadFile(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A dds_test_peer process and everything it printed so far.
+struct Peer {
+  ChildProcess process;
+  std::vector<std::string> lines;
+
+  // Reads lines until one starts with `prefix` (returned) or `timeout` passes (nullopt).
+  std::optional<std::string> Await(const std::string& prefix,
+                                   std::chrono::milliseconds timeout = 30s) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          deadline - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return std::nullopt;
+      auto line = process.ReadLine(left);
+      if (!line) return std::nullopt;
+      lines.push_back(*line);
+      if (line->starts_with(prefix)) return line;
+    }
+  }
+  // Closes its stdin (it finishes) and collects the rest of its output and its exit code.
+  int Finish() {
+    process.CloseStdin();
+    while (auto line = process.ReadLine(30s)) lines.push_back(*line);
+    return process.Wait(30s).value_or(-1);
+  }
+  [[nodiscard]] std::string Transcript() const {
+    std::string text;
+    for (const auto& l : lines) text += "  | " + l + "\n";
+    return text;
+  }
+  [[nodiscard]] bool Printed(const std::string& prefix) const {
+    return std::any_of(lines.begin(), lines.end(),
+                       [&](const std::string& l) { return l.starts_with(prefix); });
+  }
+};
+
+class DdsSecurity : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    std::string pattern = (fs::temp_directory_path() / "autodrive_dds_security_XXXXXX").string();
+    ASSERT_NE(::mkdtemp(pattern.data()), nullptr);
+    dir_ = pattern;
+    keystore_ = dir_ / "keystore";
+    const ToolResult made = RunKeystoreTool({"city", keystore_.string(), "--operators", "alice,bob",
+                                             "--viewers", "carol", "--infra", "lights1"});
+    ASSERT_EQ(made.exit_code, 0) << made.output;
+    ready_ = true;
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  void SetUp() override { ASSERT_TRUE(ready_) << "the keystore could not be made"; }
+
+  static std::string Partition(const char* test) {
+    return std::string("security_") + test + "_" + std::to_string(::getpid());
+  }
+
+  // Joins in this process as `enclave` ("" = unsecured, whatever the environment says).
+  static dds::Participant Join(const std::string& partition, const std::string& enclave) {
+    dds::ParticipantOptions options;
+    options.partition = partition;
+    options.security = enclave.empty() ? dds::SecurityOptions{}
+                                       : dds::SecurityOptions::Enforced(keystore_, enclave);
+    return dds::Participant(options);
+  }
+
+  // Starts dds_test_peer MODE PARTITION as `enclave` ("" = unsecured) on `topic`.
+  static Peer StartPeer(const std::string& mode, const std::string& partition,
+                        const std::string& enclave, const std::string& topic,
+                        const std::string& type, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{
+        ExecutableDir() + "/dds_test_peer", mode, partition, "--topic", topic, "--type", type};
+    // Whatever the developer's shell says (ROS_SECURITY_*), the arguments decide.
+    if (enclave.empty()) {
+      argv.emplace_back("--unsecured");
+    } else {
+      argv.insert(argv.end(), {"--keystore", keystore_.string(), "--enclave", enclave});
+    }
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return Peer{ChildProcess(argv), {}};
+  }
+
+  static inline fs::path dir_;
+  static inline fs::path keystore_;
+  static inline bool ready_ = false;
+};
+
+// (a) The one path that must work: the SCM's light command reaches the light's host.
+TEST_F(DdsSecurity, ScmCommandReachesTheLightHostInAnotherProcess) {
+  const std::string partition = Partition("scm_to_light");
+  auto p = Join(partition, kLights);
+  ASSERT_TRUE(p.secured());
+  EXPECT_EQ(p.enclave(), kLights);
+  dds::Reader<msg::Int32> reader(p, kLightCommand, dds::Qos::LatchedState());
+
+  Peer scm = StartPeer("write", partition, kScm, kLightCommand, "int32", {"--value", "3"});
+  ASSERT_EQ(scm.Await("joined"), std::string("joined secured ") + kScm) << scm.Transcript();
+  ASSERT_EQ(scm.Await("created"), "created") << scm.Transcript();
+  ASSERT_TRUE(reader.WaitForData(30s)) << scm.Transcript();
+  auto got = reader.TakeOne();
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ((*got)->data, 3);
+  EXPECT_EQ(reader.matched_writers(), 1u);
+  EXPECT_EQ(scm.Await("written"), "written") << scm.Transcript();
+  EXPECT_EQ(scm.Finish(), 0) << scm.Transcript();
+}
+
+// (b) Operators and viewers command the SCM, never a light: their writers are refused here, in
+// this process, with a DdsError naming the topic; and the light's host hears only the SCM.
+TEST_F(DdsSecurity, OperatorsAndViewersCannotCommandALight) {
+  const std::string partition = Partition("operator_to_light");
+  Peer light = StartPeer("read", partition, kLights, kLightCommand, "int32");
+  ASSERT_EQ(light.Await("ready"), "ready") << light.Transcript();
+
+  for (const char* enclave : {kAlice, kCarol}) {
+    SCOPED_TRACE(enclave);
+    auto p = Join(partition, enclave);
+    ASSERT_TRUE(p.secured());
+    try {
+      dds::Writer<msg::Int32> writer(p, kLightCommand, dds::Qos::LatchedState());
+      ADD_FAILURE() << enclave << " could create a writer on " << kLightCommand;
+      writer.Write(msg::Int32{99});
+    } catch (const DdsError& e) {
+      EXPECT_EQ(e.code(), DDS_RETCODE_NOT_ALLOWED_BY_SECURITY) << e.what();
+      EXPECT_NE(std::string(e.what()).find(kLightCommand), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("DDS Security permissions do not allow it"),
+                std::string::npos)
+          << e.what();
+    }
+    // Nor can they pretend to be the light: they may read its state, not write it (refused at
+    // the writer, since the topic itself is one they may use).
+    const std::string error = test::ErrorMessage<DdsError>(
+        [&] { dds::Writer<msg::Int32> writer(p, kLightState, dds::Qos::LatchedState()); });
+    EXPECT_NE(error.find(std::string("dds_create_writer(") + kLightState), std::string::npos)
+        << error;
+  }
+
+  // The control: the SCM's command does arrive, and it is all that arrives (no operator or
+  // viewer ever had a writer, so nothing can come later).
+  Peer scm = StartPeer("write", partition, kScm, kLightCommand, "int32", {"--value", "3"});
+  ASSERT_TRUE(light.Await("got", 30s)) << light.Transcript() << scm.Transcript();
+  EXPECT_EQ(light.lines.back(), "got 3");
+  EXPECT_EQ(scm.Await("written"), "written") << scm.Transcript();
+  EXPECT_EQ(scm.Finish(), 0);
+  EXPECT_EQ(light.Finish(), 0);
+  for (const auto& line : light.lines) {
+    EXPECT_TRUE(!line.starts_with("got") || line == "got 3") << light.Transcript();
+    EXPECT_TRUE(!line.starts_with("matched") || line == "matched 1" || line == "matched 0")
+        << light.Transcript();
+  }
+}
+
+// (c) A participant without an identity takes no part: its writer matches no secured reader
+// and delivers nothing, and its reader matches no secured writer.
+TEST_F(DdsSecurity, AnUnauthenticatedParticipantNeitherMatchesNorReceivesNorDelivers) {
+  const std::string partition = Partition("unauthenticated");
+  auto p = Join(partition, kLights);
+  dds::Reader<msg::Int32> reader(p, kLightCommand, dds::Qos::LatchedState());
+
+  // The SCM commands light 1 (for the secured reader here) and light 2 (no secured reader:
+  // bait for the eavesdropper below; latched, so a late match would still deliver it).
+  Peer scm = StartPeer("write", partition, kScm, kLightCommand, "int32", {"--value", "3"});
+  Peer scm_bait = StartPeer("write", partition, kScm, kLight2Command, "int32",
+                            {"--value", "4", "--match-timeout-ms", "1"});
+  // The control: the secured SCM reaches the secured light, so discovery, authentication and
+  // matching all work on this machine.
+  ASSERT_TRUE(reader.WaitForData(30s)) << scm.Transcript();
+  ASSERT_EQ(reader.TakeOne().value()->data, 3);
+  ASSERT_EQ(scm_bait.Await("written"), "written") << scm_bait.Transcript();
+
+  // Absence of a match has no event to wait for, so here is the one bounded wait: the rogue
+  // writer waits up to 3 s for a reader of light 1's command (unauthenticated discovery needs
+  // no handshake and takes milliseconds on loopback), then writes anyway, latched, so that a
+  // late match would still deliver it. The eavesdropper listens to light 2 in the same window.
+  Peer eavesdropper = StartPeer("read", partition, "", kLight2Command, "int32");
+  ASSERT_EQ(eavesdropper.Await("joined"), "joined unsecured") << eavesdropper.Transcript();
+  ASSERT_EQ(eavesdropper.Await("ready"), "ready") << eavesdropper.Transcript();
+  Peer rogue = StartPeer("write", partition, "", kLightCommand, "int32",
+                         {"--value", "66", "--match-timeout-ms", "3000"});
+  ASSERT_EQ(rogue.Await("joined"), "joined unsecured") << rogue.Transcript();
+  EXPECT_EQ(rogue.Await("created"), "created") << rogue.Transcript();
+  EXPECT_EQ(rogue.Await("", 30s), "unmatched") << rogue.Transcript();  // not "matched N"
+  EXPECT_EQ(rogue.Await("written"), "written") << rogue.Transcript();
+
+  EXPECT_EQ(reader.matched_writers(), 1u) << "only the SCM";
+  dds::Message<msg::Int32> m;
+  EXPECT_FALSE(reader.TakeOne(m)) << "received " << m->data << " from an unauthenticated writer";
+  EXPECT_EQ(rogue.Finish(), 0);
+  EXPECT_EQ(eavesdropper.Finish(), 0);
+  EXPECT_FALSE(eavesdropper.Printed("matched")) << eavesdropper.Transcript();
+  EXPECT_FALSE(eavesdropper.Printed("got")) << eavesdropper.Transcript();
+  EXPECT_EQ(scm.Finish(), 0);
+  EXPECT_EQ(scm_bait.Finish(), 0);
+}
+
+// (d) An operator has its own request topic; nobody else may publish on it.
+TEST_F(DdsSecurity, OperatorsPublishOnTheirOwnRequestTopicOnly) {
+  const std::string partition = Partition("operator_topics");
+  auto p = Join(partition, kScm);
+  dds::Reader<msg::OperatorRequest> alice_topic(p, kAliceRequest, dds::Qos::Command());
+  dds::Reader<msg::OperatorRequest> shared_topic(p, kSharedRequest, dds::Qos::Command());
+
+  Peer alice =
+      StartPeer("write", partition, kAlice, kAliceRequest, "operator_request", {"--value", "7"});
+  ASSERT_TRUE(alice_topic.WaitForData(30s)) << alice.Transcript();
+  EXPECT_EQ(alice_topic.TakeOne().value()->request_id, 7u);
+
+  Peer alice_as_bob =
+      StartPeer("write", partition, kAlice, kBobRequest, "operator_request", {"--value", "8"});
+  const auto refused = alice_as_bob.Await("refused");
+  ASSERT_TRUE(refused) << alice_as_bob.Transcript();
+  EXPECT_NE(refused->find(std::string("dds_create_writer(") + kBobRequest), std::string::npos)
+      << *refused;
+
+  Peer carol_as_alice =
+      StartPeer("write", partition, kCarol, kAliceRequest, "operator_request", {"--value", "9"});
+  ASSERT_TRUE(carol_as_alice.Await("refused")) << carol_as_alice.Transcript();
+
+  // The control: the viewer may ask on the shared topic, and the SCM gets it.
+  Peer carol =
+      StartPeer("write", partition, kCarol, kSharedRequest, "operator_request", {"--value", "10"});
+  ASSERT_TRUE(shared_topic.WaitForData(30s)) << carol.Transcript();
+  EXPECT_EQ(shared_topic.TakeOne().value()->request_id, 10u);
+
+  EXPECT_EQ(alice_as_bob.Finish(), 3) << "refused";
+  EXPECT_EQ(carol_as_alice.Finish(), 3) << "refused";
+  EXPECT_EQ(alice.Finish(), 0);
+  EXPECT_EQ(carol.Finish(), 0);
+  // Nothing but Alice's own request reached her topic (the others never had a writer).
+  EXPECT_FALSE(alice_topic.TakeOne().has_value());
+}
+
+// ---- The participant's security settings -------------------------------------------------------
+
+TEST_F(DdsSecurity, EnforcedSecurityWithoutAKeystoreSaysSo) {
+  dds::ParticipantOptions options;
+  options.security = dds::SecurityOptions::Enforced("", kScm);
+  const std::string error = test::ErrorMessage([&] { dds::Participant p(options); });
+  EXPECT_NE(error.find("no keystore"), std::string::npos) << error;
+  EXPECT_NE(error.find("ROS_SECURITY_KEYSTORE"), std::string::npos) << error;
+}
+
+TEST_F(DdsSecurity, AMissingEnclaveFileIsAnInputErrorNamingTheFile) {
+  const fs::path broken = dir_ / "broken_keystore";
+  const fs::path enclave_dir = broken / "enclaves/autodrive/operator/alice";
+  fs::create_directories(enclave_dir);
+  fs::copy(keystore_ / "enclaves/autodrive/operator/alice", enclave_dir,
+           fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  fs::remove(enclave_dir / "permissions.p7s");
+  dds::ParticipantOptions options;
+  options.security = dds::SecurityOptions::Enforced(broken.string(), kAlice);
+  const std::string error = test::ErrorMessage([&] { dds::Participant p(options); });
+  EXPECT_NE(error.find((enclave_dir / "permissions.p7s").string() + " is missing"),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.find("key.pem"), std::string::npos) << "only the missing file: " << error;
+
+  // Permissive does not paper over a broken enclave either.
+  options.security->strategy = dds::SecurityStrategy::kPermissive;
+  EXPECT_NE(test::ErrorMessage([&] { dds::Participant p(options); }).find("permissions.p7s"),
+            std::string::npos);
+}
+
+TEST_F(DdsSecurity, AnAbsentEnclaveIsAnErrorWhenEnforcedAndUnsecuredWhenPermissive) {
+  dds::ParticipantOptions options;
+  options.security = dds::SecurityOptions::Enforced(keystore_.string(), "/autodrive/nobody");
+  const std::string error = test::ErrorMessage([&] { dds::Participant p(options); });
+  EXPECT_NE(error.find("has no enclave /autodrive/nobody"), std::string::npos) << error;
+
+  options.security->strategy = dds::SecurityStrategy::kPermissive;
+  dds::Participant p(options);
+  EXPECT_FALSE(p.secured());
+}
+
+TEST_F(DdsSecurity, AnEnclaveNameCannotLeaveTheKeystore) {
+  for (const char* bad : {"/../private", "autodrive/scm", "/autodrive//scm", "/autodrive/scm/"}) {
+    dds::ParticipantOptions options;
+    options.security = dds::SecurityOptions::Enforced(keystore_.string(), bad);
+    const std::string error = test::ErrorMessage([&] { dds::Participant p(options); });
+    EXPECT_NE(error.find(std::string("enclave '") + bad + "' is not an absolute ROS name"),
+              std::string::npos)
+        << error;
+  }
+}
+
+// Permissions are public documents; what binds them to an identity is the subject name, checked
+// against the certificate. Alice's key with the SCM's permissions must not make her the SCM.
+TEST_F(DdsSecurity, AnIdentityCannotBorrowAnotherEnclavesPermissions) {
+  const fs::path forged = dir_ / "forged_keystore";
+  const fs::path enclave_dir = forged / "enclaves/autodrive/scm";
+  fs::create_directories(enclave_dir);
+  fs::copy(keystore_ / "enclaves/autodrive/scm", enclave_dir,
+           fs::copy_options::recursive | fs::copy_options::overwrite_existing);
+  dds::ParticipantOptions options;
+  options.security = dds::SecurityOptions::Enforced(forged.string(), kScm);
+  EXPECT_TRUE(dds::Participant(options).secured()) << "the copy itself works";
+  for (const char* file : {"cert.pem", "key.pem"}) {
+    fs::copy_file(keystore_ / "enclaves/autodrive/operator/alice" / file, enclave_dir / file,
+                  fs::copy_options::overwrite_existing);
+  }
+  const std::string error = test::ErrorMessage<DdsError>([&] { dds::Participant p(options); });
+  EXPECT_NE(error.find("dds_create_participant with DDS Security (enclave /autodrive/scm"),
+            std::string::npos)
+      << error;
+}
+
+TEST_F(DdsSecurity, SettingsComeFromTheEnvironmentAsInRos2) {
+  ::setenv("ROS_SECURITY_ENABLE", "true", 1);
+  ::setenv("ROS_SECURITY_STRATEGY", "Enforce", 1);
+  ::setenv("ROS_SECURITY_KEYSTORE", keystore_.c_str(), 1);
+  ::setenv("ROS_SECURITY_ENCLAVE_OVERRIDE", kLights, 1);
+  ::setenv("ROS_SECURITY_ENCLAVE", kScm, 1);
+  const auto options = dds::SecurityOptions::FromEnvironment();
+  EXPECT_TRUE(options.enabled);
+  EXPECT_EQ(options.strategy, dds::SecurityStrategy::kEnforce);
+  EXPECT_EQ(options.keystore, keystore_.string());
+  EXPECT_EQ(options.enclave, kLights) << "ROS 2's override comes first";
+  {
+    dds::ParticipantOptions unset;  // no security set: the environment decides
+    dds::Participant p(unset);
+    EXPECT_TRUE(p.secured());
+    EXPECT_EQ(p.enclave(), kLights);
+  }
+  ::unsetenv("ROS_SECURITY_ENCLAVE_OVERRIDE");
+  EXPECT_EQ(dds::SecurityOptions::FromEnvironment().enclave, kScm);
+  ::setenv("ROS_SECURITY_ENABLE", "1", 1);  // ROS 2 enables on "true" only
+  ::setenv("ROS_SECURITY_STRATEGY", "enforce", 1);
+  const auto off = dds::SecurityOptions::FromEnvironment();
+  EXPECT_FALSE(off.enabled);
+  EXPECT_EQ(off.strategy, dds::SecurityStrategy::kPermissive);
+  for (const char* name : {"ROS_SECURITY_ENABLE", "ROS_SECURITY_STRATEGY", "ROS_SECURITY_KEYSTORE",
+                           "ROS_SECURITY_ENCLAVE"}) {
+    ::unsetenv(name);
+  }
+  dds::Participant unsecured{dds::ParticipantOptions{}};
+  EXPECT_FALSE(unsecured.secured());
+}
+
+// Cyclone DDS cannot serve both kinds in one domain of one process (a secured participant makes
+// an unsecured one fail; an unsecured one stops matching once a secured one exists): refused
+// up front, in either order, and fine again in another domain or once the other kind is gone.
+TEST_F(DdsSecurity, OneProcessCannotMixSecuredAndUnsecuredParticipantsInOneDomain) {
+  const std::string partition = Partition("mixed");
+  {
+    auto secured = Join(partition, kScm);
+    const std::string error = test::ErrorMessage([&] { Join(partition, ""); });
+    EXPECT_NE(error.find("already has 1 secured participant(s) in DDS domain " +
+                         std::to_string(secured.domain_id())),
+              std::string::npos)
+        << error;
+    dds::ParticipantOptions elsewhere;
+    elsewhere.domain_id = (secured.domain_id() + 1) % 231;
+    elsewhere.security = dds::SecurityOptions{};
+    EXPECT_FALSE(dds::Participant(elsewhere).secured());
+  }
+  {
+    auto unsecured = Join(partition, "");
+    EXPECT_NE(test::ErrorMessage([&] {
+                Join(partition, kScm);
+              }).find("already has 1 unsecured participant(s)"),
+              std::string::npos);
+  }
+  EXPECT_TRUE(Join(partition, kScm).secured());
+}
+
+TEST_F(DdsSecurity, ThePluginsAreFoundBesideCycloneOrWhereTold) {
+  const fs::path dir = dds::SecurityPluginDirectory();
+  EXPECT_TRUE(fs::exists(dir / "libdds_security_auth.so")) << dir;
+  ::setenv("AUTODRIVE_DDS_SECURITY_PLUGINS", "/nonexistent/plugins", 1);
+  const std::string error = test::ErrorMessage([] { (void)dds::SecurityPluginDirectory(); });
+  ::unsetenv("AUTODRIVE_DDS_SECURITY_PLUGINS");
+  EXPECT_NE(error.find("not in /nonexistent/plugins"), std::string::npos) << error;
+  EXPECT_NE(error.find("libddsc0debian"), std::string::npos) << error;
+}
+
+// ---- The keystore tool
+// ---------------------------------------------------------------------------
+
+TEST_F(DdsSecurity, TheKeystoreToolIsIdempotentAndNeverReplacesACa) {
+  const fs::path scm_cert = keystore_ / "enclaves/autodrive/scm/cert.pem";
+  const fs::path ca_cert = keystore_ / "public/identity_ca.cert.pem";
+  const std::string cert_before = ReadFile(scm_cert);
+  const std::string ca_before = ReadFile(ca_cert);
+  const ToolResult again = RunKeystoreTool({"city", keystore_.string(), "--operators", "alice,bob",
+                                            "--viewers", "carol", "--infra", "lights1"});
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NE(again.output.find("enclave /autodrive/scm is up to date"), std::string::npos)
+      << again.output;
+  EXPECT_EQ(again.output.find("created"), std::string::npos) << again.output;
+  EXPECT_EQ(ReadFile(scm_cert), cert_before);
+  EXPECT_EQ(ReadFile(ca_cert), ca_before);
+
+  // Half a CA: refuse, name the files, and change nothing.
+  const fs::path half = dir_ / "half_keystore";
+  fs::create_directories(half / "public");
+  fs::copy_file(ca_cert, half / "public/identity_ca.cert.pem");
+  const ToolResult refused = RunKeystoreTool({"init", half.string()});
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.output.find("incomplete identity CA"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find((half / "private/identity_ca.key.pem").string() + " is missing"),
+            std::string::npos)
+      << refused.output;
+  EXPECT_EQ(ReadFile(half / "public/identity_ca.cert.pem"), ca_before);
+
+  const ToolResult roles = RunKeystoreTool({"roles"});
+  EXPECT_EQ(roles.exit_code, 0) << roles.output;
+  EXPECT_NE(roles.output.find("operator  publish    rt/autodrive/scm/operator/NAME/request"),
+            std::string::npos)
+      << roles.output;
+
+  const ToolResult no_role =
+      RunKeystoreTool({"enclave", keystore_.string(), "/autodrive/x", "--role", "admin"});
+  EXPECT_NE(no_role.exit_code, 0);
+  EXPECT_NE(no_role.output.find("unknown role 'admin'"), std::string::npos) << no_role.output;
+}
+
+}  // namespace
+}  // namespace autodrive
