@@ -329,6 +329,15 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
   for (const auto& h : heads_) waitset.Attach(*h->commands);
   const bool separate = &clock != &pace;
   if (separate) clock.SetWaker([&waitset] { waitset.Wake(); });
+  std::uint64_t failures = 0;
+  const auto failed = [&](const char* what, const std::exception& e) {
+    // The loop is the daemon's boundary: log (the first few, then every 100th) and carry on,
+    // without spinning on a failure that repeats.
+    if (++failures <= 5 || failures % 100 == 0) {
+      spdlog::error("{} failed ({} failures so far): {}", what, failures, e.what());
+    }
+    (void)pace.SleepFor(kTickPeriod);
+  };
   while (!clock.interrupted() && !pace.interrupted()) {
     const ClockReading now = clock.Read();
     MonoTime next = now.mono + kTickPeriod;
@@ -336,9 +345,7 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
       Step(now);
       next = NextDeadline(now);
     } catch (const std::exception& e) {
-      // The loop is the daemon's boundary: log, and do not spin on a failure that repeats.
-      spdlog::error("pass failed: {}", e.what());
-      (void)pace.SleepFor(kTickPeriod);
+      failed("a pass", e);
     }
     try {
       if (separate) {
@@ -348,8 +355,7 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
         (void)waitset.WaitUntil(std::min(next, now.mono + kTickPeriod));
       }
     } catch (const std::exception& e) {
-      spdlog::error("waiting failed: {}", e.what());
-      (void)pace.SleepFor(kTickPeriod);
+      failed("waiting", e);
     }
   }
   if (separate) clock.SetWaker({});
@@ -557,8 +563,8 @@ void DeviceHost::TakeDeviceCommands(const ClockReading& now) {
     } else if (target->last_command_scm == scm_ && m->command_id <= target->last_command_id) {
       // Sent again (the SCM did not see the acknowledgement yet): say it again.
       ++counters_.device_commands_repeated;
-      spdlog::info("{}: device command {} was already carried out (last {})",
-                   target->monitor.device_id(), m->command_id, target->last_command_id);
+      spdlog::debug("{}: device command {} was already carried out (last {})",
+                    target->monitor.device_id(), m->command_id, target->last_command_id);
       target->published_status.reset();
       continue;
     }
