@@ -325,8 +325,27 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
   // when /clock reaches the next deadline.
   dds::LoopWaitSet waitset(dds_->participant, pace);
   waitset.Attach(dds_->heartbeats);
-  if (dds_->device_commands) waitset.Attach(*dds_->device_commands);
-  for (const auto& h : heads_) waitset.Attach(*h->commands);
+  std::size_t attached = 1;
+  if (dds_->device_commands) {
+    waitset.Attach(*dds_->device_commands);
+    ++attached;
+  }
+  std::size_t polled = 0;
+  for (const auto& h : heads_) {
+    if (attached < kMaxWaitedReaders) {
+      waitset.Attach(*h->commands);
+      ++attached;
+    } else {
+      ++polled;  // taken at every pass all the same, at the latest kTickPeriod later
+    }
+  }
+  if (polled > 0) {
+    spdlog::warn(
+        "{}: the commands of {} of its {} heads wake the loop; the other {} are taken "
+        "at least every {} ms",
+        source_, heads_.size() - polled, heads_.size(), polled,
+        std::chrono::duration_cast<std::chrono::milliseconds>(kTickPeriod).count());
+  }
   const bool separate = &clock != &pace;
   if (separate) clock.SetWaker([&waitset] { waitset.Wake(); });
   std::uint64_t failures = 0;

@@ -93,6 +93,10 @@ class DeviceHost {
   static constexpr std::size_t kMaxHeldWriters = 8;
   /// Other cities' SCM sessions remembered so that each is reported once.
   static constexpr std::size_t kMaxForeignSessions = 32;
+  /// Readers whose data wakes the loop (the bound of `dds::LoopWaitSet`): the heartbeat and
+  /// device command readers, then the command readers of the first heads. The commands of
+  /// heads beyond it are taken at every pass too, at the latest `kTickPeriod` after they came.
+  static constexpr std::size_t kMaxWaitedReaders = 64;
 
   /// Builds the devices, backends (`make_backend`, default `MakeBackend`) and monitors of
   /// `plan`, and the readers and writers in `participant`, which must outlive the host.
