@@ -515,9 +515,8 @@ void DeviceHost::TakeHeartbeats(const ClockReading& now) {
     if (ScmCurrent(now.mono)) {
       // Commands held from anyone else were not the SCM's.
       for (auto& h : heads_) {
-        const std::vector<Head::Held> held = std::exchange(h->held, {});
-        h->held.reserve(kMaxHeldWriters);
-        for (const auto& c : held) ReportForeignCommand(*h, c.writer, c.value, now);
+        for (const auto& c : h->held) ReportForeignCommand(*h, c.writer, c.value, now);
+        h->held.clear();  // keeps its capacity
       }
     }
   }
