@@ -5,6 +5,7 @@
 ///
 /// ```yaml
 /// name: small_town_lights          # heartbeat sender "infra/<name>"
+/// city: small_town                 # the SCM city it serves (config/cities/<city>.yaml)
 /// map: ../maps/small_town.yaml     # relative to this file; a layout or a built map.yaml
 /// scm_heartbeat_timeout_s: 1.0
 /// status_period_s: 0.1
@@ -91,6 +92,10 @@ struct InfraConfig {
   /// This host's name: its heartbeat sender is "infra/<name>" and its events' source too.
   /// Letters, digits and '_'.
   std::string name;
+  /// The city of the SCM this host serves (the `name` of its `config/cities/` file). The host
+  /// follows only the heartbeat of that city's SCM and puts the city in its DeviceStatus and
+  /// heartbeats. Letters, digits and '_'.
+  std::string city;
   /// The map, as a layout or a built map.yaml; a relative path is relative to the config file.
   std::string map;
   /// A device flashes red on its own when the SCM's heartbeat is missing for longer than this.
@@ -113,6 +118,8 @@ struct InfraConfig {
   void Serialize(Archive& a) {
     a.Required("name", name,
                config::Predicate{"a non-empty name of letters, digits and '_'", IsValidName});
+    a.Required("city", city,
+               config::Predicate{"a non-empty city name of letters, digits and '_'", IsValidName});
     a.Required("map", map, config::Predicate{"a non-empty path", [](const std::string& p) {
                                                return !p.empty();
                                              }});

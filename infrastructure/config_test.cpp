@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <filesystem>
 #include <fstream>
@@ -60,6 +61,10 @@ TEST(InfraConfig, TheShippedConfigsLoadAndResolveAgainstTheirMaps) {
     const InfraConfig config = LoadInfraConfig(path);
     const HostPlan plan = PlanHost(config, path);
     heads[path.stem().string()] = plan.heads.size();
+    // The city is an SCM city of the project: config/cities/<city>.yaml, whose name it is.
+    const fs::path city = test::SourceDir() / "config" / "cities" / (config.city + ".yaml");
+    ASSERT_TRUE(fs::exists(city)) << city;
+    EXPECT_EQ(YAML::LoadFile(city.string())["name"].as<std::string>(), config.city);
     for (const auto& h : plan.heads) EXPECT_EQ(h.backend, BackendType::kSimulated);
     EXPECT_TRUE(config.monitor.enabled);
   }
@@ -73,6 +78,7 @@ TEST(InfraConfig, RoundTripsThroughYaml) {
   }
   InfraConfig full;
   full.name = "lab_2";
+  full.city = "parking_school";
   full.map = "/maps/x.yaml";
   full.scm_heartbeat_timeout_s = 2500ms;
   full.status_period_s = 50ms;
@@ -85,7 +91,7 @@ TEST(InfraConfig, RoundTripsThroughYaml) {
 }
 
 TEST(InfraConfig, OptionalKeysKeepTheirDefaults) {
-  const auto c = config::LoadString<InfraConfig>("name: a\nmap: m.yaml\n");
+  const auto c = config::LoadString<InfraConfig>("name: a\ncity: c\nmap: m.yaml\n");
   EXPECT_EQ(c.scm_heartbeat_timeout_s, 1s);
   EXPECT_EQ(c.status_period_s, 100ms);
   EXPECT_EQ(c.flash_period_s, 1s);
@@ -97,81 +103,89 @@ TEST(InfraConfig, OptionalKeysKeepTheirDefaults) {
 }
 
 TEST(InfraConfigErrors, NameFileLineColumnKeyAndValue) {
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nscm_heartbeat_timeout: 1\n"),
-            "infra.yaml:3:1: scm_heartbeat_timeout: unknown key (did you mean "
-            "scm_heartbeat_timeout_s? allowed keys: name, map, scm_heartbeat_timeout_s, "
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\nscm_heartbeat_timeout: 1\n"),
+            "infra.yaml:4:1: scm_heartbeat_timeout: unknown key (did you mean "
+            "scm_heartbeat_timeout_s? allowed keys: name, city, map, scm_heartbeat_timeout_s, "
             "status_period_s, flash_period_s, heads, default_backend, serial, monitor)");
   EXPECT_EQ(LoadError("map: m.yaml\n"), "infra.yaml:1:1: name: missing required key");
-  EXPECT_EQ(LoadError("name: a b\nmap: m.yaml\n"),
+  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\n"), "infra.yaml:1:1: city: missing required key");
+  EXPECT_EQ(LoadError("name: a\ncity: small-town\nmap: m.yaml\n"),
+            "infra.yaml:2:7: city: invalid value (got small-town; expected a non-empty city "
+            "name of letters, digits and '_')");
+  EXPECT_EQ(LoadError("name: a b\ncity: c\nmap: m.yaml\n"),
             "infra.yaml:1:7: name: invalid value (got a b; expected a non-empty "
             "name of letters, digits and '_')");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nscm_heartbeat_timeout_s: 0.01\n"),
-            "infra.yaml:3:26: scm_heartbeat_timeout_s: out of range (got 0.01; expected a value "
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\nscm_heartbeat_timeout_s: 0.01\n"),
+            "infra.yaml:4:26: scm_heartbeat_timeout_s: out of range (got 0.01; expected a value "
             "in [0.1, 60.0])");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\ndefault_backend: usb\n"),
-            "infra.yaml:3:18: default_backend: not an allowed value (got \"usb\"; expected one "
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\ndefault_backend: usb\n"),
+            "infra.yaml:4:18: default_backend: not an allowed value (got \"usb\"; expected one "
             "of \"simulated\", \"serial\")");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nheads: [1, 2, 1]\n"),
-            "infra.yaml:3:8: heads: invalid value (got a sequence; expected a list of distinct "
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\nheads: [1, 2, 1]\n"),
+            "infra.yaml:4:8: heads: invalid value (got a sequence; expected a list of distinct "
             "head ids)");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nheads: [0]\n"),
-            "infra.yaml:3:9: heads[0]: out of range (got 0; expected a value in [1, 1000000])");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nserial:\n  - {head: 1, port: /dev/x, baud: 12345}\n"),
-            "infra.yaml:4:35: serial[0].baud: invalid value (got 12345; expected a baud rate of "
-            "9600, 19200, 38400, 57600, 115200, 230400, 460800 or 921600)");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nserial:\n  - {head: 1, port: /dev/x}\n"
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\nheads: [0]\n"),
+            "infra.yaml:4:9: heads[0]: out of range (got 0; expected a value in [1, 1000000])");
+  EXPECT_EQ(
+      LoadError(
+          "name: a\ncity: c\nmap: m.yaml\nserial:\n  - {head: 1, port: /dev/x, baud: 12345}\n"),
+      "infra.yaml:5:35: serial[0].baud: invalid value (got 12345; expected a baud rate of "
+      "9600, 19200, 38400, 57600, 115200, 230400, 460800 or 921600)");
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\nserial:\n  - {head: 1, port: /dev/x}\n"
                       "  - {head: 2, port: /dev/x}\n"),
-            "infra.yaml:4:3: serial: invalid value (got a sequence; expected entries with "
+            "infra.yaml:5:3: serial: invalid value (got a sequence; expected entries with "
             "distinct heads and distinct ports)");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nheads: [1]\nserial:\n  - {head: 2, port: /dev/x}\n"),
-            "infra.yaml:1:1: <root>: serial[0].head: head 2 is not one of the hosted heads "
-            "(heads)");
-  EXPECT_EQ(LoadError("name: a\nmap: m.yaml\nmonitor: {conflict_persistence_s: 5}\n"),
-            "infra.yaml:3:35: monitor.conflict_persistence_s: out of range (got 5; expected a "
+  EXPECT_EQ(
+      LoadError(
+          "name: a\ncity: c\nmap: m.yaml\nheads: [1]\nserial:\n  - {head: 2, port: /dev/x}\n"),
+      "infra.yaml:1:1: <root>: serial[0].head: head 2 is not one of the hosted heads "
+      "(heads)");
+  EXPECT_EQ(LoadError("name: a\ncity: c\nmap: m.yaml\nmonitor: {conflict_persistence_s: 5}\n"),
+            "infra.yaml:4:35: monitor.conflict_persistence_s: out of range (got 5; expected a "
             "value in [0.05, 2.0])");
 }
 
 TEST(InfraConfigErrors, HeadsMustBeSignalHeadsOfTheMap) {
   TempDir dir;
-  const auto path =
-      dir.Write("infra.yaml", "name: a\nmap: " + DrivingSchoolMap() + "\nheads: [1,\n        9]\n");
+  const auto path = dir.Write(
+      "infra.yaml", "name: a\ncity: c\nmap: " + DrivingSchoolMap() + "\nheads: [1,\n        9]\n");
   const InfraConfig config = LoadInfraConfig(path);
   EXPECT_EQ(test::ErrorMessage<ConfigError>([&] { (void)PlanHost(config, path); }),
             path.string() +
-                ":4:9: heads[1]: no signal head 9 in map driving_school (it has 1, 2, "
+                ":5:9: heads[1]: no signal head 9 in map driving_school (it has 1, 2, "
                 "3, 4)");
 }
 
 TEST(InfraConfigErrors, SerialHeadsMustBeSignalHeadsOfTheMap) {
   TempDir dir;
-  const auto path = dir.Write("infra.yaml", "name: a\nmap: " + DrivingSchoolMap() +
+  const auto path = dir.Write("infra.yaml", "name: a\ncity: c\nmap: " + DrivingSchoolMap() +
                                                 "\nserial:\n  - {head: 12, port: /dev/x}\n");
   const InfraConfig config = LoadInfraConfig(path);
   EXPECT_EQ(test::ErrorMessage<ConfigError>([&] { (void)PlanHost(config, path); }),
             path.string() +
-                ":4:12: serial[0].head: no signal head 12 in map driving_school (it "
+                ":5:12: serial[0].head: no signal head 12 in map driving_school (it "
                 "has 1, 2, 3, 4)");
 }
 
 TEST(InfraConfigErrors, ASerialDefaultNeedsAPortForEveryHead) {
   TempDir dir;
   const auto path =
-      dir.Write("infra.yaml", "name: a\nmap: " + DrivingSchoolMap() +
+      dir.Write("infra.yaml", "name: a\ncity: c\nmap: " + DrivingSchoolMap() +
                                   "\ndefault_backend: serial\nserial:\n  - {head: 1, port: /a}\n");
   const InfraConfig config = LoadInfraConfig(path);
   EXPECT_EQ(test::ErrorMessage<ConfigError>([&] { (void)PlanHost(config, path); }),
             path.string() +
-                ":3:18: default_backend: head 2 would use the serial backend but has "
+                ":4:18: default_backend: head 2 would use the serial backend but has "
                 "no entry in serial (add {head: 2, port: ...})");
 }
 
 TEST(InfraConfigErrors, AMissingMapNamesTheResolvedPath) {
   TempDir dir;
-  const auto path = dir.Write("infra.yaml", "name: a\nmap: ../nowhere/map.yaml\n");
+  const auto path = dir.Write("infra.yaml", "name: a\ncity: c\nmap: ../nowhere/map.yaml\n");
   const InfraConfig config = LoadInfraConfig(path);
   const std::string resolved = (path.parent_path() / "../nowhere/map.yaml").string();
   EXPECT_EQ(test::ErrorMessage<ConfigError>([&] { (void)PlanHost(config, path); }),
-            path.string() + ":2:6: map: cannot load the map " + resolved + " (" + resolved +
+            path.string() + ":3:6: map: cannot load the map " + resolved + " (" + resolved +
                 ": cannot read file (No such file or directory))");
 }
 
@@ -179,7 +193,7 @@ TEST(HostPlan, ResolvesBackendsAndIntersections) {
   TempDir dir;
   const auto path =
       dir.Write("infra.yaml",
-                "name: a\nmap: " + DrivingSchoolMap() +
+                "name: a\ncity: c\nmap: " + DrivingSchoolMap() +
                     "\nheads: [4, 2]\nserial:\n  - {head: 4, port: /dev/ttyACM3, baud: 9600}\n");
   const HostPlan plan = PlanHost(LoadInfraConfig(path), path);
   ASSERT_EQ(plan.heads.size(), 2u);

@@ -131,6 +131,27 @@ std::optional<MonitorLatch> ConflictMonitor::Update(MonoTime now) {
   return std::nullopt;
 }
 
+void ConflictMonitor::RestartTimers() {
+  for (HeadState& state : states_) state.go_since.reset();
+}
+
+std::optional<MonoTime> ConflictMonitor::NextLatch() const {
+  if (latch_) return std::nullopt;
+  std::optional<MonoTime> next;
+  const auto state_of = [&](SignalHeadId head) -> const HeadState& {
+    return states_[static_cast<std::size_t>(std::find(heads_.begin(), heads_.end(), head) -
+                                            heads_.begin())];
+  };
+  for (const auto& c : conflicts_) {
+    const HeadState& a = state_of(c.a);
+    const HeadState& b = state_of(c.b);
+    if (!a.go_since || !b.go_since) continue;
+    const MonoTime at = std::max(*a.go_since, *b.go_since) + persistence_;
+    if (!next || at < *next) next = at;
+  }
+  return next;
+}
+
 bool ConflictMonitor::Reset() {
   const bool was = latch_.has_value();
   latch_.reset();

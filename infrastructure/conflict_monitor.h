@@ -67,6 +67,14 @@ class ConflictMonitor {
   std::optional<MonitorLatch> Update(MonoTime now);
   /// Clears the latch; returns whether it was latched.
   bool Reset();
+  /// The time base restarted (a new session of the simulated clock): forgets since when each
+  /// head has shown go, so that the persistence is counted again on the new timeline from the
+  /// next `Observe`. A latch stays latched.
+  void RestartTimers();
+  /// The instant at which the monitor latches if the lamps stay as they are: the earliest
+  /// instant at which a conflicting pair that both show go reaches the persistence. Nothing
+  /// while latched or while no conflicting pair shows go.
+  [[nodiscard]] std::optional<MonoTime> NextLatch() const;
 
   /// True from the latch until `Reset`.
   [[nodiscard]] bool latched() const { return latch_.has_value(); }

@@ -257,6 +257,35 @@ TEST(ConflictMonitor, StaysLatchedUntilResetAndReportsTheLatchOnce) {
   EXPECT_FALSE(Tick(monitor, MonoFromSeconds(4), kRed, kRed));
 }
 
+TEST(ConflictMonitor, NextLatchIsWhenTheOverlapReachesThePersistence) {
+  const maps::Map map = TwoHeadMap(true);
+  ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
+  const MonoTime t0 = MonoFromSeconds(1);
+  EXPECT_FALSE(Tick(monitor, t0, kGreen, kRed));
+  EXPECT_EQ(monitor.NextLatch(), std::nullopt) << "only one head shows go";
+  EXPECT_FALSE(Tick(monitor, t0 + 50ms, kGreen, kYellow));
+  EXPECT_EQ(monitor.NextLatch(), t0 + 350ms);
+  EXPECT_FALSE(Tick(monitor, t0 + 349ms, kGreen, kYellow));
+  EXPECT_TRUE(Tick(monitor, *monitor.NextLatch(), kGreen, kYellow)) << "latches exactly then";
+  EXPECT_EQ(monitor.NextLatch(), std::nullopt) << "latched";
+}
+
+TEST(ConflictMonitor, AfterATimeBaseRestartTheOverlapIsCountedOnTheNewTimeline) {
+  const maps::Map map = TwoHeadMap(true);
+  ConflictMonitor monitor(map, IntersectionId(1), {}, 300ms);
+  // Both show go from 1000 s; then the simulated clock restarts at 5 s with the lamps as they
+  // were. Without a restart the overlap would seem to start in the future and never latch.
+  EXPECT_FALSE(Tick(monitor, MonoFromSeconds(1000), kGreen, kGreen));
+  monitor.RestartTimers();
+  const MonoTime t1 = MonoFromSeconds(5);
+  EXPECT_FALSE(Tick(monitor, t1, kGreen, kGreen));
+  EXPECT_FALSE(Tick(monitor, t1 + 299ms, kGreen, kGreen));
+  EXPECT_TRUE(Tick(monitor, t1 + 300ms, kGreen, kGreen));
+  // A latch survives a restart.
+  monitor.RestartTimers();
+  EXPECT_TRUE(monitor.latched());
+}
+
 TEST(ConflictMonitor, WatchesOnlyTheHostedHeads) {
   const maps::Map& map = LoadShipped("driving_school");
   const auto& x = Named(map, "driving_school_crossing");

@@ -177,6 +177,37 @@ void TrafficLightDevice::ReleaseForce(MonoTime now) {
   TryLeaveFailSafe(now);
 }
 
+void TrafficLightDevice::Restart(const std::string& reason, MonoTime now) {
+  alive_ = false;
+  session_.reset();
+  last_running_ = now;
+  needs_fresh_command_ = false;
+  command_usable_ = command_.has_value();
+  fail_safe_ = reason;
+  shown_ = Aspect::kFlashingRed;  // forced or not, the head flashes red from now
+  flash_start_ = now;
+  local_flash_raised_ = true;
+  Raise(Severity::kWarning, "local_flash", name_ + " flashes red on its own: " + reason, true);
+}
+
+MonoTime TrafficLightDevice::NextChange(MonoTime now) const {
+  MonoTime next = MonoTime::max();
+  if (IsFlashing(shown_)) {
+    // The edges of `LampsAt`: on at the start of each period, off after its first half.
+    const Duration period = params_.flash_period;
+    const Duration since = now - flash_start_;
+    if (since < Duration::zero()) {
+      next = flash_start_;
+    } else {
+      const MonoTime cycle_start = flash_start_ + (since / period) * period;
+      const MonoTime off_at = cycle_start + period / 2;
+      next = now < off_at ? off_at : cycle_start + period;
+    }
+  }
+  if (alive_) next = std::min(next, last_running_ + params_.scm_heartbeat_timeout + Duration(1));
+  return next;
+}
+
 Lamps TrafficLightDevice::LampsAt(MonoTime now) const {
   if (!IsFlashing(shown_)) return LampsFor(shown_);
   const Duration since = now - flash_start_;

@@ -50,7 +50,9 @@ enum class ScmState : std::uint8_t { kStarting = 0, kRunning = 1, kStopping = 2 
 
 /// What a device needs from one SCM heartbeat (sender "scm").
 struct ScmHeartbeat {
-  std::uint64_t session_id = 0;       ///< random per SCM start
+  /// Which SCM: a change is a restart of the SCM. The host passes a number that changes
+  /// whenever the SCM it follows changes (its session id or its DDS participant).
+  std::uint64_t session_id = 0;
   std::uint64_t sequence_number = 0;  ///< increments per heartbeat
   ScmState state = ScmState::kRunning;
 };
@@ -110,8 +112,21 @@ class TrafficLightDevice {
   /// `reason` goes into the detail.
   void ForceFlash(const std::string& reason, MonoTime now);
   /// The conflict monitor was reset: stay in flash until a new legal command comes (as after a
-  /// lost heartbeat). No effect when not forced.
+  /// lost heartbeat). No effect when not forced. A command received in the same instant after
+  /// the release (`OnCommand` called after this) is new and can end the flash; one received
+  /// before it cannot.
   void ReleaseForce(MonoTime now);
+  /// The time base restarted (a simulator restart: a new session of the simulated clock), and
+  /// every instant remembered so far means nothing on the new timeline. The device goes back to
+  /// its start-up state: flashing red from `now`, waiting for the SCM's heartbeat; the latest
+  /// command it has counts as a latched one (it ends the flash once the heartbeat is there, if
+  /// it is red, off or flashing). Raises an active "local_flash" event naming `reason`. A forced
+  /// flash stays forced; lamp faults and the backend state are kept.
+  void Restart(const std::string& reason, MonoTime now);
+  /// The next instant after `now` at which the device changes on its own if nothing arrives:
+  /// the next on/off edge of a flashing aspect, or the SCM's heartbeat timing out. The loop
+  /// wakes at that instant (see `DeviceHost::Run`). `MonoTime::max()` when nothing is pending.
+  [[nodiscard]] MonoTime NextChange(MonoTime now) const;
 
   /// The aspect displayed now (flashing red in fail-safe).
   [[nodiscard]] Aspect aspect() const { return shown_; }

@@ -3,10 +3,14 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <deque>
 #include <map>
 #include <random>
+#include <utility>
 
 #include "common/dds/conversions.h"
+#include "common/dds/identity.h"
+#include "common/dds/loop_waitset.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
@@ -35,8 +39,16 @@ static_assert(static_cast<int>(ScmState::kRunning) ==
 static_assert(static_cast<int>(ScmState::kStopping) ==
               autodrive_msgs_msg_Heartbeat_Constants_STOPPING);
 
+static_assert(static_cast<int>(ScmState::kStarting) ==
+              autodrive_msgs_msg_Heartbeat_Constants_STARTING);
+static_assert(static_cast<int>(Severity::kInfo) == autodrive_msgs_msg_Event_Constants_INFO);
+
+// The one device command there is; the only place its wire value is used.
+constexpr std::uint8_t kResetMonitorWire = autodrive_msgs_msg_DeviceCommand_Constants_RESET_MONITOR;
+
 constexpr std::string_view kScmSender = "scm";
-constexpr std::string_view kResetCommand = "reset";
+// Text from the network goes into logs and events cut to this length.
+constexpr std::size_t kExcerpt = 64;
 
 // What a DeviceStatus says, apart from time and heartbeat sequence: publish when it changes.
 struct StatusKey {
@@ -44,6 +56,7 @@ struct StatusKey {
   Mode mode = Mode::kNormal;
   std::int32_t displayed = 0;
   std::string detail;
+  std::uint64_t last_command_id = 0;
   bool operator==(const StatusKey&) const = default;
 };
 
@@ -59,9 +72,62 @@ void LogEvent(Severity severity, const std::string& code, const std::string& mes
   spdlog::log(level, "event {}{}: {}", code, active ? "" : " (cleared)", message);
 }
 
+// `text` (from the network) quoted and cut to `kExcerpt` characters.
+std::string Quoted(std::string_view text) {
+  if (text.size() <= kExcerpt) return "'" + std::string(text) + "'";
+  return "'" + std::string(text.substr(0, kExcerpt)) + "...'";
+}
+
+// "green", or "9 (not an aspect)".
+std::string CommandText(std::int32_t wire) {
+  if (const auto aspect = AspectFromWire(wire)) return std::string(ToString(*aspect));
+  return std::to_string(wire) + " (not an aspect)";
+}
+
+std::string Hex(std::uint64_t value) { return fmt::format("{:#x}", value); }
+
+// Lets a report of one kind out at most once per period of the control timeline, and counts
+// the ones it held back. Time going back (a new clock session: `Restart`) never blocks it.
+class ReportLimiter {
+ public:
+  // True when a report may go out at `now`.
+  bool Allow(MonoTime now, Duration period) {
+    if (last_ && now >= *last_ && now - *last_ < period) {
+      ++held_back_;
+      return false;
+    }
+    last_ = now;
+    return true;
+  }
+  // The reports held back since the last one that went out.
+  std::uint64_t TakeHeldBack() { return std::exchange(held_back_, 0); }
+  void Restart() { last_.reset(); }
+
+ private:
+  std::optional<MonoTime> last_;
+  std::uint64_t held_back_ = 0;
+};
+
+// A writer on the host's loop, which must never block: the catalogue's QoS, non-blocking.
+template <typename T>
+std::unique_ptr<dds::Writer<T>> LoopWriter(const dds::Participant& participant,
+                                           const dds::TopicSpec<T>& spec) {
+  return std::make_unique<dds::Writer<T>>(participant, spec.name, spec.qos.NonBlocking());
+}
+
 }  // namespace
 
 struct DeviceHost::Head {
+  Head(const HeadPlan& p, const DeviceParams& params, MonoTime now)
+      : plan(p), device(params, now), next_status(now) {}
+
+  // A command kept while no SCM is followed and current.
+  struct Held {
+    dds::ParticipantKey writer;
+    std::int32_t value = 0;
+    std::uint64_t order = 0;  // arrival order, host-wide
+  };
+
   HeadPlan plan;
   TrafficLightDevice device;
   std::unique_ptr<LampBackend> backend;
@@ -72,30 +138,45 @@ struct DeviceHost::Head {
   std::optional<std::int32_t> published_state;
   std::optional<StatusKey> published_status;
   MonoTime next_status{};
+  std::vector<Held> held;  // at most kMaxHeldWriters, one per writer participant
+  std::uint64_t foreign_commands = 0;
+  ReportLimiter foreign_reports;
 };
 
 struct DeviceHost::Monitor {
+  Monitor(ConflictMonitor m, std::vector<Head*> h, BackendKind b, MonoTime now)
+      : monitor(std::move(m)), heads(std::move(h)), backend(b), next_status(now) {}
+
   ConflictMonitor monitor;
   std::vector<Head*> heads;
   BackendKind backend = BackendKind::kSimulated;
   std::unique_ptr<dds::Writer<msg::DeviceStatus>> status;
   std::optional<StatusKey> published_status;
   MonoTime next_status{};
+  // The last device command carried out, and the SCM that sent it.
+  std::uint64_t last_command_id = 0;
+  std::optional<ScmId> last_command_scm;
 };
 
 struct DeviceHost::Dds {
   const dds::Participant& participant;
   dds::Reader<msg::Heartbeat> heartbeats;
-  dds::Writer<msg::Heartbeat> heartbeat;
-  dds::Writer<msg::Event> events;
-  std::unique_ptr<dds::Reader<msg::OperatorRequest>> operator_requests;
-  std::uint64_t write_failures_logged = 0;
+  std::unique_ptr<dds::Writer<msg::Heartbeat>> heartbeat;
+  std::unique_ptr<dds::Writer<msg::Event>> events;
+  std::unique_ptr<dds::Reader<msg::DeviceCommand>> device_commands;  // when monitors run here
+  dds::WriterParticipants writers;  // who wrote each sample (bounded cache)
 
   explicit Dds(const dds::Participant& p)
       : participant(p),
         heartbeats(p, dds::topics::Heartbeat()),
-        heartbeat(p, dds::topics::Heartbeat()),
-        events(p, dds::topics::Events()) {}
+        heartbeat(LoopWriter(p, dds::topics::Heartbeat())),
+        events(LoopWriter(p, dds::topics::Events())) {}
+};
+
+struct DeviceHost::Reports {
+  ReportLimiter device_commands;
+  ReportLimiter unidentified;
+  std::deque<std::uint64_t> foreign_sessions;  // other cities' SCM sessions already reported
 };
 
 namespace {
@@ -133,7 +214,11 @@ std::unique_ptr<LampBackend> MakeBackend(const HeadPlan& head, const InfraConfig
 DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
                        const dds::Participant& participant, const ClockReading& now,
                        BackendFactory make_backend)
-    : config_(config), plan_(std::move(plan)), source_("infra/" + config.name) {
+    : config_(config),
+      plan_(std::move(plan)),
+      source_("infra/" + config.name),
+      reports_(std::make_unique<Reports>()),
+      clock_session_(now.session) {
   if (!make_backend) {
     make_backend = [this](const HeadPlan& h) { return MakeBackend(h, config_); };
   }
@@ -146,24 +231,14 @@ DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
   params.flash_period = config_.flash_period_s;
   for (const HeadPlan& h : plan_.heads) {
     params.id = h.id;
-    auto head = std::unique_ptr<Head>(new Head{h,
-                                               TrafficLightDevice(params, now.mono),
-                                               nullptr,
-                                               nullptr,
-                                               nullptr,
-                                               nullptr,
-                                               {},
-                                               {},
-                                               {},
-                                               now.mono});
+    auto head = std::make_unique<Head>(h, params, now.mono);
     head->backend = make_backend(h);
     AUTODRIVE_CHECK(head->backend != nullptr, "no backend for head " << h.id.value());
+    head->held.reserve(kMaxHeldWriters);
     head->commands =
         std::make_unique<dds::Reader<msg::Int32>>(participant, dds::topics::SignalCommand(h.id));
-    head->state =
-        std::make_unique<dds::Writer<msg::Int32>>(participant, dds::topics::SignalState(h.id));
-    head->status =
-        std::make_unique<dds::Writer<msg::DeviceStatus>>(participant, dds::topics::Devices());
+    head->state = LoopWriter(participant, dds::topics::SignalState(h.id));
+    head->status = LoopWriter(participant, dds::topics::Devices());
     spdlog::info("{}: {} at intersection {} ({})", head->device.name(), head->backend->Describe(),
                  plan_.map.intersection(h.intersection).name, h.intersection.value());
     heads_.push_back(std::move(head));
@@ -179,15 +254,10 @@ DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
         ids.push_back(h->plan.id);
         if (h->backend->kind() == BackendKind::kPhysical) backend = BackendKind::kPhysical;
       }
-      auto m = std::unique_ptr<Monitor>(
-          new Monitor{ConflictMonitor(plan_.map, x, ids, config_.monitor.conflict_persistence_s),
-                      heads,
-                      backend,
-                      nullptr,
-                      {},
-                      now.mono});
-      m->status =
-          std::make_unique<dds::Writer<msg::DeviceStatus>>(participant, dds::topics::Devices());
+      auto m = std::make_unique<Monitor>(
+          ConflictMonitor(plan_.map, x, ids, config_.monitor.conflict_persistence_s), heads,
+          backend, now.mono);
+      m->status = LoopWriter(participant, dds::topics::Devices());
       const auto& all = plan_.map.intersection(x).signal_heads;
       if (all.size() != ids.size()) {
         spdlog::warn(
@@ -200,10 +270,12 @@ DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
       monitors_.push_back(std::move(m));
     }
     if (!monitors_.empty()) {
-      dds_->operator_requests = std::make_unique<dds::Reader<msg::OperatorRequest>>(
-          participant, dds::topics::OperatorRequests());
+      dds_->device_commands = std::make_unique<dds::Reader<msg::DeviceCommand>>(
+          participant, dds::topics::DeviceCommands());
     }
   }
+  spdlog::info("{} serves city {}: it follows only the heartbeat of that city's SCM", source_,
+               config_.city);
 }
 
 DeviceHost::~DeviceHost() = default;
@@ -213,6 +285,14 @@ DeviceHost::Head& DeviceHost::FindHead(SignalHeadId head) const {
     if (h->plan.id == head) return *h;
   }
   throw InputError("signal head " + std::to_string(head.value()) + " is not hosted by " + source_);
+}
+
+DeviceHost::Monitor& DeviceHost::FindMonitor(IntersectionId intersection) const {
+  for (const auto& m : monitors_) {
+    if (m->monitor.intersection() == intersection) return *m;
+  }
+  throw InputError("no conflict monitor watches intersection " +
+                   std::to_string(intersection.value()) + " in " + source_);
 }
 
 const TrafficLightDevice& DeviceHost::device(SignalHeadId head) const {
@@ -228,6 +308,11 @@ const ConflictMonitor* DeviceHost::monitor(IntersectionId intersection) const {
   return nullptr;
 }
 
+std::uint64_t DeviceHost::last_command_id(IntersectionId intersection) const {
+  const Monitor& m = FindMonitor(intersection);
+  return m.last_command_scm && m.last_command_scm == last_scm_ ? m.last_command_id : 0;
+}
+
 std::vector<SignalHeadId> DeviceHost::heads() const {
   std::vector<SignalHeadId> ids;
   for (const auto& h : heads_) ids.push_back(h->plan.id);
@@ -235,23 +320,89 @@ std::vector<SignalHeadId> DeviceHost::heads() const {
 }
 
 void DeviceHost::Run(Clock& clock, Clock& pace) {
-  Ticker ticker(pace, kTickPeriod);
-  do {
-    try {
-      Step(clock.Read());
-    } catch (const std::exception& e) {
-      // The loop is the daemon's boundary: log and carry on with the next tick.
-      spdlog::error("tick failed: {}", e.what());
+  // Waits on the pace (wall) clock: real time bounds every wait, so that the serial links are
+  // served while a simulation is paused. A separate (simulated) clock wakes the same waitset
+  // when /clock reaches the next deadline.
+  dds::LoopWaitSet waitset(dds_->participant, pace);
+  waitset.Attach(dds_->heartbeats);
+  std::size_t attached = 1;
+  if (dds_->device_commands) {
+    waitset.Attach(*dds_->device_commands);
+    ++attached;
+  }
+  std::size_t polled = 0;
+  for (const auto& h : heads_) {
+    if (attached < kMaxWaitedReaders) {
+      waitset.Attach(*h->commands);
+      ++attached;
+    } else {
+      ++polled;  // taken at every pass all the same, at the latest kTickPeriod later
     }
-  } while (ticker.WaitNext());
+  }
+  if (polled > 0) {
+    spdlog::warn(
+        "{}: the commands of {} of its {} heads wake the loop; the other {} are taken "
+        "at least every {} ms",
+        source_, heads_.size() - polled, heads_.size(), polled,
+        std::chrono::duration_cast<std::chrono::milliseconds>(kTickPeriod).count());
+  }
+  const bool separate = &clock != &pace;
+  if (separate) clock.SetWaker([&waitset] { waitset.Wake(); });
+  std::uint64_t failures = 0;
+  const auto failed = [&](const char* what, const std::exception& e) {
+    // The loop is the daemon's boundary: log (the first few, then every 100th) and carry on,
+    // without spinning on a failure that repeats.
+    if (++failures <= 5 || failures % 100 == 0) {
+      spdlog::error("{} failed ({} failures so far): {}", what, failures, e.what());
+    }
+    (void)pace.SleepFor(kTickPeriod);
+  };
+  while (!clock.interrupted() && !pace.interrupted()) {
+    const ClockReading now = clock.Read();
+    MonoTime next = now.mono + kTickPeriod;
+    try {
+      Step(now);
+      next = NextDeadline(now);
+    } catch (const std::exception& e) {
+      failed("a pass", e);
+    }
+    try {
+      if (separate) {
+        clock.WakeAt(next);
+        (void)waitset.WaitUntil(pace.Monotonic() + kTickPeriod);
+      } else {
+        (void)waitset.WaitUntil(std::min(next, now.mono + kTickPeriod));
+      }
+    } catch (const std::exception& e) {
+      failed("waiting", e);
+    }
+  }
+  if (separate) clock.SetWaker({});
   Stop(clock.Read());
+}
+
+MonoTime DeviceHost::NextDeadline(const ClockReading& now) const {
+  MonoTime next = MonoTime::max();
+  for (const auto& h : heads_) {
+    next = std::min({next, h->next_status, h->device.NextChange(now.mono)});
+  }
+  for (const auto& m : monitors_) {
+    next = std::min(next, m->next_status);
+    if (const auto latch = m->monitor.NextLatch()) next = std::min(next, *latch);
+  }
+  if (next_heartbeat_) next = std::min(next, *next_heartbeat_);
+  // Everything due is done by the pass that just ran; never spin on a deadline in the past.
+  return std::max(next, now.mono + std::chrono::milliseconds(1));
 }
 
 void DeviceHost::Step(const ClockReading& now) {
   if (stopped_) return;
+  if (now.session != clock_session_) RestartTimeBase(now);
+  // Heartbeats first (who the SCM is), then device commands (a reset releases the heads), then
+  // light commands (a red taken in the same pass as the reset ends the heads' flash).
   TakeHeartbeats(now);
+  TakeDeviceCommands(now);
   TakeCommands(now);
-  TakeOperatorRequests(now);
   for (auto& h : heads_) {
     h->device.Update(now.mono);
     DriveLamps(*h, now);
@@ -268,11 +419,58 @@ void DeviceHost::Step(const ClockReading& now) {
   PublishHeartbeat(now, /*stopping=*/false);
 }
 
+void DeviceHost::RestartTimeBase(const ClockReading& now) {
+  ++counters_.clock_restarts;
+  spdlog::warn(
+      "the clock started session {} (was {}): the simulation restarted; heads go back to "
+      "start-up flash and wait for the SCM, monitors keep their latches",
+      now.session, clock_session_);
+  clock_session_ = now.session;
+  const std::string reason =
+      "simulated clock restarted (session " + std::to_string(now.session) + ")";
+  // Every instant remembered so far is on the old timeline: forget them all.
+  scm_.reset();
+  scm_running_ = false;
+  next_heartbeat_.reset();
+  reports_->device_commands.Restart();
+  reports_->unidentified.Restart();
+  for (auto& h : heads_) {
+    h->device.Restart(reason, now.mono);
+    h->next_status = now.mono;
+    h->foreign_reports.Restart();
+  }
+  for (auto& m : monitors_) {
+    m->monitor.RestartTimers();
+    m->next_status = now.mono;
+  }
+}
+
+bool DeviceHost::ScmCurrent(MonoTime now) const {
+  return scm_.has_value() && scm_running_ &&
+         now - scm_last_running_ <= config_.scm_heartbeat_timeout_s;
+}
+
 void DeviceHost::TakeHeartbeats(const ClockReading& now) {
   dds::Message<msg::Heartbeat> m;
-  while (dds_->heartbeats.TakeOne(m)) {
+  dds::SampleInfo info;
+  while (dds_->heartbeats.TakeOne(m, &info)) {
     if (dds::View(m->sender) != kScmSender) continue;  // device hosts, including us
     ++counters_.scm_heartbeats;
+    const std::string_view city = dds::View(m->city);
+    if (city != config_.city) {
+      ++counters_.foreign_scm_heartbeats;
+      auto& seen = reports_->foreign_sessions;
+      if (std::find(seen.begin(), seen.end(), m->session_id) == seen.end()) {
+        if (seen.size() >= kMaxForeignSessions) seen.pop_front();
+        seen.push_back(m->session_id);
+        PublishEvent(now, Severity::kWarning, "foreign_scm",
+                     source_ + " ignores the heartbeat of the SCM of city " + Quoted(city) +
+                         " (session " + Hex(m->session_id) + "): it serves city '" + config_.city +
+                         "'",
+                     0, "", true);
+      }
+      continue;
+    }
     if (m->state > autodrive_msgs_msg_Heartbeat_Constants_STOPPING) {
       ++counters_.malformed_heartbeats;
       if (counters_.malformed_heartbeats <= 5 || counters_.malformed_heartbeats % 100 == 0) {
@@ -281,43 +479,221 @@ void DeviceHost::TakeHeartbeats(const ClockReading& now) {
       }
       continue;
     }
-    const ScmHeartbeat heartbeat{m->session_id, m->sequence_number,
-                                 static_cast<ScmState>(m->state)};
+    const std::optional<dds::ParticipantKey> writer = dds_->writers.Find(dds_->heartbeats, info);
+    if (!writer) {
+      ++counters_.unidentified_samples;
+      if (reports_->unidentified.Allow(now.mono, kReportPeriod)) {
+        spdlog::warn("ignored an SCM heartbeat whose writer is no longer known ({} such samples)",
+                     counters_.unidentified_samples);
+      }
+      continue;
+    }
+    FollowScm(ScmId{m->session_id, *writer});
+    const auto state = static_cast<ScmState>(m->state);
+    if (state == ScmState::kRunning) {
+      scm_running_ = true;
+      scm_last_running_ = now.mono;
+    } else if (state == ScmState::kStopping) {
+      scm_running_ = false;
+    }
     last_scm_sequence_ = m->sequence_number;
-    for (auto& h : heads_) h->device.OnHeartbeat(heartbeat, now.mono);
+    // The devices know the SCM by a number that changes whenever the SCM followed changes
+    // (session or participant), so that each change applies the restart rules.
+    const ScmHeartbeat heartbeat{counters_.scm_changes, m->sequence_number, state};
+    for (auto& h : heads_) {
+      // Its commands held until now come before its heartbeat, as a latched command at
+      // start-up does; after a loss or a restart they are not new (the device's rules).
+      const auto held = std::find_if(h->held.begin(), h->held.end(),
+                                     [&](const Head::Held& c) { return c.writer == *writer; });
+      if (held != h->held.end()) {
+        h->device.Update(now.mono);  // a loss the host has seen, the device sees too
+        h->device.OnCommand(held->value, now.mono);
+        h->held.erase(held);
+      }
+      h->device.OnHeartbeat(heartbeat, now.mono);
+    }
+    if (ScmCurrent(now.mono)) {
+      // Commands held from anyone else were not the SCM's.
+      for (auto& h : heads_) {
+        for (const auto& c : h->held) ReportForeignCommand(*h, c.writer, c.value, now);
+        h->held.clear();  // keeps its capacity
+      }
+    }
   }
+}
+
+void DeviceHost::FollowScm(const ScmId& scm) {
+  scm_ = scm;
+  if (last_scm_ == scm) return;
+  ++counters_.scm_changes;
+  spdlog::info("{} follows the SCM of city {}: session {}, participant {}", source_, config_.city,
+               Hex(scm.session), scm.participant.ToString());
+  last_scm_ = scm;
+}
+
+void DeviceHost::TakeDeviceCommands(const ClockReading& now) {
+  if (!dds_->device_commands) return;
+  dds::Message<msg::DeviceCommand> m;
+  dds::SampleInfo info;
+  while (dds_->device_commands->TakeOne(m, &info)) {
+    ++counters_.device_commands;
+    const std::string_view device_id = dds::View(m->device_id);
+    const std::string_view city = dds::View(m->city);
+    Monitor* target = nullptr;
+    for (auto& mon : monitors_) {
+      if (mon->monitor.device_id() == device_id) target = mon.get();
+    }
+    const bool names_a_head = std::any_of(
+        heads_.begin(), heads_.end(), [&](const auto& h) { return h->device.name() == device_id; });
+    if (city == config_.city && target == nullptr && !names_a_head) {
+      // Another host's device: none of our business.
+      ++counters_.device_commands_not_ours;
+      spdlog::debug("device command {} for {}: not a device of {}", m->command_id,
+                    Quoted(device_id), source_);
+      continue;
+    }
+    const std::optional<dds::ParticipantKey> writer =
+        dds_->writers.Find(*dds_->device_commands, info);
+    std::string why;
+    if (city != config_.city) {
+      why = "it is for city " + Quoted(city) + ", this host serves '" + config_.city + "'";
+    } else if (!writer) {
+      ++counters_.unidentified_samples;
+      why = "its writer is no longer known";
+    } else if (!scm_) {
+      why = "no SCM heartbeat of city '" + config_.city + "' followed yet";
+    } else if (*writer != scm_->participant) {
+      why = "it was written by participant " + writer->ToString() + ", not the SCM's (" +
+            scm_->participant.ToString() + ")";
+    } else if (m->scm_session != scm_->session) {
+      why = "it is for SCM session " + Hex(m->scm_session) + ", the SCM followed has session " +
+            Hex(scm_->session);
+    } else if (target == nullptr) {
+      why = std::string(device_id) + " takes no device commands";
+    } else if (m->command != kResetMonitorWire) {
+      why = "unknown command " + std::to_string(m->command);
+    } else if (m->intersection_id == 0) {
+      why = "intersection 0 names no intersection";
+    } else if (m->intersection_id != target->monitor.intersection().value()) {
+      why = target->monitor.device_id() + " watches intersection " +
+            std::to_string(target->monitor.intersection().value()) + ", not " +
+            std::to_string(m->intersection_id);
+    } else if (target->last_command_scm == scm_ && m->command_id <= target->last_command_id) {
+      // Sent again (the SCM did not see the acknowledgement yet): say it again.
+      ++counters_.device_commands_repeated;
+      spdlog::debug("{}: device command {} was already carried out (last {})",
+                    target->monitor.device_id(), m->command_id, target->last_command_id);
+      target->published_status.reset();
+      continue;
+    }
+    if (!why.empty()) {
+      ++counters_.device_commands_ignored;
+      ReportIgnoredDeviceCommand(now, "ignored device command " + std::to_string(m->command_id) +
+                                          " for " + Quoted(device_id) + " (intersection " +
+                                          std::to_string(m->intersection_id) + ", operator " +
+                                          Quoted(dds::View(m->issued_by)) + ", request " +
+                                          std::to_string(m->request_id) + "): " + why);
+      continue;
+    }
+    CarryOut(*target, *scm_, m->command_id,
+             std::string(dds::View(m->issued_by)).substr(0, kExcerpt), m->request_id, now);
+  }
+}
+
+void DeviceHost::CarryOut(Monitor& mon, const ScmId& scm, std::uint64_t command_id,
+                          const std::string& issued_by, std::uint64_t request_id,
+                          const ClockReading& now) {
+  const bool was_latched = mon.monitor.Reset();
+  mon.last_command_id = command_id;
+  mon.last_command_scm = scm;
+  ++counters_.device_commands_done;
+  // The heads wait for a new command; one taken later in this pass is new.
+  for (Head* h : mon.heads) h->device.ReleaseForce(now.mono);
+  if (was_latched) {
+    ++counters_.monitor_resets;
+    PublishEvent(now, Severity::kCritical, "mmu_conflict",
+                 mon.monitor.device_id() + " reset by the SCM (device command " +
+                     std::to_string(command_id) + ", operator '" + issued_by + "', request " +
+                     std::to_string(request_id) + "); heads wait for a new command",
+                 mon.monitor.intersection().value(), mon.monitor.device_id(), false);
+  } else {
+    spdlog::info(
+        "{}: reset by the SCM (device command {}, operator '{}', request {}): it was not "
+        "latched",
+        mon.monitor.device_id(), command_id, issued_by, request_id);
+  }
+}
+
+void DeviceHost::ReportIgnoredDeviceCommand(const ClockReading& now, const std::string& reason) {
+  if (!reports_->device_commands.Allow(now.mono, kReportPeriod)) return;
+  const std::uint64_t held_back = reports_->device_commands.TakeHeldBack();
+  PublishEvent(now, Severity::kWarning, "device_command_ignored",
+               source_ + " " + reason + " (" + std::to_string(counters_.device_commands_ignored) +
+                   " ignored so far" +
+                   (held_back > 0 ? ", " + std::to_string(held_back) + " not reported" : "") + ")",
+               0, "", true);
 }
 
 void DeviceHost::TakeCommands(const ClockReading& now) {
   dds::Message<msg::Int32> m;
+  dds::SampleInfo info;
   for (auto& h : heads_) {
-    while (h->commands->TakeOne(m)) {
+    while (h->commands->TakeOne(m, &info)) {
       ++counters_.commands;
-      spdlog::debug("{}: command {}", h->device.name(), m->data);
-      h->device.OnCommand(m->data, now.mono);
+      const std::optional<dds::ParticipantKey> writer = dds_->writers.Find(*h->commands, info);
+      if (!writer) {
+        ++counters_.unidentified_samples;
+        if (reports_->unidentified.Allow(now.mono, kReportPeriod)) {
+          spdlog::warn("{}: ignored a command whose writer is no longer known ({} such samples)",
+                       h->device.name(), counters_.unidentified_samples);
+        }
+        continue;
+      }
+      if (scm_ && *writer == scm_->participant) {
+        spdlog::debug("{}: command {}", h->device.name(), m->data);
+        h->device.OnCommand(m->data, now.mono);
+      } else if (!ScmCurrent(now.mono)) {
+        HoldCommand(*h, *writer, m->data);
+      } else {
+        ReportForeignCommand(*h, *writer, m->data, now);
+      }
     }
   }
 }
 
-void DeviceHost::TakeOperatorRequests(const ClockReading& now) {
-  if (!dds_->operator_requests) return;
-  dds::Message<msg::OperatorRequest> m;
-  while (dds_->operator_requests->TakeOne(m)) {
-    if (dds::View(m->command) != kResetCommand) continue;  // the SCM's business
-    for (auto& mon : monitors_) {
-      if (m->intersection_id != 0 && m->intersection_id != mon->monitor.intersection().value()) {
-        continue;
-      }
-      if (!mon->monitor.Reset()) continue;
-      ++counters_.operator_resets;
-      for (Head* h : mon->heads) h->device.ReleaseForce(now.mono);
-      PublishEvent(now, Severity::kCritical, "mmu_conflict",
-                   mon->monitor.device_id() + " reset by operator " +
-                       std::string(dds::View(m->client_id)) + " (request " +
-                       std::to_string(m->request_id) + "); heads wait for a new command",
-                   mon->monitor.intersection().value(), mon->monitor.device_id(), false);
+void DeviceHost::HoldCommand(Head& head, const dds::ParticipantKey& writer, std::int32_t value) {
+  ++counters_.held_commands;
+  const std::uint64_t order = ++held_sequence_;
+  for (auto& c : head.held) {
+    if (c.writer == writer) {
+      c.value = value;
+      c.order = order;
+      return;
     }
   }
+  if (head.held.size() < kMaxHeldWriters) {
+    head.held.push_back(Head::Held{writer, value, order});
+    return;
+  }
+  ++counters_.held_dropped;
+  auto oldest = std::min_element(head.held.begin(), head.held.end(),
+                                 [](const auto& a, const auto& b) { return a.order < b.order; });
+  *oldest = Head::Held{writer, value, order};
+}
+
+void DeviceHost::ReportForeignCommand(Head& head, const dds::ParticipantKey& writer,
+                                      std::int32_t value, const ClockReading& now) {
+  ++counters_.foreign_commands;
+  ++head.foreign_commands;
+  if (!head.foreign_reports.Allow(now.mono, kReportPeriod)) return;
+  const std::uint64_t held_back = head.foreign_reports.TakeHeldBack();
+  PublishEvent(now, Severity::kWarning, "foreign_command",
+               head.device.name() + " ignored command " + CommandText(value) +
+                   " from participant " + writer.ToString() + ": only the SCM's participant (" +
+                   (scm_ ? scm_->participant.ToString() : std::string("none yet")) +
+                   ") commands it (" + std::to_string(head.foreign_commands) + " ignored so far" +
+                   (held_back > 0 ? ", " + std::to_string(held_back) + " not reported" : "") + ")",
+               head.plan.intersection.value(), head.device.name(), true);
 }
 
 void DeviceHost::DriveLamps(Head& head, const ClockReading& now) {
@@ -362,7 +738,7 @@ void DeviceHost::PublishEvent(const ClockReading& now, Severity severity, const 
   e->intersection_id = intersection_id;
   dds::SetString(e->device_id, device_id);
   e->active = active;
-  if (TryWrite(dds_->events, e, counters_)) ++counters_.events_published;
+  if (TryWrite(*dds_->events, e, counters_)) ++counters_.events_published;
 }
 
 void DeviceHost::PublishStates() {
@@ -370,10 +746,10 @@ void DeviceHost::PublishStates() {
     if (!h->lamps) continue;  // offline: what it shows is unknown; keep the last state
     const std::int32_t state = StateWire(*h->lamps);
     if (h->published_state == state) continue;
-    h->published_state = state;
     dds::Message<msg::Int32> m;
     m->data = state;
-    TryWrite(*h->state, m, counters_);
+    // A failed write is tried again at the next pass.
+    if (TryWrite(*h->state, m, counters_)) h->published_state = state;
   }
 }
 
@@ -382,11 +758,12 @@ void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
                            BackendKind backend, const StatusKey& key,
                            std::optional<StatusKey>& published, MonoTime& next) {
     if (!stopping && published == key && now.mono < next) return;
-    published = key;
     next = now.mono + config_.status_period_s;
     dds::Message<msg::DeviceStatus> s;
     s->header.stamp = dds::ToMsg(now.wire);
     dds::SetString(s->device_id, device_id);
+    dds::SetString(s->city, config_.city);
+    dds::SetString(s->host, source_);
     s->kind = autodrive_msgs_msg_DeviceStatus_Constants_TRAFFIC_LIGHT;
     s->backend = BackendWire(backend);
     s->health = static_cast<std::uint8_t>(key.health);
@@ -394,14 +771,16 @@ void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
     s->displayed_state = key.displayed;
     s->scm_heartbeat_seen = last_scm_sequence_;
     dds::SetString(s->detail, key.detail);
-    TryWrite(writer, s, counters_);
+    s->last_command_id = key.last_command_id;
+    // A failed write leaves `published` as it was, so that a change is sent again next pass.
+    if (TryWrite(writer, s, counters_)) published = key;
   };
   for (auto& h : heads_) {
     StatusKey key{h->device.health(), h->device.mode(), ToWire(h->device.aspect()),
-                  h->device.detail()};
+                  h->device.detail(), 0};
     if (stopping) {
       key = StatusKey{Health::kOffline, Mode::kFlash, ToWire(Aspect::kFlashingRed),
-                      "device host " + source_ + " stopped"};
+                      "device host " + source_ + " stopped", 0};
     }
     publish(*h->status, h->device.name(), h->backend->kind(), key, h->published_status,
             h->next_status);
@@ -411,12 +790,14 @@ void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
     StatusKey key;
     if (m.latched()) {
       key = StatusKey{Health::kFault, Mode::kFlash, ToWire(Aspect::kFlashingRed),
-                      "latched: " + m.latch()->message};
+                      "latched: " + m.latch()->message, 0};
     } else {
       key = StatusKey{Health::kOk, Mode::kNormal, ToWire(Aspect::kOff),
                       "watching " + std::to_string(m.heads().size()) + " heads, " +
-                          std::to_string(m.conflicts().size()) + " conflicting pairs"};
+                          std::to_string(m.conflicts().size()) + " conflicting pairs",
+                      0};
     }
+    key.last_command_id = last_command_id(m.intersection());
     if (stopping) {
       key.health = Health::kOffline;
       key.detail = "device host " + source_ + " stopped";
@@ -432,13 +813,14 @@ void DeviceHost::PublishHeartbeat(const ClockReading& now, bool stopping) {
   dds::Message<msg::Heartbeat> m;
   m->header.stamp = dds::ToMsg(now.wire);
   dds::SetString(m->sender, source_);
+  dds::SetString(m->city, config_.city);
   m->session_id = session_id_;
   m->sequence_number = heartbeat_sequence_++;
   m->period_ms = static_cast<std::uint32_t>(
       std::chrono::duration_cast<std::chrono::milliseconds>(config_.status_period_s).count());
   m->state = stopping ? autodrive_msgs_msg_Heartbeat_Constants_STOPPING
                       : autodrive_msgs_msg_Heartbeat_Constants_RUNNING;
-  TryWrite(dds_->heartbeat, m, counters_);
+  TryWrite(*dds_->heartbeat, m, counters_);
 }
 
 void DeviceHost::Stop(const ClockReading& now) {

@@ -404,5 +404,87 @@ TEST(TrafficLightDevice, WhileForcedItFlashesAndIgnoresCommandsThenWaitsForANewO
   EXPECT_EQ(d.mode(), Mode::kNormal);
 }
 
+TEST(TrafficLightDevice, ARedReceivedRightAfterTheReleaseEndsTheFlash) {
+  // The host takes the SCM's reset before the light commands of the same pass: a red taken
+  // in the same instant, after the release, is a new command.
+  const MonoTime t0 = MonoFromSeconds(1);
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, t0);
+  d.ForceFlash("mmu_x latched", t0 + 1s);
+  d.OnHeartbeat(Running(2), t0 + 2s);
+  d.ReleaseForce(t0 + 2s);
+  d.OnCommand(ToWire(Aspect::kRed), t0 + 2s);
+  EXPECT_EQ(d.aspect(), Aspect::kRed);
+  EXPECT_EQ(d.mode(), Mode::kNormal);
+  // The same red sent again by the SCM keeps it red.
+  d.OnCommand(ToWire(Aspect::kRed), t0 + 2100ms);
+  EXPECT_EQ(d.aspect(), Aspect::kRed);
+}
+
+TEST(TrafficLightDevice, ARestartOfTheTimeBaseIsAStartUpOnTheNewTimeline) {
+  SimClock clock;
+  AdvanceSim(clock, MonoFromSeconds(1000));
+  TrafficLightDevice d = DeviceShowing(Aspect::kGreen, clock.Monotonic());
+  // The simulator restarts at 5 s.
+  const MonoTime t1 = MonoFromSeconds(5);
+  d.Restart("simulated clock restarted", t1);
+  EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
+  EXPECT_EQ(d.mode(), Mode::kFlash);
+  EXPECT_FALSE(d.scm_alive());
+  EXPECT_EQ(d.detail(), "simulated clock restarted; waiting for the SCM's heartbeat");
+  EXPECT_EQ(d.LampsAt(t1), LampsFor(Aspect::kRed)) << "flashing from the restart";
+  EXPECT_EQ(d.LampsAt(t1 + 500ms), Lamps{});
+  const auto events = d.TakeEvents();
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].code, "local_flash");
+  EXPECT_TRUE(events[0].active);
+  EXPECT_EQ(events[0].message, "signal_3 flashes red on its own: simulated clock restarted");
+  // The heartbeat comes back on the new timeline; the latest command (green) cannot end the
+  // flash, a red can; then the time-out counts on the new timeline.
+  d.OnHeartbeat(Running(9), t1 + 100ms);
+  EXPECT_EQ(d.aspect(), Aspect::kFlashingRed);
+  EXPECT_EQ(d.detail(),
+            "simulated clock restarted; waiting for a red, off or flashing command (commanded "
+            "green)");
+  d.OnCommand(ToWire(Aspect::kRed), t1 + 200ms);
+  EXPECT_EQ(d.aspect(), Aspect::kRed);
+  d.Update(t1 + 1100ms);
+  EXPECT_EQ(d.aspect(), Aspect::kRed);
+  d.Update(t1 + 1100ms + 1ns);
+  EXPECT_EQ(d.aspect(), Aspect::kFlashingRed) << "lost heartbeat, timed on the new timeline";
+}
+
+TEST(TrafficLightDevice, AfterARestartALatestRedCountsOnceTheHeartbeatComes) {
+  const MonoTime t0 = MonoFromSeconds(1000);
+  TrafficLightDevice d = DeviceShowing(Aspect::kRed, t0);
+  d.Restart("simulated clock restarted", MonoFromSeconds(5));
+  d.OnHeartbeat(Running(3), MonoFromSeconds(5.1));
+  EXPECT_EQ(d.aspect(), Aspect::kRed) << "as a latched command at start-up";
+}
+
+TEST(TrafficLightDevice, NextChangeIsTheNextFlashEdgeOrTheHeartbeatTimeOut) {
+  const MonoTime t0 = MonoFromSeconds(20);
+  TrafficLightDevice d(Params(), t0);  // flashing red from t0, period 1 s, no heartbeat
+  EXPECT_EQ(d.NextChange(t0), t0 + 500ms);
+  EXPECT_EQ(d.NextChange(t0 + 499ms), t0 + 500ms);
+  EXPECT_EQ(d.NextChange(t0 + 500ms), t0 + 1s);
+  EXPECT_EQ(d.NextChange(t0 + 2750ms), t0 + 3s);
+  // Each edge is where `LampsAt` changes.
+  for (MonoTime t = t0; t < t0 + 3s; t = d.NextChange(t)) {
+    const MonoTime edge = d.NextChange(t);
+    EXPECT_NE(d.LampsAt(edge - 1ns), d.LampsAt(edge)) << ToString(edge);
+  }
+  // Steady red under a heartbeat: only the time-out is pending.
+  d.OnHeartbeat(Running(1), t0 + 10ms);
+  d.OnCommand(ToWire(Aspect::kRed), t0 + 10ms);
+  ASSERT_EQ(d.aspect(), Aspect::kRed);
+  EXPECT_EQ(d.NextChange(t0 + 20ms), t0 + 1010ms + 1ns);
+  d.Update(d.NextChange(t0 + 20ms));
+  EXPECT_TRUE(d.in_fail_safe()) << "the time-out is at that instant";
+  d.OnHeartbeat(ScmHeartbeat{77, 2, ScmState::kStopping}, t0 + 2s);
+  d.OnCommand(ToWire(Aspect::kOff), t0 + 2s);  // cannot end a flash without the SCM
+  // Flashing from the time-out (t0 + 1010 ms + 1 ns): off at +500 ms, on again at +1 s.
+  EXPECT_EQ(d.NextChange(t0 + 2s), t0 + 2010ms + 1ns);
+}
+
 }  // namespace
 }  // namespace autodrive::infrastructure

@@ -19,10 +19,11 @@ int main(int argc, char** argv) {
   using namespace autodrive;
   using namespace autodrive::infrastructure;
   CLI::App app{
-      "autodrive-infra: hosts traffic light heads (signal_<i>) as devices: follows the SCM's "
-      "commands along legal transitions only, flashes red on its own when the SCM's heartbeat is "
-      "lost, and runs an independent conflict monitor per intersection. Runs until SIGTERM or "
-      "SIGINT. See docs/infrastructure.md."};
+      "autodrive-infra: hosts traffic light heads (signal_<i>) as devices: follows the commands "
+      "of its city's SCM (and no one else's) along legal transitions only, flashes red on its "
+      "own when the SCM's heartbeat is lost, and runs an independent conflict monitor per "
+      "intersection, which only the SCM's device commands reset. Runs until SIGTERM or SIGINT. "
+      "See docs/infrastructure.md."};
   std::string config_path;
   std::string log_level = "info";
   std::string clock_kind = "wall";
@@ -70,8 +71,8 @@ int main(int argc, char** argv) {
         if (!wall.SleepFor(std::chrono::milliseconds(20))) return 0;  // stopped while waiting
       }
     }
-    spdlog::info("infra/{}: {} heads of map {}, partition '{}', {} clock", config.name,
-                 plan.heads.size(), plan.map.name, partition, ToString(clock->kind()));
+    spdlog::info("infra/{}: {} heads of map {} for city {}, partition '{}', {} clock", config.name,
+                 plan.heads.size(), plan.map.name, config.city, partition, ToString(clock->kind()));
     DeviceHost host(config, std::move(plan), participant, clock->Read());
     host.Run(*clock, wall);
     return 0;

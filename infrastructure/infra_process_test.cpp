@@ -38,6 +38,9 @@ struct Status {
   std::int32_t displayed = -1;
   std::string detail;
   Time stamp{};
+  std::string city;
+  std::string host;
+  std::uint64_t last_command_id = 0;
 };
 
 struct EventSeen {
@@ -47,6 +50,7 @@ struct EventSeen {
   std::string message;
   std::string device_id;
   bool active = false;
+  std::uint32_t intersection_id = 0;
 };
 
 class InfraProcessTest : public ::testing::Test {
@@ -59,9 +63,10 @@ class InfraProcessTest : public ::testing::Test {
         heartbeat_writer_(participant_, dds::topics::Heartbeat()),
         heartbeats_(participant_, dds::topics::Heartbeat()),
         statuses_(participant_, dds::topics::Devices().name, dds::Qos::LatchedState(256)),
-        events_(participant_, dds::topics::Events()) {
+        events_(participant_, dds::topics::Events()),
+        device_commands_(participant_, dds::topics::DeviceCommands()) {
     fs::create_directories(dir_);
-    for (std::uint32_t h = 1; h <= 4; ++h) {
+    for (std::uint32_t h = 1; h <= 7; ++h) {  // the small town has 7 heads, the school 4
       commands_.emplace(h, std::make_unique<dds::Writer<msg::Int32>>(
                                participant_, dds::topics::SignalCommand(SignalHeadId(h))));
       states_.emplace(h, std::make_unique<dds::Reader<msg::Int32>>(
@@ -91,6 +96,7 @@ class InfraProcessTest : public ::testing::Test {
     ASSERT_TRUE(port.has_value());
     const fs::path config = dir_ / "infra.yaml";
     std::ofstream(config) << "name: proc_test\n"
+                          << "city: driving_school\n"
                           << "map: "
                           << (test::SourceDir() / "config/maps/driving_school.yaml").string()
                           << "\nscm_heartbeat_timeout_s: 1.0\n"
@@ -108,13 +114,27 @@ class InfraProcessTest : public ::testing::Test {
     ASSERT_TRUE(Pump([&] { return infra_beats_ > 0; }, 30s)) << "no heartbeat from infra/proc_test";
   }
 
+  // Starts autodrive-infra with the shipped small town config (north_t's signal_1..3 and
+  // centre's signal_4..7, simulated) and waits for its heartbeat.
+  void StartSmallTown() {
+    city_ = "small_town";
+    infra_sender_ = "infra/small_town_lights";
+    infra_ = std::make_unique<ChildProcess>(
+        std::vector<std::string>{ExecutableDir() + "/autodrive-infra", "--config",
+                                 (test::SourceDir() / "config/infra/small_town.yaml").string(),
+                                 "--partition", partition_, "--log-level", "warn"});
+    ASSERT_TRUE(Pump([&] { return infra_beats_ > 0; }, 30s))
+        << "no heartbeat from " << infra_sender_;
+  }
+
   // The fake SCM's heartbeat: 10 Hz on a thread of its own while `beating_`.
   void StartBeating() {
     beating_ = true;
     scm_thread_ = std::thread([this] {
       dds::Message<msg::Heartbeat> m;
       dds::SetString(m->sender, "scm");
-      m->session_id = 4242;
+      dds::SetString(m->city, city_);
+      m->session_id = kScmSession;
       m->period_ms = 100;
       m->state = 1;  // RUNNING
       while (beating_) {
@@ -171,13 +191,17 @@ class InfraProcessTest : public ::testing::Test {
                                                              s->backend,
                                                              s->displayed_state,
                                                              std::string(dds::View(s->detail)),
-                                                             dds::FromMsg(s->header.stamp)};
+                                                             dds::FromMsg(s->header.stamp),
+                                                             std::string(dds::View(s->city)),
+                                                             std::string(dds::View(s->host)),
+                                                             s->last_command_id};
     }
     dds::Message<msg::Event> e;
     while (events_.TakeOne(e)) {
-      events_seen_.push_back(EventSeen{
-          e->severity, std::string(dds::View(e->source)), std::string(dds::View(e->code)),
-          std::string(dds::View(e->message)), std::string(dds::View(e->device_id)), e->active});
+      events_seen_.push_back(
+          EventSeen{e->severity, std::string(dds::View(e->source)), std::string(dds::View(e->code)),
+                    std::string(dds::View(e->message)), std::string(dds::View(e->device_id)),
+                    e->active, e->intersection_id});
     }
     dds::Message<msg::Int32> m;
     for (auto& [head, reader] : states_) {
@@ -185,7 +209,7 @@ class InfraProcessTest : public ::testing::Test {
     }
     dds::Message<msg::Heartbeat> h;
     while (heartbeats_.TakeOne(h)) {
-      if (dds::View(h->sender) != "infra/proc_test") continue;
+      if (dds::View(h->sender) != infra_sender_) continue;
       ++infra_beats_;
       infra_state_ = h->state;
     }
@@ -211,8 +235,12 @@ class InfraProcessTest : public ::testing::Test {
   dds::Reader<msg::Heartbeat> heartbeats_;
   dds::Reader<msg::DeviceStatus> statuses_;
   dds::Reader<msg::Event> events_;
+  dds::Writer<msg::DeviceCommand> device_commands_;
   std::map<std::uint32_t, std::unique_ptr<dds::Writer<msg::Int32>>> commands_;
   std::map<std::uint32_t, std::unique_ptr<dds::Reader<msg::Int32>>> states_;
+  static constexpr std::uint64_t kScmSession = 4242;
+  std::string city_ = "driving_school";
+  std::string infra_sender_ = "infra/proc_test";
   std::unique_ptr<ChildProcess> emulator_;
   std::unique_ptr<ChildProcess> infra_;
   std::atomic<bool> beating_{false};
@@ -361,10 +389,55 @@ TEST_F(InfraProcessTest, OnTheSimulatedClockTimeIsTheSimulatorsTime) {
   EXPECT_EQ(infra_->Stop(5s), 0) << "a blocked simulated clock does not delay shutdown";
 }
 
+TEST_F(InfraProcessTest, ADeviceCommandResetsExactlyTheMonitorItNames) {
+  StartSmallTown();
+  StartBeating();
+  // Both intersections latch: two conflicting greens each.
+  for (const std::uint32_t h : {1u, 2u, 4u, 5u}) Command(h, ToWire(Aspect::kRed));
+  for (const std::uint32_t h : {1u, 2u, 4u, 5u})
+    ASSERT_TRUE(WaitForAspect(h, Aspect::kRed, kNormal));
+  for (const std::uint32_t h : {1u, 2u, 4u, 5u}) Command(h, ToWire(Aspect::kGreen));
+  ASSERT_TRUE(Pump([&] {
+    return status_["mmu_north_t"].health == kFault && status_["mmu_centre"].health == kFault;
+  })) << "both monitors latch";
+  EXPECT_EQ(status_["mmu_north_t"].city, "small_town");
+  EXPECT_EQ(status_["mmu_north_t"].host, "infra/small_town_lights");
+  EXPECT_EQ(status_["mmu_north_t"].last_command_id, 0u);
+  ASSERT_TRUE(Pump([&] { return FindEvent("mmu_conflict", "mmu_north_t") != nullptr; }));
+  const std::uint32_t north_t = FindEvent("mmu_conflict", "mmu_north_t")->intersection_id;
+  ASSERT_NE(north_t, 0u);
+
+  // The SCM accepted an operator's reset of north_t.
+  ASSERT_TRUE(device_commands_.WaitForReaders(1, 10s));
+  dds::Message<msg::DeviceCommand> reset;
+  dds::SetString(reset->city, "small_town");
+  reset->scm_session = kScmSession;
+  reset->command_id = 1;
+  dds::SetString(reset->device_id, "mmu_north_t");
+  reset->intersection_id = north_t;
+  reset->command = autodrive_msgs_msg_DeviceCommand_Constants_RESET_MONITOR;
+  dds::SetString(reset->issued_by, "alice");
+  reset->request_id = 7;
+  device_commands_.Write(reset);
+  ASSERT_TRUE(Pump([&] {
+    return status_["mmu_north_t"].health == kOk && status_["mmu_north_t"].last_command_id == 1;
+  })) << "north_t reset and acknowledged";
+  EXPECT_EQ(status_["mmu_centre"].health, kFault);
+  EXPECT_EQ(status_["mmu_centre"].last_command_id, 0u);
+  // north_t's heads follow a new red; centre stays latched and its heads flash.
+  Command(1, ToWire(Aspect::kRed));
+  EXPECT_TRUE(WaitForAspect(1, Aspect::kRed, kNormal));
+  Command(4, ToWire(Aspect::kRed));
+  EXPECT_FALSE(WaitForAspect(4, Aspect::kRed, kNormal, 500ms));
+  EXPECT_EQ(status_["mmu_centre"].health, kFault);
+  EXPECT_EQ(status_["signal_4"].mode, kFlash);
+  EXPECT_EQ(infra_->Stop(5s), 0);
+}
+
 TEST(InfraProgram, RefusesABadConfigNamingFileLineAndKey) {
   const fs::path config =
       fs::temp_directory_path() / ("infra_bad_" + std::to_string(::getpid()) + ".yaml");
-  std::ofstream(config) << "name: x\nmap: m.yaml\nflash_period_s: 0\n";
+  std::ofstream(config) << "name: x\ncity: c\nmap: m.yaml\nflash_period_s: 0\n";
   ChildProcess infra({ExecutableDir() + "/autodrive-infra", "--config", config.string()});
   EXPECT_EQ(infra.Wait(30s), 1);
   fs::remove(config);
