@@ -32,7 +32,8 @@ pkg_check_modules(ODE REQUIRED IMPORTED_TARGET GLOBAL ode)
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d)
 find_package(apriltag REQUIRED CONFIG)
 
-# Helper libraries: config, logging, CLI, persistence, HTTP, tests, benchmarks.
+# Helper libraries: config, logging, CLI, persistence, JSON, systemd, tests, benchmarks.
+# (cpp-httplib joins when the dashboard does; it is not needed before.)
 find_package(yaml-cpp REQUIRED CONFIG)
 find_package(spdlog REQUIRED CONFIG)
 find_package(fmt REQUIRED CONFIG)
@@ -45,7 +46,10 @@ endif()
 find_package(SQLite3 REQUIRED)
 # XML writing for maps/ (SUMO plain XML, SVG): pugixml (libpugixml-dev), target pugixml::pugixml.
 find_package(pugixml REQUIRED CONFIG)
-find_path(HTTPLIB_INCLUDE_DIR httplib.h REQUIRED)
+# JSON that programs write and read (scmctl --json, the dashboard): nlohmann-json3-dev.
+find_package(nlohmann_json 3 REQUIRED CONFIG)
+# systemd integration of the daemons (READY, WATCHDOG, STOPPING): libsystemd-dev.
+pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET GLOBAL libsystemd)
 find_package(Threads REQUIRED)
 if(AUTODRIVE_BUILD_TESTS)
   find_package(GTest REQUIRED CONFIG)

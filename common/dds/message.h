@@ -16,6 +16,7 @@
 
 #include <dds/dds.h>
 
+#include <algorithm>
 #include <cstring>
 #include <span>
 #include <string_view>
@@ -93,6 +94,13 @@ inline void SetString(char*& field, std::string_view value) {
   field[value.size()] = '\0';
 }
 
+/// Sets an owned string field to `value` only when it holds something else: a hot publisher
+/// that rewrites the same message allocates nothing while its strings do not change.
+inline void UpdateString(char*& field, std::string_view value) {
+  if (field != nullptr && View(field) == value) return;
+  SetString(field, value);
+}
+
 /// Points a string field of a caller-owned sample at `value` without copying. `value` must be
 /// NUL-terminated and outlive every use of the sample.
 inline void BorrowString(char*& field, const char* value) {
@@ -128,6 +136,29 @@ void ResizeSequence(Seq& seq, std::uint32_t n) {
   seq._length = n;
   seq._maximum = n;
   seq._release = true;
+}
+
+/// Makes an owned sequence (in a `Message`) hold `n` elements without freeing what it holds:
+/// the first elements keep their contents; when `n` exceeds the capacity the buffer grows
+/// (moved, the new elements zeroed); the capacity never shrinks, and elements past `n` keep
+/// their strings until the sample is freed (Cyclone frees up to the capacity). No allocation
+/// when `n` fits the capacity: for a publisher that refills the same message in place.
+template <typename Seq>
+void SetLengthKeepingCapacity(Seq& seq, std::uint32_t n) {
+  using E = std::remove_pointer_t<decltype(seq._buffer)>;
+  if (n > seq._maximum) {
+    const std::uint32_t capacity = std::max<std::uint32_t>(n, 2 * seq._maximum);
+    auto* buffer = static_cast<E*>(dds_alloc(sizeof(E) * capacity));
+    std::memset(static_cast<void*>(buffer), 0, sizeof(E) * capacity);
+    if (seq._buffer != nullptr) {
+      std::memcpy(static_cast<void*>(buffer), seq._buffer, sizeof(E) * seq._maximum);
+      if (seq._release) dds_free(seq._buffer);
+    }
+    seq._buffer = buffer;
+    seq._maximum = capacity;
+    seq._release = true;
+  }
+  seq._length = n;
 }
 
 /// Replaces an owned sequence of plain values (numbers) with a copy of `values`.
