@@ -508,10 +508,27 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
   city.floors.min_green = Scaled(config.safety.min_green_s, config.time_scale);
   city.floors.yellow = Scaled(config.safety.min_yellow_s, config.time_scale);
   city.floors.red_clearance = Scaled(config.safety.min_red_clearance_s, config.time_scale);
+  const Where root(source);
+  {
+    // The floors have floors of their own: a city file cannot lower them below what the lab's
+    // cars, SPaT's 10 Hz and the lights' conflict monitor need (docs/scm.md, "Safety floors").
+    const Where safety = root.Then("safety");
+    auto check = [&](const char* key, nanoseconds configured, Duration lab, Duration hard) {
+      if (lab < hard) {
+        safety.Then(key).Fail(fmt::format(
+            "{:.3f} s ({:.3f} lab s at time_scale {}) is below the hard minimum of {:.1f} lab s; "
+            "rule: safety floors cannot go below the hard minimums",
+            ToSeconds(configured), ToSeconds(lab), config.time_scale, ToSeconds(hard)));
+      }
+    };
+    check("min_yellow_s", config.safety.min_yellow_s, city.floors.yellow, kHardMinimums.yellow);
+    check("min_red_clearance_s", config.safety.min_red_clearance_s, city.floors.red_clearance,
+          kHardMinimums.red_clearance);
+    check("min_green_s", config.safety.min_green_s, city.floors.min_green, kHardMinimums.min_green);
+  }
   city.device_timeout = config.devices.timeout_s;
   city.device_mismatch = config.devices.mismatch_s;
   city.fleet_staleness = config.fleet.staleness_s;
-  const Where root(source);
   for (std::size_t i = 0; i < config.intersections.size(); ++i) {
     const auto& xc = config.intersections[i];
     const Where where = root.Then(fmt::format("intersections[{}] ({})", i, xc.name));
@@ -553,9 +570,34 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
 
 City LoadCityString(const std::string& yaml, const std::string& source,
                     const std::filesystem::path& base_dir) {
+  return LoadCityString(yaml, source, MapResolution{base_dir, std::nullopt});
+}
+
+City LoadCityString(const std::string& yaml, const std::string& source,
+                    const MapResolution& resolution) {
+  if (const auto nul = yaml.find('\0'); nul != std::string::npos) {
+    throw ConfigError(
+        fmt::format("{}: the text holds a NUL byte at offset {}; a city file is "
+                    "text",
+                    source, nul));
+  }
   const auto config = config::LoadString<CityConfig>(yaml, source);
   std::filesystem::path map_path = config.map;
-  if (map_path.is_relative()) map_path = base_dir / map_path;
+  if (map_path.is_relative()) map_path = resolution.base_dir / map_path;
+  if (resolution.root) {
+    // Nothing from the network names a file outside the SCM's configuration root.
+    std::error_code ec;
+    auto root = std::filesystem::weakly_canonical(*resolution.root, ec);
+    if (root.filename().empty()) root = root.parent_path();
+    const auto resolved = std::filesystem::weakly_canonical(map_path, ec);
+    const auto [r, m] = std::mismatch(root.begin(), root.end(), resolved.begin(), resolved.end());
+    if (ec || r != root.end()) {
+      throw ConfigError(
+          fmt::format("{}: map: {} is outside the SCM's configuration root {}; "
+                      "a configuration sent to the SCM may only name maps under it",
+                      source, resolved.string(), root.string()));
+    }
+  }
   maps::Map map;
   try {
     map = maps::LoadMapOrLayout(map_path.string());

@@ -126,6 +126,22 @@ struct City {
   [[nodiscard]] const IntersectionModel* Find(std::string_view name) const;
 };
 
+/// The hard minimums of the safety floors, in lab time: no city file may go below them,
+/// whatever its `safety` section and `time_scale` say (docs/scm.md, "Safety floors").
+inline constexpr GroupTiming kHardMinimums{
+    std::chrono::milliseconds(1000),  // min_green
+    Duration{0},                      // max_green: no floor
+    std::chrono::milliseconds(1000),  // yellow
+    std::chrono::milliseconds(500),   // red_clearance
+};
+
+/// Where a city's map comes from: a relative path is resolved against `base_dir`; with a
+/// `root`, the resolved file must lie under it (for text that came over the network).
+struct MapResolution {
+  std::filesystem::path base_dir;
+  std::optional<std::filesystem::path> root;
+};
+
 /// Checks `config` against `map` and the safety rules and builds the model. Throws
 /// `ConfigError` "SOURCE: KEYPATH (NAME): what; rule: RULE" naming the intersection, the groups
 /// and the rule broken.
@@ -135,6 +151,10 @@ struct City {
 /// text in messages. Throws `ConfigError` / `InputError`.
 [[nodiscard]] City LoadCityString(const std::string& yaml, const std::string& source,
                                   const std::filesystem::path& base_dir);
+/// Loads a city from YAML text with `resolution`'s rules for the map. Text with a NUL byte is
+/// refused (ConfigError naming the offset).
+[[nodiscard]] City LoadCityString(const std::string& yaml, const std::string& source,
+                                  const MapResolution& resolution);
 
 /// Loads a city file.
 [[nodiscard]] City LoadCity(const std::filesystem::path& path);

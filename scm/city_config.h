@@ -283,6 +283,43 @@ struct DevicesConfig {
   bool operator==(const DevicesConfig&) const = default;
 };
 
+/// True for 1 to 64 letters, digits or '_', not starting with a digit (a ROS name token).
+[[nodiscard]] inline bool IsOperatorName(const std::string& n) {
+  if (n.empty() || n.size() > 64 || (n.front() >= '0' && n.front() <= '9')) return false;
+  for (const char c : n) {
+    const bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+    if (!ok) return false;
+  }
+  return true;
+}
+
+/// Who may change the city's state through the SCM (docs/scm.md, "Operators").
+struct OperatorsConfig {
+  /// Operator names. Operator `n` sends on /autodrive/scm/operator/<n>/request; with DDS
+  /// Security only the identity /autodrive/operator/<n> may write there. Read-only commands are
+  /// answered for anyone.
+  std::vector<std::string> allowed;
+  double rate_per_s = 50.0;  ///< requests per second per client, sustained
+  double burst = 100.0;      ///< requests a client may send at once
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("allowed", allowed,
+               config::Predicate{"names of 1 to 64 letters, digits or '_', not starting with a "
+                                 "digit",
+                                 [](const std::vector<std::string>& names) {
+                                   for (const auto& n : names) {
+                                     if (!IsOperatorName(n)) return false;
+                                   }
+                                   return true;
+                                 }});
+    a.Optional("rate_per_s", rate_per_s, config::Range{1.0, 10000.0});
+    a.Optional("burst", burst, config::Range{1.0, 100000.0});
+  }
+  bool operator==(const OperatorsConfig&) const = default;
+};
+
 /// A whole city file.
 struct CityConfig {
   std::string name;
@@ -295,6 +332,7 @@ struct CityConfig {
   std::vector<IntersectionConfig> intersections;
   FleetConfig fleet;
   DevicesConfig devices;
+  OperatorsConfig operators;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -306,6 +344,7 @@ struct CityConfig {
     a.Required("intersections", intersections);
     a.Optional("fleet", fleet);
     a.Optional("devices", devices);
+    a.Optional("operators", operators);
   }
   bool operator==(const CityConfig&) const = default;
 };

@@ -4,36 +4,76 @@
 
 #include <thread>
 
+#include "autodrive_msgs/msg/OperatorReply.h"
 #include "autodrive_msgs/msg/SignalGroupState.h"
 
 #include "common/dds/conversions.h"
 #include "common/dds/message.h"
 #include "common/dds/topics.h"
+#include "common/error.h"
 #include "common/time.h"
 
 namespace autodrive::scm {
 
-OperatorClient::OperatorClient(const dds::ParticipantOptions& options, std::string client_id)
-    : participant_(options),
+namespace {
+
+ReplyCode FromWire(std::uint8_t result) {
+  switch (result) {
+    case autodrive_msgs_msg_OperatorReply_Constants_OK:
+      return ReplyCode::kOk;
+    case autodrive_msgs_msg_OperatorReply_Constants_REJECTED:
+      return ReplyCode::kRejected;
+    case autodrive_msgs_msg_OperatorReply_Constants_INVALID:
+      return ReplyCode::kInvalid;
+    default:
+      return ReplyCode::kFailed;
+  }
+}
+
+}  // namespace
+
+OperatorClient::OperatorClient(dds::Participant& participant, std::string client_id,
+                               std::optional<std::string> operator_name)
+    : participant_(participant),
       client_id_(std::move(client_id)),
-      writer_(participant_, dds::topics::OperatorRequests()),
-      reader_(participant_, dds::topics::OperatorReplies()) {}
+      operator_name_(std::move(operator_name)),
+      shared_writer_(participant_, dds::topics::OperatorRequests()),
+      reader_(participant_, dds::topics::OperatorReplies()) {
+  if (operator_name_) {
+    operator_writer_ = std::make_unique<dds::Writer<msg::OperatorRequest>>(
+        participant_, dds::topics::OperatorRequests(*operator_name_));
+  }
+}
 
 bool OperatorClient::WaitForScm(std::chrono::steady_clock::duration timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
-  // Only an SCM writes replies; its request reader is announced with them.
-  while (reader_.matched_writers() == 0 || writer_.matched_readers() == 0) {
+  // The SCM reads the shared topic and writes replies; requests are sent again until answered,
+  // so a match seen from our side only is enough to start.
+  if (!shared_writer_.WaitForReaders(1, timeout)) return false;
+  while (reader_.matched_writers() == 0) {
     if (std::chrono::steady_clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    reader_.WaitForData(std::chrono::milliseconds(10));
+    (void)reader_.TakeAll();  // replies to others
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));
   return true;
 }
 
 std::optional<OperatorAnswer> OperatorClient::Call(const std::string& command,
                                                    const std::map<std::string, std::string>& args,
                                                    std::chrono::steady_clock::duration timeout) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  const CommandSpec* spec = FindCommand(command);
+  dds::Writer<msg::OperatorRequest>* writer = &shared_writer_;
+  if (spec != nullptr && spec->changes_state) {
+    if (!operator_writer_) {
+      throw InputError(fmt::format(
+          "{} changes state: it must be sent as an operator the city allows (scmctl --operator "
+          "NAME, or AUTODRIVE_OPERATOR)",
+          command));
+    }
+    writer = operator_writer_.get();
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const auto deadline = start + timeout;
   dds::Message<msg::OperatorRequest> m;
   dds::SetString(m->client_id, client_id_);
   m->request_id = next_id_++;
@@ -46,54 +86,30 @@ std::optional<OperatorAnswer> OperatorClient::Call(const std::string& command,
     dds::SetString(kv[i].value, v);
     ++i;
   }
-  writer_.Write(m);
+  writer->Write(m);
+  auto next_send = std::chrono::steady_clock::now() + kResendAfter;
+  dds::Message<msg::OperatorReply> r;
   while (std::chrono::steady_clock::now() < deadline) {
-    reader_.WaitForData(std::chrono::milliseconds(20));
-    for (auto& r : reader_.TakeAll()) {
-      if (r->client_id == nullptr || client_id_ != r->client_id || r->request_id != m->request_id) {
-        continue;
-      }
+    reader_.WaitForData(std::min(next_send, deadline) - std::chrono::steady_clock::now());
+    while (reader_.TakeOne(r)) {
+      if (dds::View(r->client_id) != client_id_ || r->request_id != m->request_id) continue;
       OperatorAnswer a;
-      a.result = r->result;
-      a.message = r->message ? r->message : "";
+      a.code = FromWire(r->result);
+      a.message = std::string(dds::View(r->message));
       for (const auto& v : dds::Elements(r->values)) {
-        a.values.emplace_back(v.key ? v.key : "", v.value ? v.value : "");
+        a.values.emplace_back(dds::View(v.key), dds::View(v.value));
       }
       return a;
     }
-  }
-  return std::nullopt;
-}
-
-std::string JsonString(std::string_view text) {
-  std::string out = "\"";
-  for (const char ch : text) {
-    const auto c = static_cast<unsigned char>(ch);
-    switch (ch) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20) {
-          out += fmt::format("\\u{:04x}", c);
-        } else {
-          out += ch;
-        }
+    if (std::chrono::steady_clock::now() >= next_send) {
+      // No reply yet: the request or its reply may have gone before discovery completed on the
+      // SCM's side. Same id again: the SCM runs it at most once.
+      writer->Write(m);
+      ++resends_;
+      next_send = std::chrono::steady_clock::now() + kResendAfter;
     }
   }
-  return out + "\"";
+  return std::nullopt;
 }
 
 std::string_view EventStateName(std::uint8_t s) {
@@ -122,70 +138,74 @@ std::string_view EventStateName(std::uint8_t s) {
 }
 
 namespace {
-std::string T(const msg::Time& t) { return fmt::format("{:.3f}", ToSeconds(dds::FromMsg(t))); }
-std::string S(const char* s) { return JsonString(s ? s : ""); }
+// Seconds since the epoch of a message time, as a number (millisecond precision kept).
+double Seconds(const msg::Time& t) { return ToSeconds(dds::FromMsg(t)); }
+std::string Text(const char* s) { return std::string(dds::View(s)); }
 }  // namespace
 
-std::string ToJson(const msg::Spat& spat) {
-  std::string out = fmt::format("{{\"type\":\"spat\",\"stamp\":{},\"city\":{},\"intersections\":[",
-                                T(spat.header.stamp), S(spat.city));
-  bool first = true;
+nlohmann::json ToJson(const msg::Spat& spat) {
+  nlohmann::json out{{"type", "spat"},
+                     {"stamp", Seconds(spat.header.stamp)},
+                     {"city", Text(spat.city)},
+                     {"intersections", nlohmann::json::array()}};
   for (const auto& x : dds::Elements(spat.intersections)) {
-    out += fmt::format(
-        "{}{{\"id\":{},\"name\":{},\"revision\":{},\"status\":{},\"plan\":{},"
-        "\"groups\":[",
-        first ? "" : ",", x.intersection_id, S(x.name), x.revision, x.status, S(x.plan));
-    first = false;
-    bool gfirst = true;
+    nlohmann::json groups = nlohmann::json::array();
     for (const auto& g : dds::Elements(x.signal_groups)) {
-      out += fmt::format("{}{{\"group\":{},\"state\":\"{}\",\"min_end\":{}", gfirst ? "" : ",",
-                         g.signal_group, EventStateName(g.event_state), T(g.min_end_time));
-      if (g.has_max_end_time) out += ",\"max_end\":" + T(g.max_end_time);
+      nlohmann::json j{{"group", g.signal_group},
+                       {"state", EventStateName(g.event_state)},
+                       {"min_end", Seconds(g.min_end_time)}};
+      if (g.has_max_end_time) j["max_end"] = Seconds(g.max_end_time);
       if (g.has_likely_time) {
-        out += ",\"likely\":" + T(g.likely_time) +
-               fmt::format(",\"confidence\":{:.2f}", g.likely_time_confidence);
+        j["likely"] = Seconds(g.likely_time);
+        j["confidence"] = g.likely_time_confidence;
       }
-      if (g.has_next_time) out += ",\"next_green\":" + T(g.next_time);
-      out += "}";
-      gfirst = false;
+      if (g.has_next_time) j["next_green"] = Seconds(g.next_time);
+      groups.push_back(std::move(j));
     }
-    out += "]}";
+    out["intersections"].push_back({{"id", x.intersection_id},
+                                    {"name", Text(x.name)},
+                                    {"revision", x.revision},
+                                    {"status", x.status},
+                                    {"plan", Text(x.plan)},
+                                    {"groups", std::move(groups)}});
   }
-  return out + "]}";
+  return out;
 }
 
-std::string ToJson(const msg::FleetState& fleet) {
-  std::string out =
-      fmt::format("{{\"type\":\"fleet\",\"stamp\":{},\"vehicles\":[", T(fleet.header.stamp));
-  bool first = true;
+nlohmann::json ToJson(const msg::FleetState& fleet) {
+  nlohmann::json out{{"type", "fleet"},
+                     {"stamp", Seconds(fleet.header.stamp)},
+                     {"vehicles", nlohmann::json::array()}};
   for (const auto& v : dds::Elements(fleet.vehicles)) {
-    out += fmt::format(
-        "{}{{\"vehicle\":{},\"source\":{},\"x\":{:.3f},\"y\":{:.3f},\"lane\":{},"
-        "\"intersection\":{},\"approach\":{},\"distance_to_stop_line_m\":{:.3f}}}",
-        first ? "" : ",", S(v.vehicle_id), v.source, v.pose.pose.position.x, v.pose.pose.position.y,
-        S(v.map_lane_id), v.intersection_id, v.approach_id, v.distance_to_stop_line_m);
-    first = false;
+    out["vehicles"].push_back({{"vehicle", Text(v.vehicle_id)},
+                               {"source", v.source},
+                               {"x", v.pose.pose.position.x},
+                               {"y", v.pose.pose.position.y},
+                               {"lane", Text(v.map_lane_id)},
+                               {"intersection", v.intersection_id},
+                               {"approach", v.approach_id},
+                               {"distance_to_stop_line_m", v.distance_to_stop_line_m}});
   }
-  return out + "]}";
+  return out;
 }
 
-std::string ToJson(const msg::Event& e) {
-  return fmt::format(
-      "{{\"type\":\"event\",\"stamp\":{},\"id\":{},\"severity\":{},\"source\":{},\"code\":{},"
-      "\"message\":{},\"intersection\":{},\"device\":{},\"active\":{}}}",
-      T(e.header.stamp), e.event_id, e.severity, S(e.source), S(e.code), S(e.message),
-      e.intersection_id, S(e.device_id), e.active ? "true" : "false");
+nlohmann::json ToJson(const msg::Event& e) {
+  return {{"type", "event"},
+          {"stamp", Seconds(e.header.stamp)},
+          {"id", e.event_id},
+          {"severity", e.severity},
+          {"source", Text(e.source)},
+          {"code", Text(e.code)},
+          {"message", Text(e.message)},
+          {"intersection", e.intersection_id},
+          {"device", Text(e.device_id)},
+          {"active", e.active}};
 }
 
-std::string ToJson(const OperatorAnswer& a) {
-  std::string out = fmt::format("{{\"result\":\"{}\",\"message\":{},\"values\":{{",
-                                ResultName(a.result), JsonString(a.message));
-  bool first = true;
-  for (const auto& [k, v] : a.values) {
-    out += (first ? "" : ",") + JsonString(k) + ":" + JsonString(v);
-    first = false;
-  }
-  return out + "}}";
+nlohmann::json ToJson(const OperatorAnswer& a) {
+  nlohmann::json values = nlohmann::json::object();
+  for (const auto& [k, v] : a.values) values[k] = v;
+  return {{"result", ToString(a.code)}, {"message", a.message}, {"values", std::move(values)}};
 }
 
 }  // namespace autodrive::scm

@@ -1,8 +1,10 @@
 #pragma once
 /// @file
-/// The operator client of the SCM (what `scmctl` is built on, and tests and benchmarks use):
-/// sends an `OperatorRequest` and waits for its reply; and JSON text of the SCM's messages for
-/// `scmctl watch --json` (one object per line).
+/// The operator client of the SCM (what `scmctl` is built on, and what tests and benchmarks
+/// use): sends an `OperatorRequest` and waits for its reply, sending the same request again
+/// (same id) when no reply came in a moment, so that a request or reply lost while discovery
+/// completes is never an unanswered command (the SCM answers a repeat from its cache without
+/// running it twice). And JSON of the SCM's messages for `scmctl --json`.
 
 #include <chrono>
 #include <cstdint>
@@ -13,49 +15,67 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
 #include "common/dds/reader.h"
 #include "common/dds/writer.h"
 #include "scm/operator.h"
+#include "scm/publishers.h"
 
 namespace autodrive::scm {
 
 /// A reply as the client sees it.
 struct OperatorAnswer {
-  std::uint8_t result = 0;  ///< OperatorReply_Constants
+  ReplyCode code = ReplyCode::kOk;
   std::string message;
   std::vector<std::pair<std::string, std::string>> values;
 };
 
-/// Talks to one SCM over DDS. Not thread-safe; move-only.
+/// Talks to one SCM over DDS. Not thread-safe; not movable (readers and writers).
 class OperatorClient {
  public:
-  /// Joins DDS; `client_id` should be unique per session (e.g. "scmctl/user@host/pid").
-  OperatorClient(const dds::ParticipantOptions& options, std::string client_id);
-  /// Waits (steady clock) until an SCM is discovered. Returns false on timeout.
+  /// How long to wait for a reply before sending the request again.
+  static constexpr std::chrono::milliseconds kResendAfter{250};
+
+  /// Joins DDS on `participant` (which must outlive it). `client_id` should be unique per
+  /// session (e.g. "scmctl/user@host/pid"). With `operator_name`, state-changing commands go on
+  /// that operator's topic; without, only read-only commands can be sent.
+  OperatorClient(dds::Participant& participant, std::string client_id,
+                 std::optional<std::string> operator_name = std::nullopt);
+  OperatorClient(const OperatorClient&) = delete;
+  OperatorClient& operator=(const OperatorClient&) = delete;
+
+  /// Waits (steady clock) until an SCM is discovered: a reader of our requests and a writer of
+  /// replies. Returns false on timeout.
   bool WaitForScm(std::chrono::steady_clock::duration timeout);
-  /// Sends `command` with `args` and waits for the reply; nothing on timeout.
+  /// Sends `command` with `args` and waits for the reply, re-sending the same request until one
+  /// comes or `timeout` passes (then nothing). Throws `InputError` for a state-changing command
+  /// when the client has no operator name.
   std::optional<OperatorAnswer> Call(const std::string& command,
                                      const std::map<std::string, std::string>& args,
                                      std::chrono::steady_clock::duration timeout);
-  [[nodiscard]] dds::Participant& participant() { return participant_; }
+  /// Requests sent again because a reply was late (diagnostics).
+  [[nodiscard]] std::uint64_t resends() const { return resends_; }
+  [[nodiscard]] const std::string& client_id() const { return client_id_; }
 
  private:
-  dds::Participant participant_;
+  dds::Participant& participant_;
   std::string client_id_;
+  std::optional<std::string> operator_name_;
   std::uint64_t next_id_ = 1;
-  dds::Writer<msg::OperatorRequest> writer_;
+  std::uint64_t resends_ = 0;
+  dds::Writer<msg::OperatorRequest> shared_writer_;
+  std::unique_ptr<dds::Writer<msg::OperatorRequest>> operator_writer_;
   dds::Reader<msg::OperatorReply> reader_;
 };
 
-/// A JSON string literal of `text` (quotes and escapes).
-[[nodiscard]] std::string JsonString(std::string_view text);
-/// One line of JSON for each message.
-[[nodiscard]] std::string ToJson(const msg::Spat& spat);
-[[nodiscard]] std::string ToJson(const msg::FleetState& fleet);
-[[nodiscard]] std::string ToJson(const msg::Event& event);
-[[nodiscard]] std::string ToJson(const OperatorAnswer& answer);
+/// JSON objects of the SCM's messages and answers (`scmctl --json`, one object per line).
+[[nodiscard]] nlohmann::json ToJson(const msg::Spat& spat);
+[[nodiscard]] nlohmann::json ToJson(const msg::FleetState& fleet);
+[[nodiscard]] nlohmann::json ToJson(const msg::Event& event);
+[[nodiscard]] nlohmann::json ToJson(const OperatorAnswer& answer);
 /// The J2735 name of a SignalGroupState event_state: "dark", "stop_and_remain", ...
 [[nodiscard]] std::string_view EventStateName(std::uint8_t event_state);
 

@@ -4,18 +4,16 @@
 
 #include <algorithm>
 
-#include "autodrive_msgs/msg/SignalRequestStatus.h"
-
 #include "common/error.h"
 
 namespace autodrive::scm {
 
 namespace {
 
-constexpr std::uint8_t kGranted = autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED;
-constexpr std::uint8_t kRejected = autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED;
-constexpr std::uint8_t kCompleted = autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED;
-constexpr std::uint8_t kCancelled = autodrive_msgs_msg_SignalRequestStatus_Constants_CANCELLED;
+constexpr RequestStatus kGranted = RequestStatus::kGranted;
+constexpr RequestStatus kRejected = RequestStatus::kRejected;
+constexpr RequestStatus kCompleted = RequestStatus::kCompleted;
+constexpr RequestStatus kCancelled = RequestStatus::kCancelled;
 
 constexpr std::pair<Mode, std::string_view> kModeNames[] = {
     {Mode::kAuto, "auto"},     {Mode::kFixed, "fixed"}, {Mode::kActuated, "actuated"},
@@ -36,6 +34,20 @@ DayClock DayClock::At(Duration since_midnight) {
   Duration d = since_midnight % day;
   if (d < Duration{0}) d += day;
   return DayClock{static_cast<int>(std::chrono::duration_cast<std::chrono::minutes>(d).count()), d};
+}
+
+std::string_view ToString(RequestStatus status) {
+  switch (status) {
+    case RequestStatus::kGranted:
+      return "granted";
+    case RequestStatus::kRejected:
+      return "rejected";
+    case RequestStatus::kCompleted:
+      return "completed";
+    case RequestStatus::kCancelled:
+      return "cancelled";
+  }
+  return "?";
 }
 
 std::string_view ToString(Mode mode) {
@@ -85,6 +97,7 @@ IntersectionController::IntersectionController(const IntersectionModel& model, M
   for (std::size_t g = 0; g < aspects_.size(); ++g) aspects_[g] = model.groups[g].flash_aspect;
   stage_ = Stage::kStartupFlash;
   stage_end_ = now + model.startup_flash;
+  next_wake_ = now;  // step at once
 }
 
 Mode IntersectionController::TargetMode(std::size_t plan) const {
@@ -383,6 +396,51 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
     }
     if (stage_ == before) break;
   }
+  // A request's group that turned green in this step is served from now (not from whenever
+  // the next step comes: the outcome must not depend on how often the controller is stepped).
+  UpdateRequest(now);
+  next_wake_ = ComputeNextWake(now);
+}
+
+MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
+  // Every instant at which a rule of Step may fire with unchanged inputs; earlier is harmless
+  // (a step with nothing due changes nothing), later would miss a transition.
+  MonoTime next = MonoTime::max();
+  auto consider = [&](MonoTime t) {
+    if (t > now) next = std::min(next, t);
+  };
+  if (active_) {
+    consider(active_->request.end);
+    consider(active_->accepted + model_->priority.max_preemption);
+  }
+  switch (stage_) {
+    case Stage::kStartupFlash:
+    case Stage::kAllRed:
+    case Stage::kRedClearance:
+      consider(stage_end_);
+      break;
+    case Stage::kFlash:
+    case Stage::kDark:
+      break;  // left only on a command, a plan or a reset: inputs
+    case Stage::kYellow:
+      consider(yellow_end_);
+      break;
+    case Stage::kGreen: {
+      consider(PhaseMinEnd());
+      consider(planned_end_);
+      consider(green_start_ + PhaseMaxGreen(phase_));
+      consider(green_start_ + PhaseMaxGreen(phase_) + model_->priority.max_extension);
+      consider(last_call_ + plan().extension);
+      // A call on this phase keeps its gap timer running: step every pass while it lasts.
+      if (!plan().detectors.empty()) {
+        for (std::size_t g : plan().phases[phase_].groups) {
+          if (Call(calls_, g)) return now;
+        }
+      }
+      break;
+    }
+  }
+  return next;
 }
 
 }  // namespace autodrive::scm
@@ -606,6 +664,7 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
 }
 
 CommandResult IntersectionController::SetMode(Mode mode, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   (void)now;
   if (mode == Mode::kActuated || mode == Mode::kFixed || mode == Mode::kManual) {
     const std::size_t plan = operator_plan_.value_or(scheduled_plan_.value_or(plan_));
@@ -627,6 +686,7 @@ CommandResult IntersectionController::SetMode(Mode mode, MonoTime now) {
 }
 
 CommandResult IntersectionController::SetPlan(std::string_view name, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   (void)now;
   if (name == "auto") {
     operator_plan_.reset();
@@ -651,6 +711,7 @@ CommandResult IntersectionController::SetPlan(std::string_view name, MonoTime no
 }
 
 CommandResult IntersectionController::Advance(MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   if (TargetMode(plan_) != Mode::kManual || latched_) {
     return CommandResult::Refused(fmt::format("advance needs manual mode; {} runs {}", model_->name,
                                               ToString(effective_mode())));
@@ -669,6 +730,7 @@ CommandResult IntersectionController::Advance(MonoTime now) {
 }
 
 CommandResult IntersectionController::Reset(MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   if (!latched_) {
     return CommandResult::Refused(
         fmt::format("{} is not in fail-safe flash; nothing to reset", model_->name));
@@ -681,13 +743,14 @@ CommandResult IntersectionController::Reset(MonoTime now) {
 }
 
 void IntersectionController::FailSafe(MonoTime now, std::string reason) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   if (!latched_) latch_reason_ = std::move(reason);
   latched_ = true;
   advance_ = false;
   EnterFlash(now, false);
 }
 
-void IntersectionController::EndRequest(MonoTime now, std::uint8_t status, std::string reason) {
+void IntersectionController::EndRequest(MonoTime now, RequestStatus status, std::string reason) {
   (void)now;
   if (!active_) return;
   updates_.push_back({active_->request.vehicle, active_->request.request_id, status,
@@ -710,6 +773,7 @@ void IntersectionController::UpdateRequest(MonoTime now) {
 }
 
 RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   RequestUpdate u{r.vehicle, r.request_id, kRejected, r.group, std::nullopt, ""};
   if (r.group >= model_->groups.size()) {
     u.reason = "unknown signal group";
@@ -754,6 +818,7 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime 
 
 RequestUpdate IntersectionController::Cancel(std::string_view vehicle, std::uint32_t request_id,
                                              MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
   RequestUpdate u{std::string(vehicle), request_id, kRejected, std::nullopt, std::nullopt, ""};
   if (!active_ || active_->request.vehicle != vehicle ||
       active_->request.request_id != request_id) {

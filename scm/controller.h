@@ -78,11 +78,16 @@ struct ServiceRequest {
   Duration duration{0};
 };
 
-/// What happened to a request; `status` uses SignalRequestStatus_Constants numbers.
+/// The state of a V2I request (J2735 SSM semantics; wire numbers only at the DDS edge).
+enum class RequestStatus { kGranted, kRejected, kCompleted, kCancelled };
+/// "granted", "rejected", "completed", "cancelled".
+[[nodiscard]] std::string_view ToString(RequestStatus status);
+
+/// What happened to a request.
 struct RequestUpdate {
   std::string vehicle;
   std::uint32_t request_id = 0;
-  std::uint8_t status = 0;
+  RequestStatus status = RequestStatus::kRejected;
   std::optional<std::size_t> group;
   std::optional<MonoTime> expected_green;
   std::string reason;
@@ -114,7 +119,10 @@ class IntersectionController {
   /// Goes to fail-safe flash at once and latches (reason kept for status).
   void FailSafe(MonoTime now, std::string reason);
   /// While false the start-up flash does not end (the lights are not all there yet).
-  void SetDevicesReady(bool ready) { devices_ready_ = ready; }
+  void SetDevicesReady(bool ready) {
+    if (ready != devices_ready_) next_wake_ = MonoTime::min();
+    devices_ready_ = ready;
+  }
 
   /// A V2I request: the first answer (GRANTED or REJECTED); later changes come from
   /// `TakeRequestUpdates`.
@@ -123,6 +131,15 @@ class IntersectionController {
   RequestUpdate Cancel(std::string_view vehicle, std::uint32_t request_id, MonoTime now);
   /// Status changes since the last call (completions, cancellations).
   std::vector<RequestUpdate> TakeRequestUpdates();
+  /// True when `TakeRequestUpdates` has something (checking allocates nothing).
+  [[nodiscard]] bool has_request_updates() const { return !updates_.empty(); }
+
+  /// The earliest control instant at which `Step` may change anything when its inputs (calls,
+  /// day clock, commands, requests, device readiness) stay as they were at the last step. A
+  /// caller may skip `Step` until then and get exactly the same outputs; it must step at once
+  /// when an input changes. While a detector call holds a green open, or the start-up waits for
+  /// its devices, it is the last step's time (step every pass).
+  [[nodiscard]] MonoTime next_wake() const { return next_wake_; }
 
   /// Each group's signal with SPaT timing, valid after the last `Step` or command.
   [[nodiscard]] std::vector<GroupSignal> Signals(MonoTime now) const;
@@ -173,7 +190,8 @@ class IntersectionController {
   void StartPhase(std::size_t phase, MonoTime now);
   void BeginClearance(std::optional<std::size_t> next, MonoTime now);
   void UpdateRequest(MonoTime now);
-  void EndRequest(MonoTime now, std::uint8_t status, std::string reason);
+  void EndRequest(MonoTime now, RequestStatus status, std::string reason);
+  [[nodiscard]] MonoTime ComputeNextWake(MonoTime now) const;
 
   const IntersectionModel* model_;
   std::vector<Aspect> aspects_;
@@ -199,6 +217,7 @@ class IntersectionController {
   std::optional<Active> active_;
   std::vector<RequestUpdate> updates_;
   std::vector<bool> calls_;  ///< the last calls seen, for predictions
+  MonoTime next_wake_{};
 };
 
 }  // namespace autodrive::scm

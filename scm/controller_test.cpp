@@ -5,8 +5,6 @@
 
 #include <random>
 
-#include "autodrive_msgs/msg/SignalRequestStatus.h"
-
 #include "common/test_support.h"
 #include "scm/conflict_monitor.h"
 
@@ -231,7 +229,7 @@ TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
   ASSERT_EQ(rig.Of(0), Aspect::kGreen);
   ServiceRequest req{"nigel_2", 7, true, 2, rig.now + seconds(20)};
   const auto u = rig.controller.Request(req, rig.now);
-  EXPECT_EQ(u.status, autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED);
+  EXPECT_EQ(u.status, RequestStatus::kGranted);
   ASSERT_TRUE(u.expected_green);
   EXPECT_TRUE(rig.controller.preemption_active());
   // Group 1's min green ends at 10 s; yellow 3 s, all red 2 s: west green at 15 s, skipping north.
@@ -247,7 +245,7 @@ TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
   rig.RunTo(CycleStart() + seconds(27));
   const auto updates = rig.controller.TakeRequestUpdates();
   ASSERT_EQ(updates.size(), 1u);
-  EXPECT_EQ(updates[0].status, autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED);
+  EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
   EXPECT_EQ(updates[0].vehicle, "nigel_2");
 }
 
@@ -257,8 +255,7 @@ TEST(Controller, ARequestServedAfterItsEndStillGetsItsDurationOfGreen) {
   ASSERT_EQ(rig.Of(0), Aspect::kGreen);
   // The vehicle is already due (end = now) and needs 4 s of green; west turns green at 15 s.
   ServiceRequest req{"nigel_3", 1, true, 2, rig.now, seconds(4)};
-  ASSERT_EQ(rig.controller.Request(req, rig.now).status,
-            autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED);
+  ASSERT_EQ(rig.controller.Request(req, rig.now).status, RequestStatus::kGranted);
   rig.RunTo(CycleStart() + seconds(15));
   EXPECT_EQ(rig.Of(2), Aspect::kGreen);
   EXPECT_TRUE(rig.controller.preemption_active());
@@ -268,13 +265,13 @@ TEST(Controller, ARequestServedAfterItsEndStillGetsItsDurationOfGreen) {
   EXPECT_FALSE(rig.controller.preemption_active());
   const auto updates = rig.controller.TakeRequestUpdates();
   ASSERT_EQ(updates.size(), 1u);
-  EXPECT_EQ(updates[0].status, autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED);
+  EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
 }
 
 TEST(Controller, RequestsAreRefusedInFlashAndManual) {
   Rig rig(DrivingSchool().intersections[0]);
   const auto in_startup = rig.controller.Request({"nigel_1", 1, true, 0, rig.now}, rig.now);
-  EXPECT_EQ(in_startup.status, autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED);
+  EXPECT_EQ(in_startup.status, RequestStatus::kRejected);
   EXPECT_EQ(in_startup.reason, "driving_school_crossing is in flash");
   rig.RunFor(seconds(6));
   ASSERT_TRUE(rig.controller.SetMode(Mode::kManual, rig.now).ok);
@@ -436,6 +433,7 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
   std::uniform_int_distribution<int> tick_ms(20, 600);
   std::uniform_int_distribution<int> percent(0, 99);
   long long ticks = 0;
+  long long lazy_steps = 0;
   int latches = 0;
   int grants = 0;
   for (int s = 0; s < sequences; ++s) {
@@ -444,16 +442,24 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
         MonoTime(seconds(1'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
     const auto modes = {Mode::kAuto,   Mode::kFixed, Mode::kActuated,
                         Mode::kManual, Mode::kFlash, Mode::kDark};
-    IntersectionController c(
-        x, now, *(modes.begin() + percent(rng) % 6),
+    const Mode first_mode = *(modes.begin() + percent(rng) % 6);
+    const std::optional<std::size_t> first_plan =
         percent(rng) < 50
             ? std::optional<std::size_t>(static_cast<std::size_t>(percent(rng)) % x.plans.size())
-            : std::nullopt);
+            : std::nullopt;
+    IntersectionController c(x, now, first_mode, first_plan);
+    // The same controller stepped only when it is due or its inputs changed, as the daemon
+    // does (next_wake): it must show exactly the same at every tick.
+    IntersectionController lazy(x, now, first_mode, first_plan);
+    bool lazy_due = true;  // an input changed since its last step
     ConflictMonitor monitor(x, now);
     RuleChecker checker(x, now);
     int minute = std::uniform_int_distribution<int>(0, 1439)(rng);
     std::vector<bool> calls(x.groups.size(), false);
     const int steps = 200;
+    // The latest min_end SPaT promised each group since it last changed: a change before it is
+    // allowed only into fail-safe flash (the intersection latched), whatever commands came.
+    std::vector<std::optional<MonoTime>> promised(x.groups.size());
     std::vector<GroupSignal> prev;
     std::vector<std::string> trace;  // the last steps, printed when a rule breaks
     auto note = [&](std::string what) {
@@ -468,59 +474,94 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
       for (const auto& t : trace) out += "\n  " + t;
       return out;
     };
+    // Every command goes to both controllers.
+    auto both = [&](auto&& command) {
+      auto result = command(c);
+      (void)command(lazy);
+      lazy_due = true;
+      return result;
+    };
     for (int k = 0; k < steps; ++k) {
+      const auto before = c.aspects();  // before this round's command and step
       const int p = percent(rng);
       std::string what = "tick";
       if (p < 3) {
         const Mode m = *(modes.begin() + percent(rng) % 6);
-        what = fmt::format("mode {}: {}", ToString(m), c.SetMode(m, now).message);
+        what = fmt::format("mode {}: {}", ToString(m),
+                           both([&](auto& ctl) { return ctl.SetMode(m, now); }).message);
       } else if (p < 6) {
         const std::size_t plan = static_cast<std::size_t>(percent(rng)) % (x.plans.size() + 1);
-        what = c.SetPlan(plan == x.plans.size() ? "auto" : x.plans[plan].name, now).message;
+        const std::string name = plan == x.plans.size() ? "auto" : x.plans[plan].name;
+        what = both([&](auto& ctl) { return ctl.SetPlan(name, now); }).message;
       } else if (p < 12) {
-        what = "advance: " + c.Advance(now).message;
+        what = "advance: " + both([&](auto& ctl) { return ctl.Advance(now); }).message;
       } else if (p < 16) {
         const std::size_t g = static_cast<std::size_t>(percent(rng)) % x.groups.size();
-        const auto u = c.Request({"nigel_" + std::to_string(1 + percent(rng) % 3),
-                                  static_cast<std::uint32_t>(percent(rng)), percent(rng) < 50, g,
-                                  now + milliseconds(percent(rng) * 300)},
-                                 now);
-        if (u.status == autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED) ++grants;
-        what = fmt::format("request group {} status {} {}", g, u.status, u.reason);
+        const ServiceRequest r{"nigel_" + std::to_string(1 + percent(rng) % 3),
+                               static_cast<std::uint32_t>(percent(rng)), percent(rng) < 50, g,
+                               now + milliseconds(percent(rng) * 300)};
+        const auto u = both([&](auto& ctl) { return ctl.Request(r, now); });
+        if (u.status == RequestStatus::kGranted) ++grants;
+        what = fmt::format("request group {} status {} {}", g, ToString(u.status), u.reason);
       } else if (p < 17) {
-        c.FailSafe(now, "injected device fault");
+        both([&](auto& ctl) {
+          ctl.FailSafe(now, "injected device fault");
+          return 0;
+        });
         what = "fail-safe";
         ++latches;
       } else if (p < 20) {
-        what = "reset: " + c.Reset(now).message;
+        what = "reset: " + both([&](auto& ctl) { return ctl.Reset(now); }).message;
       } else if (p < 22) {
-        c.SetDevicesReady(percent(rng) < 70);
+        const bool ready = percent(rng) < 70;
+        both([&](auto& ctl) {
+          ctl.SetDevicesReady(ready);
+          return 0;
+        });
       } else if (p < 30) {
         calls[static_cast<std::size_t>(percent(rng)) % calls.size()].flip();
+        lazy_due = true;
       } else if (p < 31) {
         minute = std::uniform_int_distribution<int>(0, 1439)(rng);
         what = "schedule";
+        lazy_due = true;
       }
       now += milliseconds(tick_ms(rng));
-      const auto before = c.aspects();
       c.Step(now, calls, Day(now, minute));
-      note(what);
-      // SPaT timing: with no command in between, a change never comes before the min end the
-      // last tick promised, nor later than one tick after its max end.
-      if (what == "tick" && !prev.empty()) {
-        for (std::size_t g = 0; g < before.size(); ++g) {
-          if (c.aspects()[g] == before[g]) continue;
-          if (IsFlashing(c.aspects()[g]) || c.aspects()[g] == Aspect::kOff) continue;  // any time
-          ASSERT_GE(now, prev[g].min_end) << "group " << g << dump();
-          if (prev[g].max_end) {
-            ASSERT_LE(now, *prev[g].max_end + milliseconds(600)) << "group " << g << dump();
-          }
-        }
+      if (lazy_due || now >= lazy.next_wake()) {
+        lazy.Step(now, calls, Day(now, minute));
+        lazy_due = false;
+        ++lazy_steps;
       }
+      note(what);
+      ASSERT_EQ(lazy.aspects(), c.aspects())
+          << "stepping only when due (next_wake) changed the output" << dump();
+      ASSERT_EQ(lazy.stage(), c.stage()) << dump();
+      // SPaT timing: a change never comes before a min end promised since the group's last
+      // change (commands cannot take a promise back), except into fail-safe flash; with no
+      // command in between, never later than one tick after the max end the last tick gave.
+      for (std::size_t g = 0; g < before.size(); ++g) {
+        if (c.aspects()[g] == before[g]) continue;
+        if (!c.latched() && promised[g]) {
+          ASSERT_GE(now, *promised[g])
+              << "group " << g << " changed to " << ToString(c.aspects()[g])
+              << " before its promise" << dump();
+        }
+        if (what == "tick" && !prev.empty() && prev[g].max_end) {
+          ASSERT_LE(now, *prev[g].max_end + milliseconds(600)) << "group " << g << dump();
+        }
+        promised[g].reset();
+      }
+      // Fail-safe flash voids every promise made before it.
+      if (c.latched()) std::fill(promised.begin(), promised.end(), std::nullopt);
       prev = c.Signals(now);
-      for (const auto& sig : prev) ASSERT_GE(sig.min_end, now);
+      for (std::size_t g = 0; g < prev.size(); ++g) {
+        ASSERT_GE(prev[g].min_end, now);
+        promised[g] = promised[g] ? std::max(*promised[g], prev[g].min_end) : prev[g].min_end;
+      }
       for (const auto& u : c.TakeRequestUpdates())
-        note("update " + std::to_string(u.status) + " " + u.reason);
+        note("update " + std::string(ToString(u.status)) + " " + u.reason);
+      (void)lazy.TakeRequestUpdates();
       ++ticks;
       const std::string broken = checker.Check(now, c.aspects());
       if (!broken.empty()) note("checked");
@@ -529,9 +570,78 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
       ASSERT_FALSE(v) << "sequence " << s << " step " << k << ": " << v->message << dump();
     }
   }
-  std::printf("%s: %d sequences, %lld ticks, %d injected faults, %d requests granted\n",
-              city.config.name.c_str(), sequences, ticks, latches, grants);
+  std::printf(
+      "%s: %d sequences, %lld ticks (%lld steps when due), %d injected faults, %d "
+      "requests granted\n",
+      city.config.name.c_str(), sequences, ticks, lazy_steps, latches, grants);
   EXPECT_GT(grants, 0);
+  EXPECT_LT(lazy_steps, ticks) << "next_wake let no step be skipped";
+}
+
+/// Liveness: under a fixed plan (or an actuated one with every group called) and no faults or
+/// commands, every group turns green within one cycle plus its clearances, from the end of
+/// the start-up sequence on, whatever the start time and the tick.
+void RunLiveness(const City& city, int runs, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> tick_ms(20, 200);
+  long long checked = 0;
+  for (int r = 0; r < runs; ++r) {
+    const auto& x = city.intersections[static_cast<std::size_t>(r) % city.intersections.size()];
+    for (std::size_t plan = 0; plan < x.plans.size(); ++plan) {
+      const Plan& p = x.plans[plan];
+      if (p.type != PlanType::kFixed && p.type != PlanType::kActuated) continue;
+      // The longest a group can wait: every phase at its longest green (or min green), each
+      // followed by the longest clearance, plus one tick of lateness per change.
+      Duration bound{0};
+      for (const auto& phase : p.phases) {
+        Duration longest = phase.green;
+        Duration clearance{0};
+        for (std::size_t g : phase.groups) {
+          const auto& t = x.groups[g].timing;
+          longest = std::max(
+              {longest, t.min_green, p.type == PlanType::kActuated ? t.max_green : Duration{0}});
+          clearance = std::max(clearance, t.yellow + t.red_clearance);
+        }
+        bound += longest + clearance + 2 * milliseconds(200);
+      }
+      MonoTime now =
+          MonoTime(seconds(2'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
+      IntersectionController c(x, now, Mode::kAuto, plan);
+      const std::vector<bool> calls(x.groups.size(), true);
+      const int minute = std::uniform_int_distribution<int>(0, 1439)(rng);
+      std::optional<MonoTime> cycling_since;
+      std::vector<MonoTime> last_green(x.groups.size());
+      const MonoTime end = now + 4 * bound + x.startup_flash + x.startup_all_red;
+      while (now < end) {
+        now += milliseconds(tick_ms(rng));
+        c.Step(now, calls, Day(now, minute));
+        ASSERT_FALSE(c.latched());
+        if (!cycling_since && c.stage() == Stage::kGreen) {
+          cycling_since = now;
+          std::fill(last_green.begin(), last_green.end(), now);
+        }
+        if (!cycling_since) continue;
+        for (std::size_t g = 0; g < x.groups.size(); ++g) {
+          if (c.aspects()[g] == Aspect::kGreen) last_green[g] = now;
+          ASSERT_LE(now - last_green[g], bound)
+              << x.name << " plan " << p.name << ": group " << x.groups[g].name << " has waited "
+              << ToSeconds(now - last_green[g]) << " s for its green (bound " << ToSeconds(bound)
+              << " s)";
+          ++checked;
+        }
+      }
+      ASSERT_TRUE(cycling_since) << x.name << " plan " << p.name << " never left the start-up";
+    }
+  }
+  std::printf("%s: liveness checked at %lld group-ticks\n", city.config.name.c_str(), checked);
+}
+
+TEST(ControllerProperty, EveryGroupGetsItsGreenWithinACyclePlusClearancesDrivingSchool) {
+  RunLiveness(DrivingSchool(), 200 * test::SoakFactor(), 3);
+}
+
+TEST(ControllerProperty, EveryGroupGetsItsGreenWithinACyclePlusClearancesSmallTown) {
+  RunLiveness(SmallTown(), 200 * test::SoakFactor(), 4);
 }
 
 TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDrivingSchool) {

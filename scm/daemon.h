@@ -1,73 +1,94 @@
 #pragma once
 /// @file
-/// The Smart City Manager daemon: runs the city's intersection controllers behind the conflict
-/// monitor, supervises the traffic-light devices, publishes SPaT, MAP, signs, fleet state, light
-/// commands, events and its heartbeat over DDS, answers operator requests and V2I signal
-/// requests, and keeps its event log, configuration and modes in SQLite (docs/scm.md).
+/// The Smart City Manager daemon: composes the SCM's parts around one control loop.
+///
+/// The loop (one thread) waits on a `dds::LoopWaitSet` until an operator or V2I request
+/// arrives, a controller or a device time-out is due, or the next tick (20 ms) or SPaT (100 ms)
+/// comes. Each pass takes what arrived (devices, fleet, requests), applies the supervision
+/// rules, steps the controllers that are due behind their conflict monitors, sends the lights
+/// what changed, and publishes SPaT, fleet and heartbeat on their period. It never blocks:
+/// the database is behind `Persistence`'s writer thread, configurations are loaded and built by
+/// `ConfigLoader` off the loop and swapped in whole, every writer is non-blocking, and steady
+/// state allocates nothing. See docs/scm.md.
 
 #include <atomic>
 #include <filesystem>
-#include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <vector>
 
 #include "common/dds/participant.h"
 #include "common/time.h"
 #include "scm/city.h"
-#include "scm/conflict_monitor.h"
-#include "scm/controller.h"
+#include "scm/persistence.h"
+#include "scm/runtime.h"
 
 namespace autodrive::scm {
 
 /// How the daemon runs.
 struct ScmOptions {
-  std::filesystem::path config_path;              ///< the city file
-  std::string db_path = "autodrive-scm.db";       ///< the SQLite database (created when missing)
-  dds::ParticipantOptions participant;            ///< domain, partition
-  Duration tick = std::chrono::milliseconds(20);  ///< control loop period
-  Duration spat_period = std::chrono::milliseconds(100);  ///< SPaT, fleet and heartbeat (10 Hz)
+  std::filesystem::path config_path;         ///< the city file
+  std::string db_path = "autodrive-scm.db";  ///< the SQLite database (created when missing)
+  /// Configurations sent by operators may name maps only under this folder. Default: the
+  /// parent of the city file's folder (`config/` for `config/cities/x.yaml`).
+  std::optional<std::filesystem::path> config_root;
+  Duration tick = std::chrono::milliseconds(20);          ///< the loop's longest sleep
+  Duration spat_period = std::chrono::milliseconds(100);  ///< SPaT, fleet and heartbeat
+  Duration prune_period = std::chrono::minutes(10);       ///< event log retention, checked
+  RetentionPolicy retention;
+  /// Requests handled per pass at most (the rest wait for the next pass, a moment later).
+  std::size_t max_requests_per_pass = 256;
 };
 
-/// Counters the daemon keeps (status and tests).
+/// Figures of the running daemon, for tests, benchmarks and `scmctl status`.
 struct ScmCounters {
-  std::uint64_t ticks = 0;
+  std::uint64_t passes = 0;
+  std::uint64_t controller_steps = 0;
   std::uint64_t spat_published = 0;
   std::uint64_t operator_requests = 0;
-  std::uint64_t malformed_requests = 0;
+  std::uint64_t refused_requests = 0;  ///< invalid, rate-limited or not allowed
   std::uint64_t signal_requests = 0;
   std::uint64_t monitor_violations = 0;
+  std::uint64_t light_commands = 0;
+  std::uint64_t light_resends = 0;
+  std::uint64_t write_failures = 0;
+  std::uint64_t events = 0;
+  std::uint64_t events_dropped = 0;
+  std::uint64_t foreign_devices = 0;
+  std::uint64_t clock_sessions = 0;  ///< new sessions of the control timeline seen
 };
 
-/// The daemon. Not copyable or movable. `Run` blocks until `Stop`; the other methods are for
-/// the loop and tests and must be called from the loop's thread.
+/// The daemon. Not copyable or movable. `Run` blocks until `Stop`; `Pass` is for tests that
+/// drive the daemon on a simulated clock.
 class Scm {
  public:
   /// Loads the city (from the database's operator-applied configuration when the file is
-  /// unchanged since it was applied, else from the file), opens the database, joins DDS and
-  /// publishes MAP and signs. Throws `ConfigError`/`InputError` on a bad file or database.
-  Scm(const ScmOptions& options, Clock& clock);
+  /// unchanged since it was applied, else from the file), opens the database, creates its
+  /// readers and writers on `participant` (which must outlive it) and publishes MAP and signs.
+  /// Throws `ConfigError`/`InputError` on a bad file or database.
+  Scm(const ScmOptions& options, Clock& clock, dds::Participant& participant);
   ~Scm();
   Scm(const Scm&) = delete;
   Scm& operator=(const Scm&) = delete;
 
   /// Runs the loop until `Stop` (or the clock is interrupted), then tells the devices the SCM
-  /// is stopping.
+  /// is stopping. Tells systemd READY, WATCHDOG and STOPPING when it runs under it.
   void Run();
-  /// Ends `Run` from any thread (signal handlers included: it only sets a flag and interrupts
-  /// the clock).
+  /// Ends `Run` from any thread (signal handlers included).
   void Stop();
-
-  /// One pass of the loop at `now`: requests, devices, controllers, monitor, outputs.
-  void Tick(const ClockReading& now);
+  /// One pass of the loop at the clock's time.
+  void Pass();
+  /// The next instant the loop would wake at with no input (tests step a simulated clock to it).
+  [[nodiscard]] MonoTime next_deadline() const;
+  /// Waits until queued database writes are done (tests).
+  void FlushPersistence();
 
   [[nodiscard]] const City& city() const;
+  /// The running intersections (tests look at what the controllers do, pass by pass).
+  [[nodiscard]] const CityRuntime& runtime() const;
   [[nodiscard]] ScmCounters counters() const;
 
  private:
-  void PublishStopping();
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "common/dds/conversions.h"
@@ -17,10 +18,12 @@ int Rank(PoseSource source) {
       return 0;
     case PoseSource::kEye:
       return 1;
-    case PoseSource::kOdometry:
+    case PoseSource::kIps:
       return 2;
+    case PoseSource::kOdometry:
+      return 3;
   }
-  return 3;
+  return 4;
 }
 
 const FleetRegistryParams& Validated(const FleetRegistryParams& params) {
@@ -65,6 +68,8 @@ std::string_view ToString(PoseSource source) {
       return "sim_ground_truth";
     case PoseSource::kOdometry:
       return "odometry";
+    case PoseSource::kIps:
+      return "ips";
   }
   return "?";
 }
@@ -100,8 +105,10 @@ FleetRegistry::FleetRegistry(const maps::Map& map, FleetRegistryParams params)
   }
 }
 
-bool FleetRegistry::HeadingFits(const Eigen::Vector2d& tangent, double yaw_rad) const {
-  const double error = std::abs(WrapAngle(yaw_rad - std::atan2(tangent.y(), tangent.x())));
+bool FleetRegistry::HeadingFits(const Eigen::Vector2d& tangent,
+                                std::optional<double> yaw_rad) const {
+  if (!yaw_rad) return true;
+  const double error = std::abs(WrapAngle(*yaw_rad - std::atan2(tangent.y(), tangent.x())));
   return error <= params_.max_heading_error_rad;
 }
 
@@ -123,8 +130,8 @@ const maps::Intersection* FleetRegistry::BoxAt(const Eigen::Vector2d& p) const {
   return d.x() < T / 2 - kEdge && d.y() < T / 2 - kEdge ? x : nullptr;
 }
 
-std::optional<std::pair<LaneId, double>> FleetRegistry::NearestLane(const Eigen::Vector2d& p,
-                                                                    double yaw_rad) const {
+std::optional<std::pair<LaneId, double>> FleetRegistry::NearestLane(
+    const Eigen::Vector2d& p, std::optional<double> yaw_rad) const {
   const auto fits = [&](const maps::Lane& lane, const LineProjection& q) {
     return q.distance_m <= lane.width_m / 2 + params_.lane_margin_m &&
            HeadingFits(q.tangent, yaw_rad);
@@ -154,9 +161,10 @@ std::optional<std::pair<LaneId, double>> FleetRegistry::NearestLane(const Eigen:
   return best;
 }
 
-VehicleLocation FleetRegistry::Locate(const RigidTransform2& X_MV) const {
+VehicleLocation FleetRegistry::Locate(const RigidTransform2& X_MV, bool heading_known) const {
   const Eigen::Vector2d& p = X_MV.translation();
-  const double yaw = X_MV.yaw();
+  const std::optional<double> yaw =
+      heading_known ? std::optional<double>(X_MV.yaw()) : std::nullopt;
   VehicleLocation loc;
   if (const maps::Intersection* x = BoxAt(p)) {
     loc.intersection = x->id;
@@ -194,11 +202,11 @@ VehicleLocation FleetRegistry::Locate(const RigidTransform2& X_MV) const {
 
 bool FleetRegistry::Observe(const VehicleObservation& o) {
   AUTODRIVE_THROW_UNLESS(o.source == PoseSource::kEye || o.source == PoseSource::kSimGroundTruth ||
-                             o.source == PoseSource::kOdometry,
+                             o.source == PoseSource::kOdometry || o.source == PoseSource::kIps,
                          "an observation of " << VehicleName(o.vehicle) << " has an unknown source "
                                               << static_cast<int>(o.source)
                                               << " (expected 1 eye, 2 sim ground "
-                                              << "truth or 3 odometry)");
+                                              << "truth, 3 odometry or 5 ips)");
   AUTODRIVE_THROW_UNLESS(std::isfinite(o.speed_mps), "an observation of " << VehicleName(o.vehicle)
                                                                           << " has speed "
                                                                           << o.speed_mps);
@@ -207,7 +215,8 @@ bool FleetRegistry::Observe(const VehicleObservation& o) {
                            "an observation of " << VehicleName(o.vehicle) << " has covariance[" << i
                                                 << "] = " << o.pose_covariance[i]);
   }
-  Entry entry{o, Locate(o.X_MV.ToRigidTransform2())};  // outside the lock: the map is const
+  // Outside the lock: the map is const.
+  Entry entry{o, Locate(o.X_MV.ToRigidTransform2(), o.heading_known)};
   std::lock_guard lock(mutex_);
   const auto key = std::pair{o.vehicle, o.source};
   const auto it = entries_.find(key);
@@ -226,9 +235,9 @@ bool FleetRegistry::Fresh(const VehicleObservation& o, Time now) const {
   return age <= params_.staleness && -age <= params_.staleness;
 }
 
-std::vector<const FleetRegistry::Entry*> FleetRegistry::Chosen(Time now) const {
-  // entries_ is ordered by (vehicle, source): one run per vehicle. Caller holds the lock.
-  std::vector<const Entry*> out;
+template <typename F>
+void FleetRegistry::ForEachChosen(Time now, F&& f) const {
+  // entries_ is ordered by (vehicle, source): one run per vehicle.
   for (auto it = entries_.begin(); it != entries_.end();) {
     const VehicleId vehicle = it->first.first;
     const Entry* best = nullptr;
@@ -239,8 +248,13 @@ std::vector<const FleetRegistry::Entry*> FleetRegistry::Chosen(Time now) const {
         best = &e;
       }
     }
-    if (best != nullptr) out.push_back(best);
+    if (best != nullptr) f(*best);
   }
+}
+
+std::vector<const FleetRegistry::Entry*> FleetRegistry::Chosen(Time now) const {
+  std::vector<const Entry*> out;
+  ForEachChosen(now, [&](const Entry& e) { out.push_back(&e); });
   return out;
 }
 
@@ -252,28 +266,39 @@ std::vector<FleetVehicle> FleetRegistry::Vehicles(Time now) const {
 }
 
 FleetStateMessage FleetRegistry::State(Time now) const {
-  const std::vector<FleetVehicle> vehicles = Vehicles(now);
   FleetStateMessage m;
+  StateInto(now, m);
+  return m;
+}
+
+void FleetRegistry::StateInto(Time now, FleetStateMessage& m) const {
   m->header.stamp = dds::ToMsg(now);
-  dds::SetString(m->header.frame_id, "map");
-  dds::ResizeSequence(m->vehicles, static_cast<std::uint32_t>(vehicles.size()));
-  for (std::size_t i = 0; i < vehicles.size(); ++i) {
-    const VehicleObservation& o = vehicles[i].observation;
-    const VehicleLocation& loc = vehicles[i].location;
-    auto& v = dds::Elements(m->vehicles)[i];
-    dds::SetString(v.vehicle_id, VehicleName(o.vehicle));
+  dds::UpdateString(m->header.frame_id, "map");
+  std::lock_guard lock(mutex_);
+  std::uint32_t n = 0;
+  ForEachChosen(now, [&](const Entry&) { ++n; });
+  dds::SetLengthKeepingCapacity(m->vehicles, n);
+  std::uint32_t i = 0;
+  char name[32];
+  ForEachChosen(now, [&](const Entry& e) {
+    const VehicleObservation& o = e.observation;
+    const VehicleLocation& loc = e.location;
+    auto& v = dds::Elements(m->vehicles)[i++];
+    const int len =
+        std::snprintf(name, sizeof name, "nigel_%u", static_cast<unsigned>(o.vehicle.value()));
+    dds::UpdateString(v.vehicle_id, std::string_view(name, static_cast<std::size_t>(len)));
     v.tag_id = o.tag ? o.tag->value() : 0;
     v.source = static_cast<std::uint8_t>(o.source);
     v.observed = dds::ToMsg(o.observed);
     v.pose.pose = dds::ToMsg(o.X_MV);
     std::copy(o.pose_covariance.begin(), o.pose_covariance.end(), v.pose.covariance);
+    v.twist.twist = msg::Twist{};
     v.twist.twist.linear.x = o.speed_mps;
-    dds::SetString(v.map_lane_id, loc.lane ? map_.lane(*loc.lane).name : std::string());
+    dds::UpdateString(v.map_lane_id, loc.lane ? std::string_view(map_.lane(*loc.lane).name) : "");
     v.intersection_id = loc.intersection ? loc.intersection->value() : 0;
     v.approach_id = loc.approach ? loc.approach->value() : 0;
     v.distance_to_stop_line_m = loc.distance_to_stop_line_m.value_or(0.0);
-  }
-  return m;
+  });
 }
 
 bool FleetRegistry::Occupied(const DetectorZone& zone, Time now) const {
@@ -291,13 +316,14 @@ bool FleetRegistry::Occupied(const DetectorZone& zone, Time now) const {
       "detector zone on lane " << lane.name << " has an empty range [" << zone.from_stop_line_m
                                << ", " << zone.to_stop_line_m << "] m");
   std::lock_guard lock(mutex_);
-  for (const Entry* e : Chosen(now)) {
-    const VehicleLocation& loc = e->location;
-    if (loc.lane != zone.lane || !loc.distance_to_stop_line_m) continue;
+  bool occupied = false;
+  ForEachChosen(now, [&](const Entry& e) {
+    const VehicleLocation& loc = e.location;
+    if (loc.lane != zone.lane || !loc.distance_to_stop_line_m) return;
     const double d = *loc.distance_to_stop_line_m;
-    if (d >= zone.from_stop_line_m && d <= zone.to_stop_line_m) return true;
-  }
-  return false;
+    if (d >= zone.from_stop_line_m && d <= zone.to_stop_line_m) occupied = true;
+  });
+  return occupied;
 }
 
 std::size_t FleetRegistry::DropStale(Time now) {

@@ -24,17 +24,19 @@ namespace autodrive::scm {
 /// The fleet state as published.
 using FleetStateMessage = dds::Message<msg::FleetState>;
 
-/// Where a pose comes from; the values are `TrackedVehicle_Constants`. When several sources
-/// have a fresh observation of one vehicle, the registry reports one, preferring simulator
-/// ground truth (exact by definition) over the Eye (an external, absolute measurement) over
-/// odometry (the car's own estimate, which drifts).
+/// Where a pose comes from; the values are the wire values (`TrackedVehicle_Constants`, checked
+/// at the DDS edge). When several sources have a fresh observation of one vehicle, the registry
+/// reports one, preferring simulator ground truth (exact by definition) over the Eye (an
+/// external, absolute measurement with heading) over the devkit's `ips` topic (a position only,
+/// heading from its motion) over odometry (the car's own estimate, which drifts).
 enum class PoseSource : std::uint8_t {
   kEye = 1,
   kSimGroundTruth = 2,
   kOdometry = 3,
+  kIps = 5,
 };
 
-/// "eye", "sim_ground_truth" or "odometry".
+/// "eye", "sim_ground_truth", "odometry" or "ips".
 [[nodiscard]] std::string_view ToString(PoseSource source);
 
 /// One observation of one vehicle.
@@ -50,6 +52,10 @@ struct VehicleObservation {
   /// unknown.
   std::array<double, 36> pose_covariance{};
   std::optional<TagId> tag;  ///< the AprilTag on its roof, when known
+  /// False when the source does not know the heading (the yaw of `X_MV` means nothing): the
+  /// vehicle is then located on the nearest lane whatever its direction (a parked car whose
+  /// `ips` never moved still gets its lane).
+  bool heading_known = true;
 };
 
 /// Where a vehicle is on the map. Everything is empty for a vehicle off the road network.
@@ -130,7 +136,8 @@ class FleetRegistry {
   /// Where a vehicle with pose `X_MV` (map frame) is: in an intersection box, on the movement
   /// whose path is nearest (within the lane half-width plus margin, heading-compatible), else
   /// on the nearest heading-compatible lane within its half-width plus margin.
-  [[nodiscard]] VehicleLocation Locate(const RigidTransform2& X_MV) const;
+  [[nodiscard]] VehicleLocation Locate(const RigidTransform2& X_MV,
+                                       bool heading_known = true) const;
 
   /// Every vehicle with a fresh observation at `now` (observed within `staleness` of `now`,
   /// either side: hosts' clocks differ a little), the preferred source's when several are (see
@@ -142,6 +149,9 @@ class FleetRegistry {
   /// covariance, twist (linear x = speed, zero covariance) and location (empty lane name and
   /// zeros where `VehicleLocation` is empty).
   [[nodiscard]] FleetStateMessage State(Time now) const;
+  /// `State(now)` written into `m`, reusing its memory: no allocation while the vehicles, their
+  /// names and lanes stay the same (the daemon's 10 Hz publisher).
+  void StateInto(Time now, FleetStateMessage& m) const;
 
   /// True when a fresh vehicle (as in `Vehicles`) is on `zone.lane` with its distance to the
   /// stop line in [`zone.from_stop_line_m`, `zone.to_stop_line_m`]. A vehicle's origin is
@@ -162,10 +172,16 @@ class FleetRegistry {
     VehicleLocation location;
   };
   [[nodiscard]] bool Fresh(const VehicleObservation& o, Time now) const;
-  [[nodiscard]] bool HeadingFits(const Eigen::Vector2d& tangent, double yaw_rad) const;
+  // Heading compatible; any heading fits when `yaw_rad` is nothing (unknown heading).
+  [[nodiscard]] bool HeadingFits(const Eigen::Vector2d& tangent,
+                                 std::optional<double> yaw_rad) const;
   // The nearest lane that fits (within reach, heading-compatible) and the arc length along it.
-  [[nodiscard]] std::optional<std::pair<LaneId, double>> NearestLane(const Eigen::Vector2d& p,
-                                                                     double yaw_rad) const;
+  [[nodiscard]] std::optional<std::pair<LaneId, double>> NearestLane(
+      const Eigen::Vector2d& p, std::optional<double> yaw_rad) const;
+  // Calls f(entry) for the chosen entry of each vehicle fresh at `now`, in vehicle order,
+  // without allocating. Caller holds the lock.
+  template <typename F>
+  void ForEachChosen(Time now, F&& f) const;
   [[nodiscard]] const maps::Intersection* BoxAt(const Eigen::Vector2d& p) const;
   [[nodiscard]] std::vector<const Entry*> Chosen(Time now) const;
 

@@ -207,6 +207,60 @@ TEST_F(FleetTest, PrefersGroundTruthOverEyeOverOdometryWhenFresh) {
   EXPECT_EQ(source_at(t0_ + milliseconds(1960)), PoseSource::kEye);
 }
 
+TEST_F(FleetTest, AVehicleWhoseHeadingIsUnknownIsPutOnTheNearestLane) {
+  // A parked car seen only through its ips position: the yaw in the pose means nothing (here
+  // it faces the wrong way), so only the position places it.
+  const RigidTransform2 X = BeforeStopLine(ingress(1), 0.4);
+  VehicleObservation o = Obs(6, Reversed(X), t0_, PoseSource::kIps);
+  o.heading_known = false;
+  ASSERT_TRUE(fleet_.Observe(o));
+  auto v = fleet_.Vehicles(t0_);
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_EQ(v[0].location.lane, ingress(1).id);
+  EXPECT_EQ(v[0].location.approach, approach(1).id);
+  EXPECT_NEAR(*v[0].location.distance_to_stop_line_m, 0.4, 0.01);
+  // With its heading taken for true it faces the wrong way and is on no lane.
+  o.heading_known = true;
+  o.observed = t0_ + milliseconds(10);
+  ASSERT_TRUE(fleet_.Observe(o));
+  v = fleet_.Vehicles(t0_ + milliseconds(10));
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_NE(v[0].location.lane, ingress(1).id);
+}
+
+TEST_F(FleetTest, IpsRanksBelowTheEyeAndAboveOdometry) {
+  const RigidTransform2 X = BeforeStopLine(ingress(0), 0.5);
+  fleet_.Observe(Obs(4, X, t0_, PoseSource::kOdometry));
+  fleet_.Observe(Obs(4, X, t0_, PoseSource::kIps));
+  auto v = fleet_.Vehicles(t0_);
+  ASSERT_EQ(v.size(), 1u);
+  EXPECT_EQ(v[0].observation.source, PoseSource::kIps);
+  fleet_.Observe(Obs(4, X, t0_, PoseSource::kEye));
+  v = fleet_.Vehicles(t0_);
+  EXPECT_EQ(v[0].observation.source, PoseSource::kEye);
+  const FleetStateMessage m = fleet_.State(t0_);
+  EXPECT_EQ(dds::Elements(m->vehicles)[0].source, autodrive_msgs_msg_TrackedVehicle_Constants_EYE);
+}
+
+TEST_F(FleetTest, StateIntoReusesTheMessageAsVehiclesComeAndGo) {
+  FleetStateMessage m;
+  fleet_.Observe(Obs(1, BeforeStopLine(ingress(0), 0.5), t0_));
+  fleet_.Observe(Obs(2, BeforeStopLine(ingress(1), 0.5), t0_));
+  fleet_.StateInto(t0_, m);
+  ASSERT_EQ(m->vehicles._length, 2u);
+  const auto* buffer = m->vehicles._buffer;
+  const char* name = dds::Elements(m->vehicles)[1].vehicle_id;
+  fleet_.StateInto(t0_ + milliseconds(5), m);
+  EXPECT_EQ(m->vehicles._buffer, buffer) << "same capacity: same buffer";
+  EXPECT_EQ(dds::Elements(m->vehicles)[1].vehicle_id, name) << "same name: not copied again";
+  // Vehicle 1 goes stale; vehicle 2 stays.
+  fleet_.Observe(Obs(2, BeforeStopLine(ingress(1), 0.4), t0_ + seconds(1)));
+  fleet_.StateInto(t0_ + seconds(1) + milliseconds(100), m);
+  ASSERT_EQ(m->vehicles._length, 1u);
+  EXPECT_EQ(dds::View(dds::Elements(m->vehicles)[0].vehicle_id), "nigel_2");
+  EXPECT_EQ(dds::View(dds::Elements(m->vehicles)[0].map_lane_id), ingress(1).name);
+}
+
 TEST_F(FleetTest, OutOfOrderObservationsAreIgnoredButAClockRestartIsNot) {
   const RigidTransform2 a = BeforeStopLine(ingress(0), 0.5);
   const RigidTransform2 b = BeforeStopLine(ingress(0), 0.2);
@@ -323,7 +377,7 @@ TEST_F(FleetTest, RefusesBadObservationsAndParameters) {
   o.source = static_cast<PoseSource>(4);
   EXPECT_EQ(test::ErrorMessage([&] { fleet_.Observe(o); }),
             "an observation of nigel_3 has an unknown source 4 (expected 1 eye, 2 sim ground "
-            "truth or 3 odometry)");
+            "truth, 3 odometry or 5 ips)");
 
   FleetRegistryParams params;
   params.staleness = Duration::zero();

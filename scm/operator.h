@@ -1,76 +1,87 @@
 #pragma once
 /// @file
-/// The operator protocol over DDS request/reply (`/autodrive/scm/operator/request` and
-/// `.../reply`): what a request may say and what a reply carries. `scmctl` is its client; the
-/// daemon its server. Commands (`command` field; `intersection` by name or id in the argument
-/// `intersection` or in `intersection_id`):
+/// The operator protocol over DDS request/reply: what a request may say and what a reply
+/// carries. `scmctl` is its client, the daemon its server (docs/scm.md, "Operator interface").
 ///
-/// | command | arguments | does |
-/// | --- | --- | --- |
-/// | status | | the daemon's state |
-/// | intersections | | every signalised intersection, a line each |
-/// | show | intersection | one intersection: mode, plan, stage, groups and their lights |
-/// | mode | intersection, mode | auto, fixed, actuated, manual, flash or dark |
-/// | plan | intersection, plan | a plan by name, or auto (the schedule) |
-/// | advance | intersection | manual mode: end the current phase |
-/// | reset | intersection | clear a fail-safe flash latch |
-/// | events | since (s since the epoch), limit | the event log |
-/// | config_validate | yaml, path | check a city configuration |
-/// | config_apply | yaml, path | check and apply it |
+/// Requests go on `/autodrive/scm/operator/request` (read-only commands, from anyone) or on
+/// `/autodrive/scm/operator/<name>/request` (operator `<name>`: the only way to change state,
+/// accepted from the operators the city allows); replies on `/autodrive/scm/operator/reply`,
+/// matched by client id and request id. A client that gets no reply sends the same request
+/// again (same id): the daemon answers a repeat from its cache without running it twice.
+///
+/// | command | arguments | changes state | does |
+/// | --- | --- | --- | --- |
+/// | status | | | the daemon's state |
+/// | intersections | | | every signalised intersection, a line each |
+/// | show | intersection | | one intersection: mode, plan, stage, groups and their lights |
+/// | events | since (s since the epoch), limit | | the event log |
+/// | config_validate | yaml, path, yaml_bytes, yaml_hash | | check a city configuration |
+/// | mode | intersection, mode | yes | auto, fixed, actuated, manual, flash or dark |
+/// | plan | intersection, plan | yes | a plan by name, or auto (the schedule) |
+/// | advance | intersection | yes | manual mode: end the current phase |
+/// | reset | intersection | yes | clear a fail-safe flash latch (and the infrastructure's) |
+/// | config_apply | yaml, path, yaml_bytes, yaml_hash | yes | check and apply it |
 
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
-
-#include "autodrive_msgs/msg/OperatorReply.h"
 
 #include "common/dds/messages.h"
 
 namespace autodrive::scm {
 
+/// Size caps on what a request may carry: nothing from the network grows without bound.
+struct RequestLimits {
+  std::size_t client_id_bytes = 128;
+  std::size_t command_bytes = 32;
+  std::size_t arguments = 16;
+  std::size_t key_bytes = 32;
+  std::size_t value_bytes = 1024;
+  /// A city configuration sent with `config_validate` / `config_apply` (the 32 x 32 grid
+  /// city's file is about 0.6 MB).
+  std::size_t config_bytes = 2 * 1024 * 1024;
+};
+
+/// One command of the protocol.
+struct CommandSpec {
+  std::string_view name;
+  bool needs_intersection = false;
+  bool changes_state = false;
+  std::span<const std::string_view> arguments;  ///< the argument keys it takes
+};
+/// Every command, in the order of the table above.
+[[nodiscard]] std::span<const CommandSpec> Commands();
+/// The command called `name`, or null.
+[[nodiscard]] const CommandSpec* FindCommand(std::string_view name);
+/// "status, intersections, show, ..." for messages.
+[[nodiscard]] std::string OperatorCommandNames();
+
 /// A request, checked.
 struct OperatorCommand {
-  std::string client;  ///< who: the client id
+  std::string client;  ///< who: the client id (replies go to it)
+  /// Who, for the event log: the client id, prefixed by the operator whose topic it came on.
+  std::string actor;
   std::uint64_t request_id = 0;
+  const CommandSpec* spec = nullptr;
   std::string name;
   std::string intersection;  ///< name or decimal id; empty for city-wide commands
   std::map<std::string, std::string> args;
   /// The argument `key`, or "".
-  [[nodiscard]] std::string Arg(const std::string& key) const {
+  [[nodiscard]] const std::string& Arg(const std::string& key) const {
+    static const std::string kEmpty;
     const auto it = args.find(key);
-    return it == args.end() ? std::string() : it->second;
+    return it == args.end() ? kEmpty : it->second;
   }
 };
 
-/// A reply's content.
-struct OperatorResult {
-  std::uint8_t result = autodrive_msgs_msg_OperatorReply_Constants_OK;
-  std::string message;
-  std::vector<std::pair<std::string, std::string>> values;
-  static OperatorResult Ok(std::string m) {
-    return {autodrive_msgs_msg_OperatorReply_Constants_OK, std::move(m), {}};
-  }
-  static OperatorResult Rejected(std::string m) {
-    return {autodrive_msgs_msg_OperatorReply_Constants_REJECTED, std::move(m), {}};
-  }
-  static OperatorResult Invalid(std::string m) {
-    return {autodrive_msgs_msg_OperatorReply_Constants_INVALID, std::move(m), {}};
-  }
-  static OperatorResult Failed(std::string m) {
-    return {autodrive_msgs_msg_OperatorReply_Constants_FAILED, std::move(m), {}};
-  }
-};
-
-/// "status, intersections, show, ..." for messages.
-[[nodiscard]] std::string OperatorCommandNames();
-
-/// Checks a request: a client id, a known command, unique argument keys, an intersection where
-/// the command needs one. Throws `InputError` naming what is wrong.
-[[nodiscard]] OperatorCommand ParseOperatorRequest(const msg::OperatorRequest& request);
-
-/// "ok", "rejected", "invalid", "failed".
-[[nodiscard]] std::string_view ResultName(std::uint8_t result);
+/// Checks a request against `limits` and the table: a client id, a known command, only its
+/// arguments, each once, an intersection where the command needs one. Throws `InputError`
+/// naming what is wrong (and the sizes, for a request over a limit).
+[[nodiscard]] OperatorCommand ParseOperatorRequest(const msg::OperatorRequest& request,
+                                                   const RequestLimits& limits = {});
 
 }  // namespace autodrive::scm

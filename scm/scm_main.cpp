@@ -5,6 +5,8 @@
 #include <CLI/CLI.hpp>
 
 #include "common/dds/clock_subscriber.h"
+#include "common/dds/participant.h"
+#include "common/dds/security_cli.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
@@ -16,14 +18,21 @@ int main(int argc, char** argv) {
       "autodrive-scm: the Smart City Manager. Runs every signalised intersection of a city "
       "(config/cities/*.yaml) behind an independent conflict monitor, supervises the traffic "
       "lights, publishes SPaT (10 Hz), MAP, signs, fleet state and events over DDS, answers "
-      "scmctl and V2I signal requests, and keeps its event log, applied configuration and "
-      "modes in SQLite. Runs until SIGTERM or SIGINT; the lights then flash on their own. Logs "
-      "to stderr as 'YYYY-MM-DD HH:MM:SS.mmm [autodrive-scm] [level] text'. See docs/scm.md."};
+      "scmctl and V2I signal requests, and keeps its event log, applied configurations and "
+      "modes in SQLite. Runs until SIGTERM or SIGINT; the lights then flash on their own. Under "
+      "systemd (Type=notify) it reports READY, feeds the watchdog from its loop and reports "
+      "STOPPING. Logs to stderr as 'YYYY-MM-DD HH:MM:SS.mmm [autodrive-scm] [level] text'. See "
+      "docs/scm.md."};
   scm::ScmOptions options;
+  dds::ParticipantOptions participant_options;
   std::string config_path;
+  std::string config_root;
   std::string log_level = "info";
   std::string clock_kind = "wall";
   int tick_ms = 20;
+  double keep_days = 90;
+  std::int64_t keep_events = 1'000'000;
+  std::size_t keep_configs = 100;
   app.add_option("--config", config_path,
                  "the city file (YAML), e.g. config/cities/small_town.yaml")
       ->required();
@@ -31,50 +40,72 @@ int main(int argc, char** argv) {
                  "the SQLite database: event log, applied configurations, modes and plans "
                  "(created when missing)")
       ->capture_default_str();
+  app.add_option("--config-root", config_root,
+                 "configurations sent by operators may name maps only under this folder "
+                 "(default: the parent of the city file's folder)");
   app.add_option("--clock", clock_kind,
-                 "wall: the computer's clock (real track); sim: /clock from the simulator")
+                 "wall: the computer's clock (real track); sim: /clock from the simulator (waits "
+                 "for the first message)")
       ->check(CLI::IsMember({"wall", "sim"}))
       ->capture_default_str();
-  app.add_option("--partition", options.participant.partition,
+  app.add_option("--partition", participant_options.partition,
                  "DDS partition (separates cities or test runs sharing a domain)");
-  app.add_option("--domain", options.participant.domain_id,
+  app.add_option("--domain", participant_options.domain_id,
                  "DDS domain id (default: ROS_DOMAIN_ID, else Cyclone's default)");
-  app.add_option("--tick-ms", tick_ms, "control loop period in ms (SPaT stays at 10 Hz)")
+  app.add_option("--tick-ms", tick_ms,
+                 "longest sleep of the control loop in ms (requests and due controllers wake it "
+                 "at once; SPaT stays at 10 Hz)")
       ->check(CLI::Range(5, 100))
+      ->capture_default_str();
+  app.add_option("--keep-events-days", keep_days, "event log retention: days")
+      ->check(CLI::Range(1.0, 3650.0))
+      ->capture_default_str();
+  app.add_option("--keep-events", keep_events, "event log retention: events at most")
+      ->check(CLI::Range(std::int64_t{1000}, std::int64_t{100'000'000}))
+      ->capture_default_str();
+  app.add_option("--keep-configs", keep_configs, "applied configurations kept")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{100'000}))
       ->capture_default_str();
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
+  auto security = dds::SecurityOptions::FromEnvironment();
+  if (security.enclave.empty()) security.enclave = "/autodrive/scm";
+  dds::AddSecurityOptions(app, security);
   CLI11_PARSE(app, argc, argv);
+  participant_options.security = security;
 
   try {
     InitLogging("autodrive-scm", ParseLogLevel(log_level));
     options.config_path = config_path;
+    if (!config_root.empty()) options.config_root = config_root;
     options.tick = std::chrono::milliseconds(tick_ms);
-    std::unique_ptr<Clock> clock;
-    SimClock* sim = nullptr;
-    if (clock_kind == "sim") {
-      auto c = std::make_unique<SimClock>();
-      sim = c.get();
-      clock = std::move(c);
-    } else {
-      clock = std::make_unique<WallClock>();
-    }
-    scm::Scm* running = nullptr;
+    options.retention.max_event_age = FromSeconds(keep_days * 86400.0);
+    options.retention.max_events = keep_events;
+    options.retention.max_configs = keep_configs;
+    WallClock wall;
+    std::unique_ptr<SimClock> sim;
+    if (clock_kind == "sim") sim = std::make_unique<SimClock>();
+    Clock& clock = sim ? static_cast<Clock&>(*sim) : wall;
+    std::atomic<scm::Scm*> running{nullptr};
+    // Before any other thread starts, so that they all inherit the blocked signals.
     ShutdownSignals signals([&](int sig) {
       spdlog::info("signal {}: stopping", sig);
-      if (running != nullptr) running->Stop();
-      clock->Interrupt();
+      if (auto* d = running.load()) d->Stop();
+      clock.Interrupt();
     });
-    scm::Scm daemon(options, *clock);
+    dds::Participant participant(participant_options);
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
-    if (sim != nullptr) {
-      // /clock drives the loop; the daemon's own participant is not exposed, so use another.
-      static dds::Participant clock_participant(options.participant);
-      clock_subscriber = std::make_unique<dds::SimClockSubscriber>(clock_participant, *sim);
+    if (sim) {
+      // /clock drives the control timeline; it comes over the daemon's own participant.
+      clock_subscriber = std::make_unique<dds::SimClockSubscriber>(participant, *sim);
+      spdlog::info("running on /clock; waiting for the first message");
+      if (!sim->WaitForStart()) return 0;  // stopped while waiting
     }
+    scm::Scm daemon(options, clock, participant);
     running = &daemon;
-    if (clock->interrupted()) daemon.Stop();
-    spdlog::info("running city {} ({} clock)", daemon.city().config.name, clock_kind);
+    if (clock.interrupted()) daemon.Stop();
+    spdlog::info("running city {} ({} clock, partition '{}')", daemon.city().config.name,
+                 clock_kind, participant_options.partition);
     daemon.Run();
     running = nullptr;
     spdlog::info("stopped");

@@ -3,17 +3,19 @@
 
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
-#include <thread>
 
 #include <CLI/CLI.hpp>
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
+#include "common/dds/security_cli.h"
 #include "common/dds/topics.h"
 #include "common/shutdown.h"
 #include "scm/city.h"
 #include "scm/client.h"
+#include "scm/store.h"
 
 namespace {
 
@@ -27,15 +29,15 @@ constexpr int kNoAnswer = 3;
 
 int Print(const OperatorAnswer& a, bool json) {
   if (json) {
-    std::cout << ToJson(a) << std::endl;
+    std::cout << ToJson(a).dump() << std::endl;
   } else {
-    std::cout << ResultName(a.result) << ": " << a.message << "\n";
+    std::cout << ToString(a.code) << ": " << a.message << "\n";
     for (const auto& [k, v] : a.values) std::cout << "  " << k << ": " << v << "\n";
   }
-  switch (a.result) {
-    case autodrive_msgs_msg_OperatorReply_Constants_OK:
+  switch (a.code) {
+    case ReplyCode::kOk:
       return 0;
-    case autodrive_msgs_msg_OperatorReply_Constants_INVALID:
+    case ReplyCode::kInvalid:
       return kInvalid;
     default:
       return kRefused;
@@ -49,19 +51,36 @@ std::string ClientId() {
   return fmt::format("scmctl/{}@{}/{}", user ? user : "?", host, ::getpid());
 }
 
+/// The city file's text, refused when it cannot travel intact: a string on the wire ends at
+/// its first NUL byte.
+std::string ReadCityText(const std::string& file) {
+  std::string text = config::internal::ReadFile(file);
+  if (const auto nul = text.find('\0'); nul != std::string::npos) {
+    throw InputError(
+        fmt::format("{} holds a NUL byte at offset {}; a city file is text", file, nul));
+  }
+  return text;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
       "scmctl: talk to a running autodrive-scm over DDS. Every command is answered with ok, "
-      "rejected, invalid or failed and a message. Exit status: 0 ok, 1 rejected/failed, 2 "
-      "invalid, 3 no SCM answered. See docs/scm.md."};
+      "rejected, invalid or failed and a message. Commands that change state (mode, plan, "
+      "advance, reset, config apply) are sent as an operator (--operator NAME, or the "
+      "AUTODRIVE_OPERATOR variable) and accepted only from the operators the city allows. Exit "
+      "status: 0 ok, 1 rejected/failed, 2 invalid, 3 no SCM answered. See docs/scm.md."};
   app.require_subcommand(1);
   dds::ParticipantOptions dds_options;
   double timeout_s = 5.0;
   bool json = false;
+  std::string operator_name;
+  if (const char* env = std::getenv("AUTODRIVE_OPERATOR")) operator_name = env;
   app.add_option("--partition", dds_options.partition, "DDS partition of the SCM");
   app.add_option("--domain", dds_options.domain_id, "DDS domain id");
+  app.add_option("--operator", operator_name,
+                 "operator name for commands that change state (default: $AUTODRIVE_OPERATOR)");
   app.add_option("--timeout", timeout_s, "seconds to wait for the SCM and its answer")
       ->capture_default_str();
   app.add_flag("--json", json, "print answers (and watched messages) as JSON, one per line");
@@ -70,19 +89,23 @@ int main(int argc, char** argv) {
   int limit = 100;
   int count = 0;
   double duration_s = 0.0;
+  // DDS Security: an operator's identity is /autodrive/operator/<name> (docs/security.md).
+  auto security = dds::SecurityOptions::FromEnvironment();
+  dds::AddSecurityOptions(app, security);
   auto* status = app.add_subcommand("status", "the daemon's state");
   auto* intersections = app.add_subcommand("intersections", "every signalised intersection");
   auto* show = app.add_subcommand("show", "one intersection: mode, plan, groups and lights");
   show->add_option("intersection", intersection, "name or id")->required();
-  auto* mode_cmd = app.add_subcommand("mode", "set the mode of an intersection");
+  auto* mode_cmd = app.add_subcommand("mode", "set the mode of an intersection (operator)");
   mode_cmd->add_option("intersection", intersection, "name or id")->required();
   mode_cmd->add_option("mode", mode, "auto|fixed|actuated|manual|flash|dark")->required();
-  auto* plan_cmd = app.add_subcommand("plan", "run a plan from the next safe point");
+  auto* plan_cmd = app.add_subcommand("plan", "run a plan from the next safe point (operator)");
   plan_cmd->add_option("intersection", intersection, "name or id")->required();
   plan_cmd->add_option("plan", plan, "plan name, or auto for the schedule")->required();
-  auto* advance = app.add_subcommand("advance", "manual mode: end the current phase");
+  auto* advance = app.add_subcommand("advance", "manual mode: end the current phase (operator)");
   advance->add_option("intersection", intersection, "name or id")->required();
-  auto* reset = app.add_subcommand("reset", "clear a fail-safe flash latch");
+  auto* reset =
+      app.add_subcommand("reset", "clear a fail-safe flash latch, and the lights' (operator)");
   reset->add_option("intersection", intersection, "name or id")->required();
   auto* events = app.add_subcommand("events", "the event log");
   events->add_option("--since", since, "only events after this time (seconds since the epoch)");
@@ -98,9 +121,15 @@ int main(int argc, char** argv) {
   config->require_subcommand(1);
   auto* validate = config->add_subcommand("validate", "check a city file (no SCM needed)");
   validate->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
-  auto* apply = config->add_subcommand("apply", "check a city file and make the SCM run it");
+  auto* apply =
+      config->add_subcommand("apply", "check a city file and make the SCM run it (operator)");
   apply->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
+  if (security.enclave.empty()) {
+    security.enclave =
+        operator_name.empty() ? "/autodrive/viewer/scmctl" : "/autodrive/operator/" + operator_name;
+  }
+  dds_options.security = security;
 
   try {
     const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -135,7 +164,7 @@ int main(int argc, char** argv) {
           reader.WaitForData(std::chrono::milliseconds(100));
           for (auto& m : reader.TakeAll()) {
             if (done()) break;
-            std::cout << (json ? ToJson(*m) : text(*m)) << std::endl;
+            std::cout << (json ? ToJson(*m).dump() : text(*m)) << std::endl;
             ++seen;
           }
         }
@@ -145,7 +174,7 @@ int main(int argc, char** argv) {
         loop(r, [](const msg::Spat& s) {
           std::string out = fmt::format("{:.1f}", ToSeconds(dds::FromMsg(s.header.stamp)));
           for (const auto& x : dds::Elements(s.intersections)) {
-            out += fmt::format(" | {} {}:", x.name ? x.name : "", x.plan ? x.plan : "");
+            out += fmt::format(" | {} {}:", dds::View(x.name), dds::View(x.plan));
             for (const auto& g : dds::Elements(x.signal_groups)) {
               out += fmt::format(" {}={}", g.signal_group, EventStateName(g.event_state));
             }
@@ -154,12 +183,12 @@ int main(int argc, char** argv) {
         });
       } else if (watch_what == "fleet") {
         dds::Reader<msg::FleetState> r(participant, dds::topics::Fleet());
-        loop(r, [](const msg::FleetState& f) { return ToJson(f); });
+        loop(r, [](const msg::FleetState& f) { return ToJson(f).dump(); });
       } else {
         dds::Reader<msg::Event> r(participant, dds::topics::Events());
         loop(r, [](const msg::Event& e) {
           return fmt::format("{:.3f} [{}] {} {}", ToSeconds(dds::FromMsg(e.header.stamp)),
-                             e.severity, e.code ? e.code : "", e.message ? e.message : "");
+                             e.severity, dds::View(e.code), dds::View(e.message));
         });
       }
       return 0;
@@ -182,10 +211,29 @@ int main(int argc, char** argv) {
     }
     if (apply->parsed()) {
       command = "config_apply";
-      args["yaml"] = config::internal::ReadFile(file);
+      std::string text;
+      try {
+        text = ReadCityText(file);
+      } catch (const InputError& e) {
+        std::cout << "invalid: " << e.what() << "\n";
+        return kInvalid;
+      }
+      args["yaml_bytes"] = std::to_string(text.size());
+      args["yaml_hash"] = ContentHash(text);
+      args["yaml"] = std::move(text);
       args["path"] = std::filesystem::absolute(file).string();
     }
-    OperatorClient client(dds_options, ClientId());
+    const CommandSpec* spec = FindCommand(command);
+    if (spec != nullptr && spec->changes_state && operator_name.empty()) {
+      std::cerr << "scmctl: " << command
+                << " changes state: give --operator NAME (or set AUTODRIVE_OPERATOR) for an "
+                   "operator the city allows\n";
+      return kInvalid;
+    }
+    dds::Participant participant(dds_options);
+    OperatorClient client(
+        participant, ClientId(),
+        operator_name.empty() ? std::nullopt : std::optional<std::string>(operator_name));
     if (!client.WaitForScm(timeout)) {
       std::cerr << "scmctl: no SCM answered within " << timeout_s
                 << " s (is autodrive-scm running, on this partition and domain?)\n";

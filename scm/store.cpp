@@ -223,6 +223,7 @@ struct Store::Impl {
   Statement begin, commit;
   Statement insert_event, count_events, select_events_oldest, select_events_newest;
   Statement insert_config, latest_config, config_by_id, config_history;
+  Statement prune_events_before, prune_events_keep, prune_configs, count_configs;
   Statement upsert_state, select_states;
 
   explicit Impl(std::string p) : path(std::move(p)) {}
@@ -318,6 +319,8 @@ struct Store::Impl {
                                                 << mode << "; is it on a network file system?)");
     }
     Exec("PRAGMA synchronous=NORMAL");
+    // After a checkpoint the WAL file is truncated to this size: it never grows without bound.
+    Exec("PRAGMA journal_size_limit=67108864");
 
     if (version == 0) {
       // Created in one transaction; IF NOT EXISTS and the version check inside it make two
@@ -366,6 +369,15 @@ struct Store::Impl {
                              "ON CONFLICT (intersection_id) DO UPDATE SET mode = excluded.mode, "
                              "plan = excluded.plan, operator_chosen = excluded.operator_chosen, "
                              "updated_at_ns = excluded.updated_at_ns");
+    prune_events_before = Statement(db, "DELETE FROM events WHERE time_ns < ?1");
+    prune_events_keep = Statement(db,
+                                  "DELETE FROM events WHERE id <= (SELECT id FROM events "
+                                  "ORDER BY id DESC LIMIT 1 OFFSET ?1)");
+    prune_configs = Statement(db,
+                              "DELETE FROM applied_configs WHERE id NOT IN (SELECT id FROM "
+                              "applied_configs ORDER BY id DESC LIMIT ?1) AND id IS NOT (SELECT "
+                              "max(id) FROM applied_configs WHERE applied_by = 'scm')");
+    count_configs = Statement(db, "SELECT count(*) FROM applied_configs");
     select_states = Statement(db,
                               "SELECT intersection_id, mode, plan, operator_chosen, "
                               "updated_at_ns FROM intersection_states ORDER BY intersection_id");
@@ -430,6 +442,46 @@ std::int64_t Store::AppendEvent(const EventRecord& e) {
         .Bind(9, std::int64_t{e.active ? 1 : 0});
     use.Run();
     return static_cast<std::int64_t>(sqlite3_last_insert_rowid(impl_->db));
+  });
+}
+
+std::int64_t Store::AppendEvents(const std::vector<EventRecord>& events) {
+  if (events.empty()) return 0;
+  std::lock_guard lock(impl_->mutex);
+  return impl_->Write(false, [&] {
+    for (const EventRecord& e : events) {
+      Use use(impl_->db, impl_->insert_event);
+      use.Bind(1, ToNs(e.time))
+          .Bind(2, std::int64_t{static_cast<std::uint8_t>(e.severity)})
+          .Bind(3, e.source)
+          .Bind(4, e.code)
+          .Bind(5, e.message)
+          .Bind(6, std::int64_t{e.intersection.value()})
+          .Bind(7, e.device_id)
+          .Bind(8, e.actor)
+          .Bind(9, std::int64_t{e.active ? 1 : 0});
+      use.Run();
+    }
+    return static_cast<std::int64_t>(sqlite3_last_insert_rowid(impl_->db));
+  });
+}
+
+std::int64_t Store::PruneEvents(std::optional<Time> before, std::int64_t keep_newest) {
+  AUTODRIVE_THROW_UNLESS(keep_newest >= 0, "keep_newest must be >= 0, got " << keep_newest);
+  std::lock_guard lock(impl_->mutex);
+  return impl_->Write(false, [&] {
+    std::int64_t deleted = 0;
+    if (before) {
+      Use use(impl_->db, impl_->prune_events_before);
+      use.Bind(1, ToNs(*before));
+      use.Run();
+      deleted += sqlite3_changes64(impl_->db);
+    }
+    Use use(impl_->db, impl_->prune_events_keep);
+    use.Bind(1, keep_newest);
+    use.Run();
+    deleted += sqlite3_changes64(impl_->db);
+    return deleted;
   });
 }
 
@@ -513,6 +565,23 @@ std::vector<AppliedConfigSummary> Store::ConfigHistory(std::size_t limit) const 
   return out;
 }
 
+std::int64_t Store::PruneConfigs(std::size_t keep_newest) {
+  const std::int64_t keep = ToSqlLimit(keep_newest);
+  std::lock_guard lock(impl_->mutex);
+  return impl_->Write(true, [&] {
+    Use use(impl_->db, impl_->prune_configs);
+    use.Bind(1, keep);
+    use.Run();
+    return static_cast<std::int64_t>(sqlite3_changes64(impl_->db));
+  });
+}
+
+std::int64_t Store::ConfigCount() const {
+  std::lock_guard lock(impl_->mutex);
+  Use use(impl_->db, impl_->count_configs);
+  return use.Step() ? use.Int(0) : 0;
+}
+
 void Store::SaveIntersectionState(const IntersectionStateRecord& state) {
   AUTODRIVE_THROW_UNLESS(state.intersection.value() != 0,
                          "an intersection state needs an intersection id, got 0");
@@ -545,6 +614,11 @@ std::vector<IntersectionStateRecord> Store::LoadIntersectionStates() const {
     out.push_back(std::move(s));
   }
   return out;
+}
+
+std::int64_t Store::SizeBytes() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->PragmaInt("PRAGMA page_count") * impl_->PragmaInt("PRAGMA page_size");
 }
 
 std::string Store::IntegrityCheck() const {

@@ -154,6 +154,17 @@ class Store {
   /// @throws StoreError when the write fails; nothing is written then.
   std::int64_t AppendEvent(const EventRecord& event);
 
+  /// Appends `events` in one transaction (the writer thread's batches) and returns the row id
+  /// of the last one (0 when `events` is empty). All or nothing.
+  /// @throws StoreError when the write fails; nothing is written then.
+  std::int64_t AppendEvents(const std::vector<EventRecord>& events);
+
+  /// Deletes the events older than `before` (when given) and all but the newest `keep_newest`.
+  /// Returns how many were deleted. Ids are never reused. Freed pages are reused by later
+  /// events, so a pruned log keeps the file's size flat.
+  /// @throws StoreError when the write fails.
+  std::int64_t PruneEvents(std::optional<Time> before, std::int64_t keep_newest);
+
   /// The events matching `query` (see `EventQuery` for the order).
   /// @throws InputError when `query.limit` is 0 or above 1000000.
   [[nodiscard]] std::vector<EventRecord> Events(const EventQuery& query) const;
@@ -179,6 +190,15 @@ class Store {
   /// @throws InputError when `limit` is 0 or above 1000000.
   [[nodiscard]] std::vector<AppliedConfigSummary> ConfigHistory(std::size_t limit = 100) const;
 
+  /// Deletes all but the newest `keep_newest` applied configurations, always keeping the newest
+  /// one applied by "scm" (the start-up record that start-up decisions rely on). Returns how
+  /// many were deleted.
+  /// @throws InputError when `keep_newest` is 0. @throws StoreError when the write fails.
+  std::int64_t PruneConfigs(std::size_t keep_newest);
+
+  /// The number of applied configurations kept.
+  [[nodiscard]] std::int64_t ConfigCount() const;
+
   // ---- Per-intersection state -------------------------------------------------------------
 
   /// Inserts or replaces the state of `state.intersection`. Durable once it returns.
@@ -194,6 +214,10 @@ class Store {
   /// SQLite's `PRAGMA integrity_check`: "ok", or its list of problems one per line. Reads the
   /// whole file: for start-up checks, tools and tests, not for the daemon's loop.
   [[nodiscard]] std::string IntegrityCheck() const;
+
+  /// The size of the database in bytes (pages in use and free), not counting the WAL file,
+  /// which checkpoints keep below 64 MiB (`journal_size_limit`).
+  [[nodiscard]] std::int64_t SizeBytes() const;
 
  private:
   struct Impl;

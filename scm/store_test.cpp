@@ -370,3 +370,52 @@ TEST_F(StoreTest, NothingCommittedIsLostAndTheFileIsIntactWhenTheWriterIsKilled)
 
 }  // namespace
 }  // namespace autodrive::scm
+
+namespace autodrive::scm {
+namespace {
+
+TEST_F(StoreTest, PruningKeepsTheNewestEventsAndTheFileStopsGrowing) {
+  Store store(DbPath());
+  std::vector<EventRecord> batch;
+  for (int i = 0; i < 1000; ++i) batch.push_back(MakeEvent(i));
+  EXPECT_EQ(store.AppendEvents(batch), 1000);
+  EXPECT_EQ(store.EventCount(), 1000);
+  // By age: events before t=100+300 go; by count: the newest 500 stay.
+  EXPECT_EQ(store.PruneEvents(Time(seconds(400)), 500), 500);
+  EXPECT_EQ(store.EventCount(), 500);
+  const auto oldest = store.Events(EventQuery{std::nullopt, std::nullopt, 1, false});
+  ASSERT_EQ(oldest.size(), 1u);
+  EXPECT_EQ(oldest[0].id, 501) << "ids are never reused and the newest are kept";
+  // Steady state: append and prune a thousand times as many; the file stops growing.
+  std::int64_t size_after_first_round = 0;
+  for (int round = 0; round < 20; ++round) {
+    batch.clear();
+    for (int i = 0; i < 500; ++i) batch.push_back(MakeEvent(i));
+    store.AppendEvents(batch);
+    store.PruneEvents(std::nullopt, 500);
+    if (round == 1) size_after_first_round = store.SizeBytes();
+  }
+  EXPECT_EQ(store.EventCount(), 500);
+  // Freed pages are reused: after 20 rounds the file is within a few pages of its size after
+  // the second (B-tree splits may take a page or two).
+  EXPECT_LE(store.SizeBytes(), size_after_first_round + 4 * 4096) << "the file keeps growing";
+}
+
+TEST_F(StoreTest, ConfigHistoryIsBoundedButKeepsTheLastStartUpRecord) {
+  Store store(DbPath());
+  store.SaveAppliedConfig("city.yaml", "name: a", "scm", Time(seconds(1)));
+  for (int i = 0; i < 10; ++i) {
+    store.SaveAppliedConfig("mine.yaml", "name: " + std::to_string(i), "operator",
+                            Time(seconds(2 + i)));
+  }
+  EXPECT_EQ(store.PruneConfigs(3), 7);
+  const auto history = store.ConfigHistory(100);
+  ASSERT_EQ(history.size(), 4u);
+  EXPECT_EQ(history[0].id, 11);
+  EXPECT_EQ(history[3].applied_by, "scm") << "the start-up record stays";
+  EXPECT_EQ(store.ConfigCount(), 4);
+  EXPECT_THROW((void)store.PruneConfigs(0), InputError);
+}
+
+}  // namespace
+}  // namespace autodrive::scm

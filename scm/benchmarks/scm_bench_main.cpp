@@ -2,15 +2,24 @@
 //  1. SPaT for a grid city of N x N signalised intersections (default 32 x 32 = 1024) at 10 Hz:
 //     the daemon's CPU per second of wall time, and the jitter of its SPaT ticks (stamp
 //     intervals against 100 ms) and of their arrival at a subscriber.
-//  2. Command-to-lamp latency: scmctl's request (`advance` in manual mode) to the light's
-//     `signal_<i>/state` showing the new aspect, through autodrive-scm and autodrive-infra, p50
-//     and p99; next to the DDS round trip of the same run (autodrive-bench-dds-latency).
+//  2. Request to reply: `status` from an operator client to its reply, p50 and p99.
+//  3. Command to lamp: `advance` in manual mode to the light's `signal_<i>/state` showing yellow,
+//     through autodrive-scm and autodrive-infra, p50 and p99.
+//  4. A flood: 10 clients sending 200 operator requests per second each (2,000/s) while the
+//     grid city runs: SPaT's rate and jitter meanwhile, and how many requests were answered,
+//     refused or left unanswered.
+//  5. The DDS round trip of the same run (autodrive-bench-dds-latency), for reference.
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -20,6 +29,7 @@
 #include "common/dds/conversions.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
+#include "common/dds/writer.h"
 #include "common/process.h"
 #include "common/time.h"
 #include "maps/builder.h"
@@ -56,14 +66,16 @@ double CpuSeconds(pid_t pid) {
 }
 
 std::string Bin(const std::string& name) { return (fs::path(ExecutableDir()) / name).string(); }
+fs::path Source() { return fs::canonical(fs::path(ExecutableDir()) / "../.."); }
 
-void SpatBenchmark(int n, double seconds, const std::string& partition, const fs::path& dir) {
-  std::printf("== SPaT of a %d x %d grid city (%d signalised intersections), 10 Hz\n", n, n, n * n);
+/// A grid city of n x n fixed-time intersections without lights, for operator "bench".
+fs::path WriteGridCity(int n, const fs::path& dir) {
   const maps::Layout layout = maps::GridCity(n, n, "signal");
   config::SaveFile(layout, (dir / "grid.yaml").string());
   const maps::Map map = maps::Build(layout);
   std::string city =
-      "name: grid\nmap: grid.yaml\ndevices: {wait_for_lights: false}\nintersections:\n";
+      "name: grid\nmap: grid.yaml\ndevices: {wait_for_lights: false}\n"
+      "operators: {allowed: [bench]}\nintersections:\n";
   for (const auto& x : map.intersections) {
     city += "  - name: " + x.name +
             "\n    groups: [{id: 1, name: e, approaches: [east]}, {id: 2, name: n, approaches: "
@@ -71,28 +83,19 @@ void SpatBenchmark(int n, double seconds, const std::string& partition, const fs
             "[south]}]\n    plans: [{name: day, phases: [{groups: [1], green_s: 8.0}, {groups: "
             "[2], green_s: 8.0}, {groups: [3], green_s: 8.0}, {groups: [4], green_s: 8.0}]}]\n";
   }
-  { std::ofstream(dir / "grid_city.yaml") << city; }
-  dds::Participant participant(dds::ParticipantOptions{{}, partition, {}});
-  dds::Reader<msg::Spat> spat(participant, dds::topics::Spat().name, dds::Qos::Stream(64));
-  ChildProcess scm({Bin("autodrive-scm"), "--config", (dir / "grid_city.yaml").string(),
-                    "--partition", partition, "--db", (dir / "grid.db").string(), "--log-level",
-                    "warn"});
-  // Wait for the first SPaT (the SCM builds the map first), then a settling second.
-  if (!spat.WaitForData(std::chrono::seconds(120))) {
-    std::printf("   no SPaT within 120 s\n");
-    return;
-  }
-  std::this_thread::sleep_for(std::chrono::seconds(1));
-  (void)spat.TakeAll();
-  const double cpu0 = CpuSeconds(scm.pid());
-  const auto t0 = Steady::now();
+  const fs::path path = dir / "grid_city.yaml";
+  std::ofstream(path) << city;
+  return path;
+}
+
+/// Watches SPaT: rate and jitter of the stamps and arrivals.
+struct SpatWatch {
   std::vector<double> stamp_gaps_ms, arrival_gaps_ms;
   std::optional<Time> last_stamp;
   std::optional<Steady::time_point> last_arrival;
   std::size_t groups = 0;
   int messages = 0;
-  while (Steady::now() - t0 < std::chrono::duration<double>(seconds)) {
-    spat.WaitForData(milliseconds(20));
+  void Take(dds::Reader<msg::Spat>& spat) {
     for (auto& m : spat.TakeAll()) {
       const auto now = Steady::now();
       const Time stamp = dds::FromMsg(m->header.stamp);
@@ -108,47 +111,191 @@ void SpatBenchmark(int n, double seconds, const std::string& partition, const fs
       ++messages;
     }
   }
-  const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
-  const double cpu = CpuSeconds(scm.pid()) - cpu0;
-  scm.Stop();
-  auto jitter = [](const std::vector<double>& gaps) {
+  static std::vector<double> Jitter(const std::vector<double>& gaps) {
     std::vector<double> j;
     for (double g : gaps) j.push_back(std::abs(g - 100.0));
     return j;
-  };
-  std::printf("   %d SPaT messages in %.1f s (%.2f Hz), %zu signal groups each\n", messages, wall,
-              messages / wall, groups);
-  std::printf("   autodrive-scm CPU: %.3f s per second of wall time (%.1f%% of one core)\n",
-              cpu / wall, 100.0 * cpu / wall);
-  std::printf(
-      "   tick jitter (SPaT stamp interval vs 100 ms): p50 %.2f ms, p99 %.2f ms, max %.2f ms\n",
-      Percentile(jitter(stamp_gaps_ms), 0.5), Percentile(jitter(stamp_gaps_ms), 0.99),
-      Percentile(jitter(stamp_gaps_ms), 1.0));
-  std::printf("   arrival jitter at a subscriber: p50 %.2f ms, p99 %.2f ms\n",
-              Percentile(jitter(arrival_gaps_ms), 0.5), Percentile(jitter(arrival_gaps_ms), 0.99));
+  }
+  void Print(double wall) const {
+    std::printf("   %d SPaT messages in %.1f s (%.2f Hz), %zu signal groups each\n", messages, wall,
+                messages / wall, groups);
+    std::printf(
+        "   tick jitter (SPaT stamp interval vs 100 ms): p50 %.2f ms, p99 %.2f ms, max %.2f ms\n",
+        Percentile(Jitter(stamp_gaps_ms), 0.5), Percentile(Jitter(stamp_gaps_ms), 0.99),
+        Percentile(Jitter(stamp_gaps_ms), 1.0));
+    std::printf("   SPaT interval: p99 %.1f ms, max %.1f ms\n", Percentile(stamp_gaps_ms, 0.99),
+                Percentile(stamp_gaps_ms, 1.0));
+    std::printf("   arrival jitter at a subscriber: p50 %.2f ms, p99 %.2f ms\n",
+                Percentile(Jitter(arrival_gaps_ms), 0.5),
+                Percentile(Jitter(arrival_gaps_ms), 0.99));
+  }
+};
+
+void SpatAndFloodBenchmark(int n, double seconds, int clients, double rate,
+                           const std::string& partition, const fs::path& dir) {
+  std::printf("== SPaT of a %d x %d grid city (%d signalised intersections), 10 Hz\n", n, n, n * n);
+  std::fflush(stdout);
+  const fs::path city = WriteGridCity(n, dir);
+  dds::Participant participant(dds::ParticipantOptions{{}, partition, {}});
+  dds::Reader<msg::Spat> spat(participant, dds::topics::Spat().name, dds::Qos::Stream(64));
+  ChildProcess scm({Bin("autodrive-scm"), "--config", city.string(), "--partition", partition,
+                    "--db", (dir / "grid.db").string(), "--log-level", "error"});
+  if (!spat.WaitForData(std::chrono::seconds(120))) {
+    std::printf("   no SPaT within 120 s\n");
+    return;
+  }
+  std::this_thread::sleep_for(std::chrono::seconds(2));  // settle (not a test: a benchmark)
+  (void)spat.TakeAll();
+  {
+    SpatWatch watch;
+    const double cpu0 = CpuSeconds(scm.pid());
+    const auto t0 = Steady::now();
+    while (Steady::now() - t0 < std::chrono::duration<double>(seconds)) {
+      spat.WaitForData(milliseconds(20));
+      watch.Take(spat);
+    }
+    const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
+    const double cpu = CpuSeconds(scm.pid()) - cpu0;
+    watch.Print(wall);
+    std::printf("   autodrive-scm CPU: %.3f s per second of wall time (%.1f%% of one core)\n",
+                cpu / wall, 100.0 * cpu / wall);
+  }
+
+  // Request to reply, with the grid city running.
+  std::printf("== request -> reply: scmctl-like status requests to the grid city's SCM\n");
+  {
+    scm::OperatorClient client(participant, "bench_latency", std::string("bench"));
+    client.WaitForScm(std::chrono::seconds(10));
+    std::vector<double> ms;
+    for (int i = 0; i < 300; ++i) {
+      const auto t0 = Steady::now();
+      const auto a = client.Call("intersections", {}, std::chrono::seconds(5));
+      if (a) ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
+      std::this_thread::sleep_for(milliseconds(7));
+    }
+    std::printf("   %zu requests: p50 %.2f ms, p99 %.2f ms (1024-line answers)\n", ms.size(),
+                Percentile(ms, 0.5), Percentile(ms, 0.99));
+    ms.clear();
+    for (int i = 0; i < 300; ++i) {
+      const auto t0 = Steady::now();
+      const auto a = client.Call("status", {}, std::chrono::seconds(5));
+      if (a) ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
+      std::this_thread::sleep_for(milliseconds(7));
+    }
+    std::printf("   status: p50 %.2f ms, p99 %.2f ms (%zu requests)\n", Percentile(ms, 0.5),
+                Percentile(ms, 0.99), ms.size());
+  }
+
+  // The flood.
+  std::printf("== flood: %d clients x %.0f operator requests/s while the grid city runs\n", clients,
+              rate);
+  std::fflush(stdout);
+  {
+    std::mutex mutex;
+    std::map<std::string, std::set<std::uint64_t>> sent, answered;
+    std::uint64_t ok = 0, refused = 0;
+    std::atomic<bool> stop{false};
+    dds::Reader<msg::OperatorReply> replies(participant, dds::topics::OperatorReplies());
+    std::thread collector([&] {
+      while (!stop.load()) {
+        replies.WaitForData(milliseconds(20));
+        for (auto& r : replies.TakeAll()) {
+          const std::string client(dds::View(r->client_id));
+          if (!client.starts_with("flood_")) continue;
+          std::lock_guard lock(mutex);
+          if (answered[client].insert(r->request_id).second) {
+            (r->result == 0 ? ok : refused)++;
+          }
+        }
+      }
+    });
+    std::vector<std::thread> senders;
+    const auto flood_for = std::chrono::duration<double>(seconds);
+    const auto t0 = Steady::now();
+    for (int c = 0; c < clients; ++c) {
+      senders.emplace_back([&, c] {
+        const std::string id = "flood_" + std::to_string(c);
+        dds::Writer<msg::OperatorRequest> writer(participant, dds::topics::OperatorRequests());
+        writer.WaitForReaders(1, std::chrono::seconds(10));
+        const auto period = std::chrono::duration<double>(1.0 / rate);
+        std::uint64_t k = 0;
+        auto next = Steady::now();
+        while (Steady::now() - t0 < flood_for) {
+          dds::Message<msg::OperatorRequest> m;
+          dds::SetString(m->client_id, id);
+          m->request_id = ++k;
+          dds::SetString(m->command, k % 2 ? "status" : "show");
+          if (k % 2 == 0) {
+            dds::ResizeSequence(m->arguments, 1);
+            dds::SetString(dds::Elements(m->arguments)[0].key, "intersection");
+            dds::SetString(dds::Elements(m->arguments)[0].value, "x_r1c1");
+          }
+          try {
+            writer.Write(m);
+            std::lock_guard lock(mutex);
+            sent[id].insert(k);
+          } catch (const std::exception&) {
+          }
+          next += std::chrono::duration_cast<Steady::duration>(period);
+          std::this_thread::sleep_until(next);
+        }
+      });
+    }
+    SpatWatch watch;
+    (void)spat.TakeAll();
+    const double cpu0 = CpuSeconds(scm.pid());
+    while (Steady::now() - t0 < flood_for) {
+      spat.WaitForData(milliseconds(20));
+      watch.Take(spat);
+    }
+    for (auto& t : senders) t.join();
+    const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
+    const double cpu = CpuSeconds(scm.pid()) - cpu0;
+    // Answers still in flight: wait for them (a moment, not a test).
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    stop = true;
+    collector.join();
+    std::size_t total = 0, missing = 0;
+    for (const auto& [client, ids] : sent) {
+      total += ids.size();
+      for (auto id : ids) missing += answered[client].count(id) == 0 ? 1u : 0u;
+    }
+    std::printf(
+        "   %zu requests sent (%.0f/s): %llu answered ok, %llu refused (rate limit), %zu "
+        "unanswered\n",
+        total, static_cast<double>(total) / wall, static_cast<unsigned long long>(ok),
+        static_cast<unsigned long long>(refused), missing);
+    watch.Print(wall);
+    std::printf("   autodrive-scm CPU during the flood: %.1f%% of one core\n", 100.0 * cpu / wall);
+  }
+  scm.Stop();
 }
 
-void LatencyBenchmark(int samples, const std::string& partition, const fs::path& dir) {
-  std::printf("== command to lamp feedback: scmctl advance -> signal_<i>/state, %d samples\n",
-              samples);
-  // The Driving School at a tenth of its timings, so that a phase turns over in about a second.
-  std::string city = config::internal::ReadFile(fs::path(ExecutableDir()) /
-                                                "../../config/cities/driving_school.yaml");
-  const std::string map_path =
-      fs::canonical(fs::path(ExecutableDir()) / "../../config/maps/driving_school.yaml").string();
+void LampLatencyBenchmark(int samples, const std::string& partition, const fs::path& dir) {
+  std::printf("== command to lamp feedback: advance -> signal_<i>/state, %d samples\n", samples);
+  std::fflush(stdout);
+  // The Driving School with short (but legal) timings, so that a phase turns over quickly.
+  const fs::path src = Source();
+  std::string city = config::internal::ReadFile(src / "config/cities/driving_school.yaml");
+  const std::string map_path = (src / "config/maps/driving_school.yaml").string();
   city.replace(city.find("map: ../maps/driving_school.yaml"), 32, "map: " + map_path);
-  city.replace(city.find("time_scale: 1.0"), 15, "time_scale: 0.1");
+  city.replace(city.find("{min_yellow_s: 3.0, min_red_clearance_s: 1.0, min_green_s: 4.0}"), 64,
+               "{min_yellow_s: 1.0, min_red_clearance_s: 0.5, min_green_s: 1.0}");
+  city.replace(
+      city.find("{min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 2.0}"), 73,
+      "{min_green_s: 1.0, max_green_s: 15.0, yellow_s: 1.0, red_clearance_s: 0.5}");
+  city += "\nstart_up: {flash_s: 1.0, all_red_s: 1.0}\n";
   { std::ofstream(dir / "fast_school.yaml") << city; }
-  std::string infra = config::internal::ReadFile(fs::path(ExecutableDir()) /
-                                                 "../../config/infra/driving_school.yaml");
+  std::string infra = config::internal::ReadFile(src / "config/infra/driving_school.yaml");
   infra.replace(infra.find("map: ../maps/driving_school.yaml"), 32, "map: " + map_path);
   { std::ofstream(dir / "infra.yaml") << infra; }
   ChildProcess lights({Bin("autodrive-infra"), "--config", (dir / "infra.yaml").string(),
-                       "--partition", partition, "--log-level", "warn"});
+                       "--partition", partition, "--log-level", "error"});
   ChildProcess scm({Bin("autodrive-scm"), "--config", (dir / "fast_school.yaml").string(),
                     "--partition", partition, "--db", (dir / "school.db").string(), "--log-level",
-                    "warn"});
-  scm::OperatorClient client(dds::ParticipantOptions{{}, partition, {}}, "bench");
+                    "error"});
+  dds::Participant participant(dds::ParticipantOptions{{}, partition, {}});
+  scm::OperatorClient client(participant, "bench", std::string("lab"));
   if (!client.WaitForScm(std::chrono::seconds(20))) {
     std::printf("   no SCM\n");
     return;
@@ -156,22 +303,22 @@ void LatencyBenchmark(int samples, const std::string& partition, const fs::path&
   std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> states;
   for (std::uint32_t h = 1; h <= 4; ++h) {
     states.push_back(std::make_unique<dds::Reader<msg::Int32>>(
-        client.participant(), dds::topics::SignalState(SignalHeadId(h))));
+        participant, dds::topics::SignalState(SignalHeadId(h))));
   }
-  std::this_thread::sleep_for(std::chrono::seconds(2));
+  std::this_thread::sleep_for(std::chrono::seconds(4));  // through the start-up
   (void)client.Call("mode", {{"intersection", "driving_school_crossing"}, {"mode", "manual"}},
                     std::chrono::seconds(5));
   std::vector<double> lamp_ms, reply_ms;
   int tries = 0;
   while (static_cast<int>(lamp_ms.size()) < samples && tries++ < samples * 10) {
-    // Wait for a green that has served its min green (0.5 s at this scale).
-    std::this_thread::sleep_for(milliseconds(700));
+    // Wait for a green that has served its min green (1 s) after the last clearance (1.5 s).
+    std::this_thread::sleep_for(milliseconds(2700));
     for (auto& s : states) (void)s->TakeAll();
     const auto t0 = Steady::now();
     const auto answer = client.Call("advance", {{"intersection", "driving_school_crossing"}},
                                     std::chrono::seconds(5));
     const auto t_reply = Steady::now();
-    if (!answer || answer->result != 0 || answer->message != "advancing") continue;
+    if (!answer || answer->code != scm::ReplyCode::kOk || answer->message != "advancing") continue;
     bool seen = false;
     while (!seen && Steady::now() - t0 < std::chrono::seconds(2)) {
       for (auto& s : states) {
@@ -179,7 +326,7 @@ void LatencyBenchmark(int samples, const std::string& partition, const fs::path&
           if (m->data == 2) seen = true;  // yellow
         }
       }
-      if (!seen) std::this_thread::sleep_for(std::chrono::microseconds(200));
+      if (!seen) std::this_thread::sleep_for(std::chrono::microseconds(100));
     }
     if (!seen) continue;
     lamp_ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
@@ -197,23 +344,30 @@ void LatencyBenchmark(int samples, const std::string& partition, const fs::path&
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "autodrive-bench-scm: SPaT publication for a grid city of N x N intersections (CPU, tick "
-      "jitter) and the command-to-lamp latency through autodrive-scm and autodrive-infra, next "
-      "to the DDS round trip of the same run. Run with CYCLONEDDS_URI set to "
-      "config/dds/localhost.xml."};
+      "autodrive-bench-scm: the SCM's figures as real processes: SPaT for a grid city of N x N "
+      "intersections (CPU, tick jitter), request-to-reply latency, command-to-lamp latency "
+      "through autodrive-scm and autodrive-infra, and a flood of operator requests; next to the "
+      "DDS round trip of the same run. Run with CYCLONEDDS_URI set to config/dds/localhost.xml."};
   int n = 32;
   double seconds = 20.0;
   int samples = 50;
+  int clients = 10;
+  double rate = 200.0;
+  bool skip_lamp = false;
   app.add_option("--grid", n, "grid city size N (N x N intersections)")->capture_default_str();
-  app.add_option("--seconds", seconds, "how long to measure SPaT")->capture_default_str();
+  app.add_option("--seconds", seconds, "how long to measure SPaT and the flood")
+      ->capture_default_str();
   app.add_option("--samples", samples, "command-to-lamp samples")->capture_default_str();
+  app.add_option("--clients", clients, "flood clients")->capture_default_str();
+  app.add_option("--rate", rate, "requests per second per flood client")->capture_default_str();
+  app.add_flag("--skip-lamp", skip_lamp, "skip the command-to-lamp measurement");
   CLI11_PARSE(app, argc, argv);
   const std::string partition = "bench_scm_" + std::to_string(::getpid());
   const fs::path dir = fs::temp_directory_path() / partition;
   fs::create_directories(dir);
   try {
-    SpatBenchmark(n, seconds, partition + "_spat", dir);
-    LatencyBenchmark(samples, partition + "_lamp", dir);
+    SpatAndFloodBenchmark(n, seconds, clients, rate, partition + "_spat", dir);
+    if (!skip_lamp) LampLatencyBenchmark(samples, partition + "_lamp", dir);
     std::printf("== DDS round trip in the same run (autodrive-bench-dds-latency)\n");
     std::fflush(stdout);
     ChildProcess dds({Bin("autodrive-bench-dds-latency"), "--samples", "4000", "--rounds", "4"});

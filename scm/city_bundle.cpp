@@ -1,0 +1,47 @@
+#include "scm/city_bundle.h"
+
+namespace autodrive::scm {
+
+SupervisionParams SupervisionParamsOf(const City& city) {
+  SupervisionParams p;
+  p.city = city.config.name;
+  p.timeout = city.device_timeout;
+  p.mismatch = city.device_mismatch;
+  p.wait_for_lights = city.config.devices.wait_for_lights;
+  return p;
+}
+
+CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& participant,
+                       std::vector<IntersectionStateRecord> restore_states,
+                       std::uint32_t map_revision)
+    : restore(std::move(restore_states)) {
+  const City& c = *city;
+  map = BuildMapMessages(c, map_revision);
+  runtime = std::make_unique<CityRuntime>(std::move(city));
+  const City& owned = runtime->city();
+  supervisor = std::make_unique<DeviceSupervisor>(*runtime, SupervisionParamsOf(owned));
+  lights = std::make_unique<LightCommander>(participant, *runtime);
+  fleet = std::make_unique<FleetRegistry>(
+      owned.map, FleetRegistryParams{owned.fleet_staleness, 0.05, kPi / 3});
+  std::vector<VehicleId> vehicles;
+  for (const auto& name : owned.config.fleet.vehicles) vehicles.push_back(ParseVehicleName(name));
+  sources.push_back(std::make_unique<IpsSource>(participant, vehicles));
+  (void)c;
+}
+
+CityBundle::~CityBundle() {
+  // The parts that borrow the city's map and model go first.
+  sources.clear();
+  fleet.reset();
+  lights.reset();
+  supervisor.reset();
+  runtime.reset();
+}
+
+void CityBundle::Start(MonoTime now) {
+  runtime->Start(now, restore);
+  lights->Forget();
+  supervisor = std::make_unique<DeviceSupervisor>(*runtime, SupervisionParamsOf(runtime->city()));
+}
+
+}  // namespace autodrive::scm

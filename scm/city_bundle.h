@@ -1,0 +1,53 @@
+#pragma once
+/// @file
+/// Everything the SCM runs for one city, built whole off the loop and swapped in whole: the
+/// city's runtime (controllers, monitors), device supervision, the lights' command writers, the
+/// fleet registry and its sources, and the MAP and signs messages. A failed build leaves the
+/// running city untouched.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/dds/participant.h"
+#include "scm/city.h"
+#include "scm/fleet.h"
+#include "scm/fleet_sources.h"
+#include "scm/publishers.h"
+#include "scm/runtime.h"
+#include "scm/store.h"
+#include "scm/supervision.h"
+
+namespace autodrive::scm {
+
+/// One city, ready to run. Members are destroyed in reverse order: the parts that borrow the
+/// city go before it. Not copyable or movable.
+class CityBundle {
+ public:
+  /// Builds everything for `city` (creating its DDS writers and readers in `participant`).
+  /// `restore`: the operator states to start the intersections with. Slow for a big city.
+  CityBundle(std::unique_ptr<City> city, const dds::Participant& participant,
+             std::vector<IntersectionStateRecord> restore, std::uint32_t map_revision);
+  CityBundle(const CityBundle&) = delete;
+  CityBundle& operator=(const CityBundle&) = delete;
+  ~CityBundle();
+
+  /// Starts the controllers at `now` (the start-up sequence) and forgets what devices said
+  /// (a new session of the control timeline, or a newly applied city).
+  void Start(MonoTime now);
+
+  [[nodiscard]] const City& city() const { return runtime->city(); }
+
+  std::vector<IntersectionStateRecord> restore;
+  std::unique_ptr<CityRuntime> runtime;
+  std::unique_ptr<DeviceSupervisor> supervisor;
+  std::unique_ptr<LightCommander> lights;
+  std::unique_ptr<FleetRegistry> fleet;
+  std::vector<std::unique_ptr<ObservationSource>> sources;
+  MapMessages map;
+};
+
+/// The supervision parameters of a city.
+[[nodiscard]] SupervisionParams SupervisionParamsOf(const City& city);
+
+}  // namespace autodrive::scm

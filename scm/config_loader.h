@@ -1,0 +1,70 @@
+#pragma once
+/// @file
+/// Loads and checks city configurations off the SCM's loop: parsing, the map (which may be a
+/// layout to build), the safety rules, and for an apply the whole `CityBundle` (its DDS writers
+/// and readers included). Results come back to the loop as completions it runs on its own
+/// thread; a bundle the loop swapped out is destroyed here too, off the loop.
+
+#include <condition_variable>
+#include <deque>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "common/dds/participant.h"
+#include "scm/city.h"
+#include "scm/city_bundle.h"
+#include "scm/internal/task.h"
+#include "scm/store.h"
+
+namespace autodrive::scm {
+
+/// Loads cities on a thread of its own. Not copyable or movable.
+class ConfigLoader {
+ public:
+  /// Where network-supplied city text may find its map: relative to `base_dir`, under `root`.
+  /// `wake` is called from the loader's thread when a completion is ready.
+  ConfigLoader(const dds::Participant& participant, Store& store, MapResolution resolution,
+               std::function<void()> wake);
+  ConfigLoader(const ConfigLoader&) = delete;
+  ConfigLoader& operator=(const ConfigLoader&) = delete;
+  /// Finishes the job under way, drops the rest, stops.
+  ~ConfigLoader();
+
+  /// Loads `yaml` (named `label`) and checks it; then `done(city or nullptr, error)` on the loop.
+  void Check(std::string yaml, std::string label,
+             std::function<void(std::unique_ptr<City>, std::string error)> done);
+  /// Loads `yaml`, checks it and builds its bundle (restoring the saved operator states, map
+  /// revision `revision`); then `done(bundle or nullptr, error)` on the loop.
+  void Build(std::string yaml, std::string label, std::uint32_t revision,
+             std::function<void(std::unique_ptr<CityBundle>, std::string error)> done);
+  /// Destroys `bundle` on the loader's thread (deleting DDS entities takes time).
+  void Dispose(std::unique_ptr<CityBundle> bundle);
+
+  /// Runs the completions that are ready, on the calling (loop) thread.
+  void RunCompletions();
+  /// True while a job is queued or running (one configuration at a time is enough).
+  [[nodiscard]] bool busy() const;
+
+ private:
+  void Post(internal::Task job);
+  void Complete(internal::Task completion);
+  std::unique_ptr<City> Load(const std::string& yaml, const std::string& label) const;
+
+  const dds::Participant& participant_;
+  Store& store_;
+  MapResolution resolution_;
+  std::function<void()> wake_;
+  mutable std::mutex mutex_;
+  std::condition_variable_any cv_;
+  std::deque<internal::Task> jobs_;
+  bool running_job_ = false;
+  std::vector<internal::Task> completions_;
+  std::jthread thread_;
+};
+
+}  // namespace autodrive::scm

@@ -1,0 +1,268 @@
+// The daemon in-process, pass by pass, on clocks the test controls: a wall clock stepped by
+// +-5 s during a yellow and a red clearance, a simulated clock that restarts, the loop's
+// allocations in steady state, and the ips fleet source. Real DDS (its own partition) and a
+// real SQLite database in the test's temporary folder.
+#include "scm/daemon.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <new>
+
+#include "autodrive_msgs/msg/SignalGroupState.h"
+
+#include "common/config.h"
+#include "common/dds/conversions.h"
+#include "common/dds/reader.h"
+#include "common/dds/topics.h"
+#include "common/dds/writer.h"
+#include "common/test_support.h"
+
+// Counts the C++ allocations of this process while `g_count_allocations` is set.
+namespace {
+std::atomic<bool> g_count_allocations{false};
+std::atomic<std::uint64_t> g_allocations{0};
+}  // namespace
+
+// GCC cannot see that these replace the global operators as a pair.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
+void* operator new(std::size_t n) {
+  if (g_count_allocations.load(std::memory_order_relaxed)) g_allocations.fetch_add(1);
+  if (void* p = std::malloc(n == 0 ? 1 : n)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#pragma GCC diagnostic pop
+
+namespace autodrive::scm {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+/// A test's own folder and DDS partition.
+class DaemonTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    partition_ = fmt::format("scm_daemon_{}_{}", ::getpid(), info->name());
+    dir_ = std::filesystem::temp_directory_path() / partition_;
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+    participant_ = std::make_unique<dds::Participant>(dds::ParticipantOptions{{}, partition_, {}});
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  /// The Driving School city without waiting for lights (no light host in these tests), written
+  /// into the test's folder with its map path made absolute.
+  std::filesystem::path DrivingSchoolWithoutLights(const std::string& extra = "") const {
+    std::string text =
+        config::internal::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
+    const std::string map =
+        (test::SourceDir() / "config/maps/driving_school.yaml").lexically_normal().string();
+    text.replace(text.find("map: ../maps/driving_school.yaml"), 32, "map: " + map);
+    text += "\ndevices: {wait_for_lights: false}\n" + extra;
+    const auto path = dir_ / "city.yaml";
+    std::ofstream(path) << text;
+    return path;
+  }
+  ScmOptions Options(const std::filesystem::path& city) const {
+    ScmOptions o;
+    o.config_path = city;
+    o.db_path = (dir_ / "scm.db").string();
+    o.config_root = test::SourceDir();
+    return o;
+  }
+
+  std::string partition_;
+  std::filesystem::path dir_;
+  std::unique_ptr<dds::Participant> participant_;
+};
+
+/// Time sources the test owns: the monotonic clock moves when the test says, and the wall
+/// clock is it plus an offset the test steps.
+struct TestTime {
+  std::atomic<std::int64_t> mono_ns{5'000'000'000};
+  std::atomic<std::int64_t> offset_ns{1'795'000'000'000'000'000};
+  WallTimeSources Sources() {
+    return {[this] { return Time(Duration(mono_ns.load() + offset_ns.load())); },
+            [this] { return MonoTime(Duration(mono_ns.load())); }};
+  }
+  MonoTime mono() const { return MonoTime(Duration(mono_ns.load())); }
+  /// Moves the monotonic clock to `t` (never back).
+  void AdvanceTo(MonoTime t) {
+    mono_ns = std::max(mono_ns.load(), static_cast<std::int64_t>(t.time_since_epoch().count()));
+  }
+};
+
+TEST_F(DaemonTest, WallClockStepsDuringAYellowAndARedClearanceChangeNeitherAndSpatStaysTrue) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  Scm scm(Options(DrivingSchoolWithoutLights()), clock, *participant_);
+  dds::Reader<msg::Spat> spat(*participant_, dds::topics::Spat().name, dds::Qos::Stream(64));
+  const auto& x = scm.runtime().intersections().at(0);
+  const Duration yellow = x.model->groups[0].timing.yellow;
+  const Duration red_clearance = x.model->groups[0].timing.red_clearance;
+  ASSERT_EQ(yellow, seconds(3));
+  ASSERT_EQ(red_clearance, seconds(2));
+
+  std::optional<MonoTime> yellow_at, red_at, next_green_at;
+  std::size_t yellow_group = 0;
+  bool stepped_forward = false;
+  bool stepped_back = false;
+  int spat_checked = 0;
+  std::uint64_t spats = scm.counters().spat_published;
+  // Pass by pass, jumping the monotonic clock to each deadline the loop would wake at.
+  for (int pass = 0; pass < 20'000 && !next_green_at; ++pass) {
+    time.AdvanceTo(std::min(scm.next_deadline(), time.mono() + milliseconds(100)));
+    if (yellow_at && !stepped_forward && time.mono() >= *yellow_at + seconds(1)) {
+      time.offset_ns += 5'000'000'000;  // NTP steps the wall clock 5 s forwards mid-yellow
+      stepped_forward = true;
+    }
+    if (red_at && !stepped_back && time.mono() >= *red_at + milliseconds(500)) {
+      time.offset_ns -= 5'000'000'000;  // and 5 s back during the red clearance
+      stepped_back = true;
+    }
+    const MonoTime pass_mono = time.mono();
+    const Time pass_wire = Time(Duration(time.mono_ns.load() + time.offset_ns.load()));
+    scm.Pass();
+    const auto& aspects = scm.runtime().intersections().at(0).last_aspects;
+    const auto stage = scm.runtime().intersections().at(0).controller->stage();
+    if (!yellow_at && stage == Stage::kYellow) {
+      yellow_at = pass_mono;
+      yellow_group =
+          static_cast<std::size_t>(std::ranges::find(aspects, Aspect::kYellow) - aspects.begin());
+    }
+    if (yellow_at && !red_at && stage == Stage::kRedClearance) red_at = pass_mono;
+    if (red_at && !next_green_at && stage == Stage::kGreen) next_green_at = pass_mono;
+    // Every SPaT of this pass: its stamp is this pass's wire time, and each group's min_end is
+    // that stamp plus exactly the control time left, whatever the wall clock did.
+    if (scm.counters().spat_published == spats) continue;
+    spats = scm.counters().spat_published;
+    ASSERT_TRUE(spat.WaitForData(seconds(10)));
+    auto got = spat.TakeAll();
+    ASSERT_EQ(got.size(), 1u);
+    const auto& m = *got.back();
+    ASSERT_EQ(dds::FromMsg(m.header.stamp), pass_wire);
+    const auto& g = dds::Elements(dds::Elements(m.intersections)[0].signal_groups)[yellow_group];
+    if (stage == Stage::kYellow && yellow_at) {
+      EXPECT_EQ(g.event_state, autodrive_msgs_msg_SignalGroupState_Constants_PROTECTED_CLEARANCE);
+      EXPECT_EQ(dds::FromMsg(g.min_end_time) - dds::FromMsg(m.header.stamp),
+                *yellow_at + yellow - pass_mono);
+      ++spat_checked;
+    }
+    if (stage == Stage::kRedClearance && red_at) {
+      EXPECT_EQ(g.event_state, autodrive_msgs_msg_SignalGroupState_Constants_STOP_AND_REMAIN);
+      // The red of the group that just ended lasts at least the clearance, then a phase.
+      EXPECT_GE(dds::FromMsg(g.min_end_time) - dds::FromMsg(m.header.stamp),
+                *red_at + red_clearance - pass_mono);
+      ++spat_checked;
+    }
+  }
+  ASSERT_TRUE(yellow_at && red_at && next_green_at) << "no full clearance seen";
+  EXPECT_TRUE(stepped_forward && stepped_back);
+  EXPECT_EQ(*red_at - *yellow_at, yellow) << "the yellow lasted its configured time";
+  EXPECT_EQ(*next_green_at - *red_at, red_clearance) << "the red clearance lasted its time";
+  EXPECT_EQ(clock.steps(), 2u);
+  EXPECT_GE(spat_checked, 40) << "SPaT at 10 Hz through 5 s of clearance";
+}
+
+TEST_F(DaemonTest, ASimulatorRestartIsANewSessionNotAFreeze) {
+  SimClock clock;
+  clock.AdvanceTo(TimeFromSeconds(1000));
+  Scm scm(Options(DrivingSchoolWithoutLights()), clock, *participant_);
+  auto run_until_green = [&](double limit_s) {
+    const MonoTime end = clock.Monotonic() + FromSeconds(limit_s);
+    while (clock.Monotonic() < end) {
+      const MonoTime next = std::clamp(scm.next_deadline(), clock.Monotonic() + milliseconds(1),
+                                       clock.Monotonic() + milliseconds(100));
+      clock.AdvanceTo(Time(next.time_since_epoch()));
+      scm.Pass();
+      if (scm.runtime().intersections()[0].controller->stage() == Stage::kGreen) return true;
+    }
+    return false;
+  };
+  ASSERT_TRUE(run_until_green(30));
+  clock.AdvanceTo(TimeFromSeconds(3));  // the simulation restarted
+  scm.Pass();
+  EXPECT_EQ(scm.counters().clock_sessions, 1u);
+  EXPECT_EQ(scm.runtime().intersections()[0].controller->stage(), Stage::kStartupFlash)
+      << "the intersection restarts through the start-up sequence";
+  ASSERT_TRUE(run_until_green(30)) << "and runs again on the restarted clock (no freeze)";
+}
+
+TEST_F(DaemonTest, SteadyStatePassesAllocateNothing) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  Scm scm(Options(DrivingSchoolWithoutLights()), clock, *participant_);
+  // A subscriber, so that SPaT and the fleet state are really sent.
+  dds::Reader<msg::Spat> spat(*participant_, dds::topics::Spat().name, dds::Qos::Stream(1));
+  auto pass_to = [&](MonoTime t) {
+    time.AdvanceTo(t);
+    scm.Pass();
+  };
+  // Warm up: through the start-up sequence and a whole cycle, so that every message has its
+  // shape and every buffer its capacity.
+  const MonoTime warm = time.mono() + seconds(120);
+  while (time.mono() < warm) pass_to(std::min(scm.next_deadline(), time.mono() + milliseconds(20)));
+  (void)spat.TakeAll();
+  const std::uint64_t spats_before = scm.counters().spat_published;
+  const std::uint64_t steps_before = scm.counters().controller_steps;
+  g_allocations = 0;
+  g_count_allocations = true;
+  const MonoTime end = time.mono() + seconds(60);  // a full cycle and more: every phase change
+  int passes = 0;
+  while (time.mono() < end) {
+    pass_to(std::min(scm.next_deadline(), time.mono() + milliseconds(20)));
+    ++passes;
+  }
+  g_count_allocations = false;
+  EXPECT_EQ(g_allocations.load(), 0u) << "allocations in " << passes << " passes";
+  EXPECT_GE(scm.counters().spat_published - spats_before, 590u);
+  EXPECT_GT(scm.counters().controller_steps, steps_before) << "the phases did change";
+}
+
+TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  Scm scm(Options(DrivingSchoolWithoutLights()), clock, *participant_);
+  dds::Reader<msg::FleetState> fleet(*participant_, dds::topics::Fleet().name,
+                                     dds::Qos::Stream(16));
+  const auto& map = scm.city().map;
+  const auto& lane = map.lane(map.intersections[0].approaches[0].ingress[0]);
+  // A car parked 0.4 m before the stop line: its ips says the same point again and again.
+  const Eigen::Vector2d at =
+      lane.centreline[lane.centreline.size() - 2] +
+      0.6 * (lane.centreline.back() - lane.centreline[lane.centreline.size() - 2]);
+  dds::Writer<msg::Point> ips(*participant_, dds::topics::Ips(VehicleId(1)));
+  ASSERT_TRUE(ips.WaitForReaders(1, seconds(10)));
+  std::optional<dds::Message<msg::FleetState>> seen;
+  for (int i = 0; i < 200 && !seen; ++i) {
+    ips.Write(msg::Point{at.x(), at.y(), 0.0});
+    time.AdvanceTo(time.mono() + milliseconds(100));
+    scm.Pass();
+    fleet.WaitForData(milliseconds(50));
+    for (auto& m : fleet.TakeAll()) {
+      if (m->vehicles._length == 1) seen = std::move(m);
+    }
+  }
+  ASSERT_TRUE(seen) << "nigel_1 never appeared in the fleet state";
+  const auto& v = dds::Elements((*seen)->vehicles)[0];
+  EXPECT_EQ(dds::View(v.vehicle_id), "nigel_1");
+  EXPECT_EQ(v.source, autodrive_msgs_msg_TrackedVehicle_Constants_IPS);
+  EXPECT_EQ(dds::View(v.map_lane_id), lane.name) << "a car that never moved has its lane";
+  EXPECT_EQ(v.intersection_id, map.intersections[0].id.value());
+}
+
+}  // namespace
+}  // namespace autodrive::scm

@@ -1,0 +1,52 @@
+#include "scm/fleet_sources.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+
+#include "common/dds/topics.h"
+#include "common/error.h"
+
+namespace autodrive::scm {
+
+IpsSource::IpsSource(const dds::Participant& participant, const std::vector<VehicleId>& vehicles) {
+  for (const VehicleId v : vehicles) {
+    Track t;
+    t.vehicle = v;
+    t.reader = std::make_unique<dds::Reader<msg::Point>>(participant, dds::topics::Ips(v));
+    tracks_.push_back(std::move(t));
+  }
+}
+
+std::size_t IpsSource::Poll(const ClockReading& now, FleetRegistry& fleet) {
+  std::size_t recorded = 0;
+  for (Track& t : tracks_) {
+    while (t.reader->TakeOne(sample_)) {
+      const msg::Point& p = *sample_;
+      if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
+        ++malformed_;
+        continue;
+      }
+      const Eigen::Vector2d pos(p.x, p.y);
+      if (t.last && (pos - *t.last).norm() > kMinMotion_m) {
+        t.yaw_rad = std::atan2(pos.y() - t.last->y(), pos.x() - t.last->x());
+      }
+      if (!t.last || (pos - *t.last).norm() > kMinMotion_m) t.last = pos;
+      VehicleObservation o;
+      o.vehicle = t.vehicle;
+      o.source = PoseSource::kIps;
+      o.observed = now.wire;
+      o.heading_known = t.yaw_rad.has_value();
+      o.X_MV = RigidTransform2(pos, t.yaw_rad.value_or(0.0)).ToRigidTransform3();
+      try {
+        if (fleet.Observe(o)) ++recorded;
+      } catch (const InputError& e) {
+        ++malformed_;
+        spdlog::warn("bad observation of {}: {}", VehicleName(t.vehicle), e.what());
+      }
+    }
+  }
+  return recorded;
+}
+
+}  // namespace autodrive::scm

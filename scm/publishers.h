@@ -1,0 +1,149 @@
+#pragma once
+/// @file
+/// The SCM's DDS edge for what it publishes: SPaT, fleet state, heartbeat, events, MAP and
+/// signs, V2I request status, operator replies, device commands, and each light's command. The
+/// only place where the SCM's domain values (aspects, modes, request status, severities, pose
+/// sources) become wire numbers. Every writer is non-blocking (`Qos::NonBlocking`): a write
+/// that would wait for slow readers fails at once and is counted, so the loop never blocks.
+/// Messages that go out often are kept and refilled in place: no allocation in steady state.
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "common/dds/messages.h"
+#include "common/dds/participant.h"
+#include "common/dds/writer.h"
+#include "common/time.h"
+#include "scm/controller.h"
+#include "scm/events.h"
+#include "scm/fleet.h"
+#include "scm/map_data.h"
+#include "scm/runtime.h"
+#include "scm/supervision.h"
+
+namespace autodrive::scm {
+
+/// The answer to an operator request (domain side; `ReplyCode` becomes OperatorReply's result).
+enum class ReplyCode { kOk, kRejected, kInvalid, kFailed };
+/// "ok", "rejected", "invalid", "failed".
+[[nodiscard]] std::string_view ToString(ReplyCode code);
+
+/// The SCM's process state in its heartbeat.
+enum class ScmState { kStarting, kRunning, kStopping };
+
+/// MAP and signs of a city as published, with the lookup V2I requests need.
+struct MapMessages {
+  MapDataMessage map;
+  SignRegistryMessage signs;
+  /// (intersection id, MAP lane id) -> the map's lane.
+  std::map<std::pair<std::uint32_t, std::uint32_t>, LaneId> lanes;
+};
+/// Builds the MAP and signs messages of `city` (revision `revision`). Slow for a big city: call
+/// it off the loop.
+[[nodiscard]] MapMessages BuildMapMessages(const City& city, std::uint32_t revision);
+
+/// Publication counters.
+struct PublisherCounters {
+  std::uint64_t spat = 0;
+  std::uint64_t write_failures = 0;  ///< writes Cyclone refused (not sent; counted and logged)
+};
+
+/// The SCM's writers (all but the lights'). Single-threaded (the loop's). Not copyable.
+class ScmPublishers {
+ public:
+  /// `city` and `session` go into heartbeats and device commands.
+  ScmPublishers(const dds::Participant& participant, std::string city, std::uint64_t session);
+  ScmPublishers(const ScmPublishers&) = delete;
+  ScmPublishers& operator=(const ScmPublishers&) = delete;
+
+  /// Rebuilds the SPaT message's shape for `runtime` (after a configuration swap).
+  void Reset(const CityRuntime& runtime, std::string city);
+  /// SPaT of every intersection at `now`: each group's state and its times on the wire through
+  /// `now.ToWire`, so every time of one message shares one mapping.
+  void PublishSpat(const CityRuntime& runtime, const ClockReading& now);
+  void PublishFleet(const FleetRegistry& fleet, Time now);
+  void PublishHeartbeat(Time now, ScmState state);
+  void PublishEvent(const Event& event, Time now, std::uint64_t event_id);
+  void PublishMap(MapMessages& map, Time now);
+  /// A V2I request's status (`expected_green` on the control timeline, converted with `now`).
+  void PublishRequestStatus(const RequestUpdate& update, std::uint32_t intersection_id,
+                            std::uint32_t signal_group, const ClockReading& now);
+  /// The reply to request `request_id` of `client`.
+  void Reply(std::string_view client, std::uint64_t request_id, ReplyCode code,
+             std::string_view message,
+             const std::vector<std::pair<std::string, std::string>>& values, Time now);
+  /// Asks the infrastructure to reset the conflict monitor of `x`; returns the command id, or
+  /// nothing when the write failed.
+  std::optional<std::uint64_t> ResetMonitor(const IntersectionModel& x, std::string_view issued_by,
+                                            std::uint64_t request_id, Time now);
+
+  [[nodiscard]] const PublisherCounters& counters() const { return counters_; }
+  [[nodiscard]] std::uint64_t session() const { return session_; }
+
+ private:
+  template <typename T>
+  bool TryWrite(dds::Writer<T>& writer, const T& sample);
+
+  std::string city_;
+  std::uint64_t session_;
+  std::uint64_t heartbeat_seq_ = 0;
+  std::uint64_t device_command_id_ = 0;
+  dds::Writer<msg::Spat> spat_writer_;
+  dds::Writer<msg::MapData> map_writer_;
+  dds::Writer<msg::SignRegistry> signs_writer_;
+  dds::Writer<msg::FleetState> fleet_writer_;
+  dds::Writer<msg::Event> event_writer_;
+  dds::Writer<msg::Heartbeat> heartbeat_writer_;
+  dds::Writer<msg::SignalRequestStatus> request_status_writer_;
+  dds::Writer<msg::OperatorReply> reply_writer_;
+  dds::Writer<msg::DeviceCommand> device_command_writer_;
+  dds::Message<msg::Spat> spat_;
+  std::vector<GroupSignal> signals_;
+  FleetStateMessage fleet_;
+  dds::Message<msg::Heartbeat> heartbeat_;
+  PublisherCounters counters_;
+};
+
+/// Counters of the light commands.
+struct LightCommandCounters {
+  std::uint64_t writes = 0;    ///< commands sent (first sends and re-sends)
+  std::uint64_t resends = 0;   ///< of those, re-sends of a command the light did not show yet
+  std::uint64_t failures = 0;  ///< writes Cyclone refused (retried at the next pass)
+};
+
+/// Each light's `signal_<i>/command` writer and what it was last sent. A command is recorded as
+/// sent only once its write succeeded (a failed write is retried at the next pass); a command
+/// its light does not show yet is re-sent every `resend_period` (a light that restarted, a
+/// monitor that was reset, a sample lost). Built with its city's runtime (off the loop: a
+/// writer per head takes time). Not copyable.
+class LightCommander {
+ public:
+  static constexpr Duration kResendPeriod = std::chrono::milliseconds(250);
+
+  LightCommander(const dds::Participant& participant, const CityRuntime& runtime);
+  LightCommander(const LightCommander&) = delete;
+  LightCommander& operator=(const LightCommander&) = delete;
+
+  /// Sends every head the aspect of its group where it changed, re-sends what its light does not
+  /// show yet. Returns how many were written.
+  std::size_t Sync(const CityRuntime& runtime, const DeviceSupervisor& supervisor, MonoTime now);
+  /// Forgets what was sent (a new session of the control timeline): every light is sent its
+  /// command again at the next `Sync`.
+  void Forget();
+  /// What each head was last sent, by head index.
+  [[nodiscard]] std::span<const SentCommand> sent() const { return sent_; }
+  [[nodiscard]] const LightCommandCounters& counters() const { return counters_; }
+
+ private:
+  std::vector<std::unique_ptr<dds::Writer<msg::Int32>>> writers_;
+  std::vector<SentCommand> sent_;
+  LightCommandCounters counters_;
+};
+
+}  // namespace autodrive::scm
