@@ -1,0 +1,400 @@
+// The SCM driven from outside as a lab member (or an intruder) would: large and broken
+// configurations, commands while an independent checker watches SPaT, lowered safety floors,
+// a second city's lights in the same DDS domain, hostile requests, systemd's notifications
+// and the simulated clock. Real processes (autodrive-scm, autodrive-infra, scmctl) over DDS;
+// times are judged by the stamps the processes put on their messages.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+
+#include <csignal>
+#include <fstream>
+#include <random>
+
+#include "autodrive_msgs/msg/KeyValue.h"
+#include "autodrive_msgs/msg/OperatorReply.h"
+#include "autodrive_msgs/msg/OperatorRequest.h"
+
+#include "common/config.h"
+#include "common/dds/writer.h"
+#include "tests/scm_processes.h"
+
+namespace autodrive {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using test::AnyGreen;
+using test::Config;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using Clock = std::chrono::steady_clock;
+
+bool Flag(const msg::IntersectionState& x, std::uint16_t flag) { return (x.status & flag) != 0; }
+
+bool NoneFlashing(const msg::Spat& s) {
+  for (const auto& x : dds::Elements(s.intersections)) {
+    if (Flag(x, autodrive_msgs_msg_IntersectionState_Constants_FAILURE_FLASH) ||
+        Flag(x, autodrive_msgs_msg_IntersectionState_Constants_STANDBY_OPERATION)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+class ScmGuard : public test::ScmProcesses {
+ protected:
+  /// A shipped city file with its map named by absolute path, so that a copy in the test's
+  /// folder still finds it (the path stays under the SCM's configuration root).
+  std::string CityText(const std::string& city) const {
+    std::string text = config::internal::ReadFile(Config("config/cities/" + city + ".yaml"));
+    const std::string rel = "../maps/" + city + ".yaml";
+    text.replace(text.find(rel), rel.size(), Config("config/maps/" + city + ".yaml"));
+    return text;
+  }
+  std::string Write(const std::string& name, const std::string& text) const {
+    const auto path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+  /// Takes SPaT until `n` more samples arrived (up to `timeout`); every one must satisfy `ok`.
+  template <typename P>
+  bool WatchSpat(std::size_t n, P ok, Clock::duration timeout) {
+    std::size_t seen = 0;
+    bool all_ok = true;
+    WaitSpat(
+        [&](const msg::Spat& s) {
+          all_ok = all_ok && ok(s);
+          return ++seen >= n;
+        },
+        timeout);
+    return all_ok && seen >= n;
+  }
+  void ExpectRatesKept(const char* what) {
+    std::printf("%s: SPaT intervals p50 %.4f p99 %.4f max %.4f s over %zu\n", what,
+                checker_.IntervalQuantile(0.5), checker_.IntervalQuantile(0.99),
+                checker_.MaxInterval(), checker_.intervals());
+    EXPECT_LE(checker_.IntervalQuantile(0.99), 0.11) << what;
+    EXPECT_LE(checker_.MaxInterval(), 0.15) << what;
+  }
+};
+
+TEST_F(ScmGuard, ALargeConfigApplyIsRefusedWithNoEffectOnAnyIntersection) {
+  StartInfra("small_town");
+  StartScm("small_town");
+  ASSERT_TRUE(WaitSpat(NoneFlashing, seconds(30)));
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  // A valid city padded with comments to 5 MB.
+  std::string big = CityText("small_town");
+  const std::string line = "# " + std::string(98, 'x') + "\n";
+  while (big.size() < 5'000'000) big += line;
+  const auto path = Write("big.yaml", big);
+  checker_.ResetIntervals();
+  const auto r = Lab({"config", "apply", path});
+  EXPECT_NE(r.code, 0) << r.text;
+  EXPECT_NE(r.code, 3) << "no answer: " << r.text;
+  EXPECT_THAT(r.text, HasSubstr("bytes"));
+  // No effect: every intersection keeps running (no flash, no restart), the lights stay
+  // supervised, SPaT keeps its rate, and no configuration was applied.
+  EXPECT_TRUE(WatchSpat(30, NoneFlashing, seconds(30)));
+  ExpectRatesKept("5 MB config apply");
+  const auto status = Scmctl({"status"});
+  EXPECT_THAT(status.text, HasSubstr("lights_lost: 0"));
+  EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("config_applied")));
+  EXPECT_TRUE(checker_.violations().empty()) << checker_.violations().front();
+}
+
+TEST_F(ScmGuard, ANulByteIsRefusedByValidateAndApply) {
+  StartInfra();
+  StartScm();
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  std::string text = CityText("driving_school");
+  // The NUL sits before a section that would otherwise be silently dropped.
+  text.insert(text.find("operators:"), std::string("#\0\n", 3));
+  const auto path = Write("nul.yaml", text);
+  auto r = Scmctl({"config", "validate", path});
+  EXPECT_EQ(r.code, 2) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("NUL byte"));
+  r = Lab({"config", "apply", path});
+  EXPECT_EQ(r.code, 2) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("NUL byte"));
+  // Sent raw, cut at the NUL as a C string would be: the SCM sees the length does not match.
+  dds::Writer<msg::OperatorRequest> lab(*participant_, dds::topics::OperatorRequests("lab"));
+  dds::Reader<msg::OperatorReply> replies(*participant_, dds::topics::OperatorReplies());
+  ASSERT_TRUE(lab.WaitForReaders(1, seconds(10)));
+  dds::Message<msg::OperatorRequest> req;
+  dds::SetString(req->client_id, "raw/nul");
+  req->request_id = 1;
+  dds::SetString(req->command, "config_apply");
+  const std::string cut = text.substr(0, text.find('\0'));
+  const std::string bytes = std::to_string(text.size());
+  std::vector<msg::KeyValue> args(2);
+  dds::BorrowString(args[0].key, "yaml");
+  dds::BorrowString(args[0].value, cut.c_str());
+  dds::BorrowString(args[1].key, "yaml_bytes");
+  dds::BorrowString(args[1].value, bytes.c_str());
+  dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>(args));
+  lab.Write(req);
+  dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>());  // not ours to free
+  std::optional<dds::Message<msg::OperatorReply>> reply;
+  for (const auto end = Clock::now() + seconds(10); !reply && Clock::now() < end;) {
+    replies.WaitForData(milliseconds(100));
+    for (auto& m : replies.TakeAll()) {
+      if (dds::View(m->client_id) == "raw/nul") reply = std::move(m);
+    }
+  }
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)->result, autodrive_msgs_msg_OperatorReply_Constants_INVALID);
+  EXPECT_THAT(std::string(dds::View((*reply)->message)), HasSubstr("a NUL byte cuts a string on the wire"));
+  EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("config_applied")));
+}
+
+// An independent checker over SPaT while an operator drives the intersection through every
+// mode and plan: every min_end promise holds (a change into fail-safe flash excepted), and SPaT
+// keeps 10 Hz.
+TEST_F(ScmGuard, SpatKeepsEveryMinEndPromiseAndItsRateWhileOperatorsCommand) {
+  StartInfra();
+  StartScm();
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  checker_.ResetIntervals();
+  const std::vector<std::vector<std::string>> commands = {
+      {"mode", "driving_school_crossing", "manual"},
+      {"advance", "driving_school_crossing"},
+      {"plan", "driving_school_crossing", "evening"},
+      {"mode", "driving_school_crossing", "dark"},
+      {"mode", "driving_school_crossing", "auto"},
+      {"mode", "driving_school_crossing", "flash"},
+      {"mode", "driving_school_crossing", "fixed"},
+      {"plan", "driving_school_crossing", "off"},
+      {"plan", "driving_school_crossing", "day"},
+      {"mode", "driving_school_crossing", "actuated"},
+      {"plan", "driving_school_crossing", "night"},
+      {"plan", "driving_school_crossing", "auto"},
+      {"status"},
+      {"show", "driving_school_crossing"},
+  };
+  std::mt19937 random(8);
+  int ok = 0;
+  // About 60 s of commands (600 SPaT samples), one every 0.5-3 s of SPaT.
+  while (checker_.intervals() < 600) {
+    const auto& c = commands[random() % commands.size()];
+    const auto r = Lab(c);
+    ASSERT_NE(r.code, 3) << "no answer to " << c[0];
+    ok += r.code == 0;
+    const std::size_t wait = 5 + random() % 25;
+    const std::size_t until = checker_.intervals() + wait;
+    ASSERT_TRUE(
+        WaitSpat([&](const msg::Spat&) { return checker_.intervals() >= until; }, seconds(30)));
+  }
+  std::printf("%zu SPaT samples, %zu state changes, %d commands carried out\n", checker_.samples(),
+              checker_.changes(), ok);
+  EXPECT_GT(checker_.changes(), 20u);
+  EXPECT_GT(ok, 10);
+  for (const auto& v : checker_.violations()) ADD_FAILURE() << v;
+  ExpectRatesKept("operator commands");
+}
+
+TEST_F(ScmGuard, AFloorBelowItsHardMinimumIsRefused) {
+  StartInfra();
+  StartScm();
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  std::string text = CityText("driving_school");
+  const std::string floors =
+      "safety: {min_yellow_s: 3.0, min_red_clearance_s: 1.0, min_green_s: 4.0}";
+  text.replace(text.find(floors), floors.size(),
+               "safety: {min_yellow_s: 0.1, min_red_clearance_s: 0.1, min_green_s: 0.1}");
+  const std::string timing = "yellow_s: 3.0, red_clearance_s: 2.0";
+  text.replace(text.find(timing), timing.size(), "yellow_s: 0.5, red_clearance_s: 0.5");
+  const auto path = Write("low_floors.yaml", text);
+  auto r = Scmctl({"config", "validate", path});
+  EXPECT_EQ(r.code, 2) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("rule: safety floors cannot go below the hard minimums"));
+  r = Lab({"config", "apply", path});
+  EXPECT_EQ(r.code, 1) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("rule: safety floors cannot go below the hard minimums"));
+  EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("config_applied")));
+}
+
+TEST_F(ScmGuard, AForeignCitysLightsAreIgnoredAndReported) {
+  StartInfra("small_town");
+  StartScm("small_town");
+  ASSERT_TRUE(WaitSpat(NoneFlashing, seconds(30)));
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  // The Driving School's lights join the domain: signal_1..4 again, of city driving_school.
+  StartInfra("driving_school");
+  ASSERT_TRUE(WaitEvent("foreign_device", seconds(20)));
+  // The small town runs on: none of its intersections flashes, no light is taken as lost or
+  // mismatched, for 5 s of SPaT.
+  EXPECT_TRUE(WatchSpat(50, NoneFlashing, seconds(30)));
+  const auto status = Scmctl({"status"});
+  EXPECT_THAT(status.text, HasSubstr("lights_lost: 0"));
+  EXPECT_THAT(status.text, Not(HasSubstr("foreign_devices: 0")));
+  EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("device_mismatch")));
+}
+
+TEST_F(ScmGuard, HostileRequestsAreRefusedCountedAndTheRatesKept) {
+  StartInfra();
+  StartScm();
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  checker_.ResetIntervals();
+  dds::Writer<msg::OperatorRequest> shared(*participant_, dds::topics::OperatorRequests());
+  dds::Writer<msg::OperatorRequest> lab(*participant_, dds::topics::OperatorRequests("lab"));
+  dds::Reader<msg::OperatorReply> replies(*participant_, dds::topics::OperatorReplies());
+  ASSERT_TRUE(shared.WaitForReaders(1, seconds(10)));
+  ASSERT_TRUE(lab.WaitForReaders(1, seconds(10)));
+  std::uint64_t id = 0;
+  const auto send = [&](dds::Writer<msg::OperatorRequest>& w, const std::string& client,
+                        const std::string& command,
+                        std::vector<std::pair<std::string, std::string>> kv) {
+    dds::Message<msg::OperatorRequest> req;
+    dds::SetString(req->client_id, client);
+    req->request_id = ++id;
+    dds::SetString(req->command, command);
+    std::vector<msg::KeyValue> args(kv.size());
+    for (std::size_t i = 0; i < kv.size(); ++i) {
+      dds::BorrowString(args[i].key, kv[i].first.c_str());
+      dds::BorrowString(args[i].value, kv[i].second.c_str());
+    }
+    dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>(args));
+    w.Write(req);
+    dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>());
+    return id;
+  };
+  std::map<std::string, std::uint8_t> results;  // client -> its latest reply's result
+  const auto wait_reply = [&](const std::string& client) -> std::optional<std::uint8_t> {
+    for (const auto end = Clock::now() + seconds(10); Clock::now() < end;) {
+      for (auto& m : replies.TakeAll()) results[std::string(dds::View(m->client_id))] = m->result;
+      if (results.contains(client)) return results[client];
+      replies.WaitForData(milliseconds(100));
+    }
+    return std::nullopt;
+  };
+  constexpr std::uint8_t kRejected = autodrive_msgs_msg_OperatorReply_Constants_REJECTED;
+  constexpr std::uint8_t kInvalid = autodrive_msgs_msg_OperatorReply_Constants_INVALID;
+  // Oversize strings: a 10 kB command name, a 3 MB argument; too many arguments.
+  send(shared, "hostile/long_command", std::string(10'000, 'x'), {});
+  EXPECT_EQ(wait_reply("hostile/long_command"), kInvalid);
+  send(shared, "hostile/huge_value", "show", {{"intersection", std::string(3'000'000, 'x')}});
+  EXPECT_EQ(wait_reply("hostile/huge_value"), kInvalid);
+  std::vector<std::pair<std::string, std::string>> many;
+  for (int i = 0; i < 40; ++i) many.emplace_back("k" + std::to_string(i), "v");
+  send(shared, "hostile/many_args", "status", many);
+  EXPECT_EQ(wait_reply("hostile/many_args"), kInvalid);
+  // Unknown commands.
+  send(shared, "hostile/unknown", "explode", {});
+  EXPECT_EQ(wait_reply("hostile/unknown"), kInvalid);
+  // A state change on the shared (read-only) topic, and from an operator the city does not
+  // allow.
+  send(shared, "hostile/sneaky", "mode",
+       {{"intersection", "driving_school_crossing"}, {"mode", "dark"}});
+  EXPECT_EQ(wait_reply("hostile/sneaky"), kRejected);
+  auto r = Scmctl({"mode", "driving_school_crossing", "dark"}, "mallory");
+  EXPECT_EQ(r.code, 1) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("may not change state"));
+  // A configuration that names /etc/passwd as its map.
+  std::string passwd = CityText("driving_school");
+  const std::string map_line = "map: " + Config("config/maps/driving_school.yaml");
+  passwd.replace(passwd.find(map_line), map_line.size(), "map: /etc/passwd");
+  r = Lab({"config", "apply", Write("passwd.yaml", passwd)});
+  EXPECT_EQ(r.code, 1) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("outside the SCM's configuration root"));
+  // A flood: one client, 2,000 requests as fast as DDS takes them.
+  for (int i = 0; i < 2000; ++i) send(shared, "hostile/flood", "status", {});
+  ASSERT_TRUE(wait_reply("hostile/flood"));
+  // The daemon counted every refusal, kept its rates, and still changes nothing it should not.
+  const auto status = Scmctl({"status"});
+  std::printf("%s", status.text.c_str());
+  EXPECT_THAT(status.text, Not(HasSubstr("refused_invalid: 0\n")));
+  EXPECT_THAT(status.text, Not(HasSubstr("refused_rate: 0\n")));
+  EXPECT_THAT(status.text, Not(HasSubstr("refused_not_allowed: 0\n")));
+  EXPECT_THAT(Scmctl({"show", "driving_school_crossing"}).text, HasSubstr("mode=fixed"));
+  EXPECT_TRUE(WatchSpat(50, NoneFlashing, seconds(30)));
+  ExpectRatesKept("hostile requests");
+}
+
+// systemd: READY once running, WATCHDOG from the control loop, STOPPING on SIGTERM, through a
+// notification socket of the test's own (as systemd sets NOTIFY_SOCKET and WATCHDOG_USEC).
+TEST_F(ScmGuard, SystemdIsToldReadyWatchdogAndStopping) {
+  const auto socket_path = (dir_ / "notify").string();
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  ASSERT_LT(socket_path.size(), sizeof(addr.sun_path));
+  std::strncpy(addr.sun_path, socket_path.c_str(), sizeof(addr.sun_path) - 1);
+  ASSERT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  StartScm("driving_school", {}, {"NOTIFY_SOCKET=" + socket_path, "WATCHDOG_USEC=2000000"});
+  std::vector<std::string> got;
+  const auto receive = [&](const std::string& what, Clock::duration timeout) {
+    for (const auto end = Clock::now() + timeout; Clock::now() < end;) {
+      timeval tv{0, 100'000};
+      ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
+      char buf[4096];
+      const auto n = ::recv(fd, buf, sizeof(buf), 0);
+      if (n > 0) {
+        got.emplace_back(buf, static_cast<std::size_t>(n));
+        if (got.back().find(what) != std::string::npos) return true;
+      }
+    }
+    return false;
+  };
+  EXPECT_TRUE(receive("READY=1", seconds(30)));
+  int watchdogs = 0;
+  for (int i = 0; i < 3 && receive("WATCHDOG=1", seconds(10)); ++i) ++watchdogs;
+  EXPECT_EQ(watchdogs, 3);
+  ::kill(scm_->pid(), SIGTERM);
+  EXPECT_TRUE(receive("STOPPING=1", seconds(30)));
+  EXPECT_EQ(scm_->Wait(seconds(30)), 0);
+  ::close(fd);
+}
+
+// On the simulated clock the SCM waits for the first /clock, stamps everything in simulated
+// time, and takes a simulator restart (time going backwards) as a new session.
+TEST_F(ScmGuard, OnTheSimulatedClockTheScmFollowsClockAndItsRestarts) {
+  dds::Writer<msg::Clock> clock(*participant_, dds::topics::Clock());
+  StartInfra("driving_school", {"--clock", "sim"});
+  StartScm("driving_school", {"--clock", "sim"});
+  // No /clock yet: the SCM publishes nothing (its SPaT would carry a time it does not have).
+  ASSERT_TRUE(clock.WaitForReaders(2, seconds(20)));
+  EXPECT_EQ(DrainSpat(), 0u);
+  // The simulator runs from 1000 s, at about real time; the test paces it by SPaT (each SPaT
+  // taken, 50 ms more), so it never runs ahead of the daemons by much.
+  Time sim = Time(seconds(1000));
+  const auto tick = [&](Duration step) {
+    sim += step;
+    msg::Clock m{};
+    m.clock = dds::ToMsg(sim);
+    clock.Write(m);
+  };
+  const auto run_until = [&](auto pred, int max_steps) {
+    for (int i = 0; i < max_steps; ++i) {
+      tick(milliseconds(20));
+      if (WaitSpat(pred, milliseconds(20))) return true;
+    }
+    return false;
+  };
+  ASSERT_TRUE(run_until(AnyGreen, 3000)) << "no green on the simulated clock";
+  Time stamp{};
+  ASSERT_TRUE(run_until(
+      [&](const msg::Spat& s) {
+        stamp = dds::FromMsg(s.header.stamp);
+        return true;
+      },
+      100));
+  EXPECT_GE(stamp, Time(seconds(1000)));
+  EXPECT_LE(stamp, sim + milliseconds(1));
+  // The simulator restarts at 500 s: a new session, not a freeze.
+  sim = Time(seconds(500));
+  ASSERT_TRUE(run_until(
+      [](const msg::Spat& s) {
+        const Time t = dds::FromMsg(s.header.stamp);
+        return t >= Time(seconds(500)) && t < Time(seconds(900));
+      },
+      3000));
+  EXPECT_TRUE(WaitEvent("clock_session", seconds(10)));
+  ASSERT_TRUE(run_until(AnyGreen, 3000)) << "no green after the simulator's restart";
+}
+
+}  // namespace
+}  // namespace autodrive
