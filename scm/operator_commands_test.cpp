@@ -85,11 +85,14 @@ class OperatorCommandsTest : public ::testing::Test {
     std::optional<Reply> later;
     auto reply = RunOperatorCommand(cmd, now_, ctx, [&](Reply r) { later = std::move(r); });
     if (reply) return *reply;
-    for (int i = 0; i < 10'000 && !later; ++i) {
+    // The loader's thread reads and builds a whole city: give it a generous deadline (the
+    // machine may be loaded), polling its completions.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!later && std::chrono::steady_clock::now() < deadline) {
       persistence_->Flush();
       persistence_->RunCompletions();
       loader_->RunCompletions();
-      if (!later) std::this_thread::yield();
+      if (!later) std::this_thread::sleep_for(milliseconds(1));
     }
     EXPECT_TRUE(later) << name << " never answered";
     return later.value_or(Reply::Failed("no answer"));
