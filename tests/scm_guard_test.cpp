@@ -8,9 +8,12 @@
 #include <sys/socket.h>
 #include <sys/un.h>
 
+#include <atomic>
 #include <csignal>
 #include <fstream>
+#include <mutex>
 #include <random>
+#include <thread>
 
 #include "autodrive_msgs/msg/KeyValue.h"
 #include "autodrive_msgs/msg/OperatorReply.h"
@@ -146,7 +149,8 @@ TEST_F(ScmGuard, ANulByteIsRefusedByValidateAndApply) {
   }
   ASSERT_TRUE(reply);
   EXPECT_EQ((*reply)->result, autodrive_msgs_msg_OperatorReply_Constants_INVALID);
-  EXPECT_THAT(std::string(dds::View((*reply)->message)), HasSubstr("a NUL byte cuts a string on the wire"));
+  EXPECT_THAT(std::string(dds::View((*reply)->message)),
+              HasSubstr("a NUL byte cuts a string on the wire"));
   EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("config_applied")));
 }
 
@@ -311,6 +315,60 @@ TEST_F(ScmGuard, HostileRequestsAreRefusedCountedAndTheRatesKept) {
   EXPECT_THAT(Scmctl({"show", "driving_school_crossing"}).text, HasSubstr("mode=fixed"));
   EXPECT_TRUE(WatchSpat(50, NoneFlashing, seconds(30)));
   ExpectRatesKept("hostile requests");
+}
+
+// Every scmctl run gets its answer: 10,000 commands (AUTODRIVE_SCMCTL_COMMANDS to change it)
+// from 8 scmctl processes at a time, read-only and state-changing, against a running city.
+TEST_F(ScmGuard, TenThousandScmctlCommandsGetTenThousandAnswers) {
+  StartInfra();
+  StartScm();
+  ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
+  const char* env = std::getenv("AUTODRIVE_SCMCTL_COMMANDS");
+  const int total = env != nullptr ? std::atoi(env) : 10'000;
+  const std::vector<std::vector<std::string>> commands = {
+      {"status"},
+      {"show", "driving_school_crossing"},
+      {"intersections"},
+      {"events", "--limit", "1"},
+      {"mode", "driving_school_crossing", "fixed"},
+  };
+  std::atomic<int> next{0}, answered{0}, unanswered{0};
+  std::mutex mutex;
+  std::vector<std::string> failures;
+  const auto start = Clock::now();
+  std::vector<std::thread> workers;
+  for (int w = 0; w < 8; ++w) {
+    workers.emplace_back([&] {
+      for (int i = next++; i < total; i = next++) {
+        const auto& c = commands[static_cast<std::size_t>(i) % commands.size()];
+        const auto r = c[0] == "mode" ? Lab(c) : Scmctl(c);
+        const bool answer = (r.code == 0 || r.code == 1 || r.code == 2) &&
+                            (r.text.starts_with("ok") || r.text.starts_with("rejected") ||
+                             r.text.starts_with("invalid"));
+        if (answer) {
+          ++answered;
+        } else {
+          ++unanswered;
+          const std::lock_guard lock(mutex);
+          if (failures.size() < 10) {
+            failures.push_back(fmt::format("#{} {}: exit {}: {}", i, c[0], r.code, r.text));
+          }
+        }
+        if ((i + 1) % 1000 == 0) {
+          std::printf("%d scmctl commands run\n", i + 1);
+          std::fflush(stdout);
+        }
+      }
+    });
+  }
+  for (auto& t : workers) t.join();
+  const double took = std::chrono::duration<double>(Clock::now() - start).count();
+  std::printf("%d scmctl commands: %d answered, %d unanswered, in %.0f s (%.0f per second)\n",
+              total, answered.load(), unanswered.load(), took, total / took);
+  EXPECT_EQ(answered.load(), total);
+  for (const auto& f : failures) ADD_FAILURE() << f;
+  DrainSpat();
+  EXPECT_TRUE(WatchSpat(10, NoneFlashing, seconds(30)));
 }
 
 // systemd: READY once running, WATCHDOG from the control loop, STOPPING on SIGTERM, through a
