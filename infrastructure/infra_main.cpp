@@ -9,6 +9,7 @@
 
 #include "common/dds/clock_subscriber.h"
 #include "common/dds/participant.h"
+#include "common/dds/security_cli.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
@@ -40,6 +41,9 @@ int main(int argc, char** argv) {
   app.add_option("--partition", partition,
                  "DDS partition (separates cities or test runs sharing a domain; default: the "
                  "default partition, which ROS 2 uses)");
+  // The host's identity is /autodrive/infra/<name> (the config's name) unless told otherwise.
+  auto security = dds::SecurityOptions::FromEnvironment();
+  dds::AddSecurityOptions(app, security);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -62,6 +66,8 @@ int main(int argc, char** argv) {
 
     dds::ParticipantOptions options;
     options.partition = partition;
+    if (security.enclave.empty()) security.enclave = "/autodrive/infra/" + config.name;
+    options.security = security;
     dds::Participant participant(options);
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
     if (sim_clock != nullptr) {

@@ -219,7 +219,10 @@ void Scm::Impl::WatchStrangers() {
   // An operator the city does not allow still gets an answer (a refusal): read the operator
   // topics that writers appear on, up to a bound.
   for (const std::string& topic : publications->TakeTopics()) {
-    if (!topic.starts_with(kOperatorTopicPrefix) || !topic.ends_with(kOperatorTopicSuffix)) {
+    // The shared topic (".../operator/request") has the prefix and the suffix overlapping:
+    // only a topic longer than both names an operator.
+    if (topic.size() <= kOperatorTopicPrefix.size() + kOperatorTopicSuffix.size() ||
+        !topic.starts_with(kOperatorTopicPrefix) || !topic.ends_with(kOperatorTopicSuffix)) {
       continue;
     }
     const std::string name =

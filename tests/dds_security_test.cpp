@@ -16,9 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "common/config.h"
+#include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/dds/reader.h"
 #include "common/dds/security.h"
+#include "common/dds/topics.h"
 #include "common/dds/writer.h"
 #include "common/error.h"
 #include "common/process.h"
@@ -483,6 +486,104 @@ TEST_F(DdsSecurity, TheKeystoreToolIsIdempotentAndNeverReplacesACa) {
       RunKeystoreTool({"enclave", keystore_.string(), "/autodrive/x", "--role", "admin"});
   EXPECT_NE(no_role.exit_code, 0);
   EXPECT_NE(no_role.output.find("unknown role 'admin'"), std::string::npos) << no_role.output;
+}
+
+// The secured lab with the real programs: autodrive-infra and autodrive-scm with their
+// identities, scmctl as an operator the city allows (alice), as one it does not (bob, who has
+// a DDS identity and his own request topic), and as a viewer borrowing alice's name (carol).
+// A participant without the SCM's identity cannot make a light change its lamps.
+TEST_F(DdsSecurity, TheSecuredLabRunsAndOnlyItsScmCommandsTheLights) {
+  const std::string partition = Partition("secured_lab");
+  const fs::path dir = dir_ / partition;
+  fs::create_directories(dir);
+  // The Driving School, allowing the operator alice only (its map named by absolute path).
+  std::string city = ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
+  city.replace(city.find("../maps/driving_school.yaml"), 27,
+               (test::SourceDir() / "config/maps/driving_school.yaml").string());
+  city.replace(city.find("operators: {allowed: [lab]}"), 27, "operators: {allowed: [alice]}");
+  const fs::path city_file = dir / "city.yaml";
+  std::ofstream(city_file) << city;
+  const std::string bin = ExecutableDir() + "/";
+  const std::vector<std::string> secured{"--keystore", keystore_.string()};
+  const auto argv = [&](std::vector<std::string> a, const std::vector<std::string>& more) {
+    a.insert(a.end(), secured.begin(), secured.end());
+    a.insert(a.end(), more.begin(), more.end());
+    return a;
+  };
+  ChildProcess infra(argv({bin + "autodrive-infra", "--config",
+                           (test::SourceDir() / "config/infra/driving_school.yaml").string(),
+                           "--partition", partition, "--log-level", "warn"},
+                          {"--enclave", kLights}));
+  ChildProcess scm(argv({bin + "autodrive-scm", "--config", city_file.string(), "--partition",
+                         partition, "--db", (dir / "scm.db").string(), "--log-level", "warn"},
+                        {}));
+  const auto scmctl = [&](std::vector<std::string> args, const std::vector<std::string>& as) {
+    std::vector<std::string> a{"/bin/sh",      "-c",          "exec \"$0\" \"$@\" 2>&1",
+                               bin + "scmctl", "--partition", partition,
+                               "--timeout",    "20"};
+    a.insert(a.end(), secured.begin(), secured.end());
+    a.insert(a.end(), as.begin(), as.end());
+    a.insert(a.end(), args.begin(), args.end());
+    ChildProcess p(a);
+    ToolResult r;
+    while (auto line = p.ReadLine(60s)) r.output += *line + "\n";
+    r.exit_code = p.Wait(60s).value_or(-1);
+    return r;
+  };
+  // This process watches as the viewer carol: SPaT and the lamps.
+  auto viewer = Join(partition, kCarol);
+  dds::Reader<msg::Spat> spat(viewer, dds::topics::Spat());
+  dds::Reader<msg::Int32> lamp1(viewer, dds::topics::SignalState(SignalHeadId(1)));
+  const auto wait_spat = [&](auto pred) {
+    for (const auto end = std::chrono::steady_clock::now() + 60s;
+         std::chrono::steady_clock::now() < end;) {
+      spat.WaitForData(100ms);
+      for (auto& m : spat.TakeAll()) {
+        if (pred(*m)) return true;
+      }
+    }
+    return false;
+  };
+  const auto any_green = [](const msg::Spat& m) {
+    for (const auto& x : dds::Elements(m.intersections)) {
+      for (const auto& g : dds::Elements(x.signal_groups)) {
+        if (g.event_state == 6) return true;  // protected movement allowed
+      }
+    }
+    return false;
+  };
+  ASSERT_TRUE(wait_spat(any_green)) << "the secured SCM and lights run the plan";
+  // The viewer cannot command a light: no writer can be created.
+  EXPECT_THROW(
+      {
+        dds::Writer<msg::Int32> w(viewer, dds::topics::SignalCommand(SignalHeadId(1)).name,
+                                  dds::Qos::LatchedState());
+      },
+      DdsError);
+  // Nor can an operator, from another process: alice's identity is refused the writer too.
+  Peer rogue = StartPeer("write", partition, kAlice, "rt/autodrive/signal_1/command", "int32",
+                         {"--value", "3"});
+  rogue.Finish();
+  EXPECT_FALSE(rogue.Printed("written")) << rogue.Transcript();
+  // alice changes the mode; bob (a DDS operator the city does not allow) and carol (a viewer,
+  // with no writer on alice's topic) cannot.
+  auto r = scmctl({"mode", "driving_school_crossing", "manual"}, {"--operator", "bob"});
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("may not change state"), std::string::npos) << r.output;
+  r = scmctl({"mode", "driving_school_crossing", "manual"},
+             {"--operator", "alice", "--enclave", kCarol});
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  r = scmctl({"show", "driving_school_crossing"}, {"--enclave", kCarol});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("requested=auto"), std::string::npos) << r.output;
+  r = scmctl({"mode", "driving_school_crossing", "manual"}, {"--operator", "alice"});
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = scmctl({"show", "driving_school_crossing"}, {"--operator", "alice"});
+  EXPECT_NE(r.output.find("mode=manual"), std::string::npos) << r.output;
+  // The lamps follow the SCM: signal_1 reports states (the secured light host publishes them).
+  EXPECT_TRUE(lamp1.WaitForData(30s));
+  EXPECT_EQ(scm.Stop(10s), 0);
+  EXPECT_EQ(infra.Stop(10s), 0);
 }
 
 }  // namespace
