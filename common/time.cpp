@@ -103,14 +103,12 @@ bool WallClock::SleepUntil(MonoTime deadline) {
 }
 
 void WallClock::Interrupt() {
-  std::function<void()> waker;
   {
     std::lock_guard lock(mutex_);
     interrupted_ = true;
-    waker = waker_;
   }
   cv_.notify_all();
-  if (waker) waker();
+  waker_.Call();
 }
 
 bool WallClock::interrupted() const {
@@ -122,21 +120,16 @@ std::optional<Duration> WallClock::RealTimeUntil(MonoTime deadline) const {
   return deadline - ReadMonotonic();
 }
 
-void WallClock::SetWaker(std::function<void()> waker) {
-  std::lock_guard lock(mutex_);
-  waker_ = std::move(waker);
-}
+void WallClock::SetWaker(std::function<void()> waker) { waker_.Set(std::move(waker)); }
 
 void WallClock::WakeAt(MonoTime /*deadline*/) {
   // Waiters on the wall clock time themselves (RealTimeUntil); only an interrupt wakes them.
   bool fire = false;
-  std::function<void()> waker;
   {
     std::lock_guard lock(mutex_);
     fire = interrupted_;
-    waker = fire ? waker_ : nullptr;
   }
-  if (fire && waker) waker();
+  if (fire) waker_.Call();
 }
 
 std::uint64_t WallClock::steps() const {
@@ -167,15 +160,13 @@ bool SimClock::SleepUntil(MonoTime deadline) {
 }
 
 void SimClock::Interrupt() {
-  std::function<void()> waker;
   {
     std::lock_guard lock(mutex_);
     interrupted_ = true;
-    waker = waker_;
     wake_at_.reset();
   }
   cv_.notify_all();
-  if (waker) waker();
+  waker_.Call();
 }
 
 bool SimClock::interrupted() const {
@@ -183,30 +174,26 @@ bool SimClock::interrupted() const {
   return interrupted_;
 }
 
-void SimClock::SetWaker(std::function<void()> waker) {
-  std::lock_guard lock(mutex_);
-  waker_ = std::move(waker);
-}
+void SimClock::SetWaker(std::function<void()> waker) { waker_.Set(std::move(waker)); }
 
 void SimClock::WakeAt(MonoTime deadline) {
-  // The waker is copied under the lock and called outside it (it may take other locks). A
-  // small waker (a pointer or two) is stored in the std::function itself: no allocation.
-  std::function<void()> waker;
+  // The waker is called outside the clock's lock (it may take other locks), under its slot's.
+  bool fire = false;
   {
     std::lock_guard lock(mutex_);
     if (interrupted_ || now_.time_since_epoch() >= deadline.time_since_epoch()) {
-      waker = waker_;
+      fire = true;
       wake_at_.reset();
     } else {
       wake_at_ = deadline;
     }
   }
-  if (waker) waker();
+  if (fire) waker_.Call();
 }
 
 SimClock::Advance SimClock::AdvanceTo(Time t) {
   Advance result = Advance::kForward;
-  std::function<void()> waker;
+  bool fire = false;
   {
     std::lock_guard lock(mutex_);
     if (started_ && t < now_) {
@@ -222,11 +209,11 @@ SimClock::Advance SimClock::AdvanceTo(Time t) {
     if (wake_at_ && (result == Advance::kRestarted ||
                      now_.time_since_epoch() >= wake_at_->time_since_epoch())) {
       wake_at_.reset();
-      waker = waker_;
+      fire = true;
     }
   }
   cv_.notify_all();
-  if (waker) waker();
+  if (fire) waker_.Call();
   return result;
 }
 

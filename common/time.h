@@ -156,6 +156,25 @@ struct WallTimeSources {
 /// re-anchored when the wall clock is seen to step by more than `kStepThreshold` (NTP slewing
 /// moves both clocks alike and never re-anchors it), so that every wire time derived from a
 /// control instant is consistent from one reading to the next; `steps()` counts the jumps.
+/// The waker a clock calls (`Clock::SetWaker`), called outside the clock's own lock (it may
+/// take other locks) but under a lock of its own, which `Set` takes too: once `Set(nullptr)`
+/// returns, no call of the old waker is running or can start, so its owner may go away.
+class WakerSlot {
+ public:
+  void Set(std::function<void()> waker) {
+    std::lock_guard lock(mutex_);
+    waker_ = std::move(waker);
+  }
+  void Call() {
+    std::lock_guard lock(mutex_);
+    if (waker_) waker_();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::function<void()> waker_;
+};
+
 class WallClock final : public Clock {
  public:
   /// A wall-clock step larger than this re-anchors the mapping.
@@ -187,7 +206,7 @@ class WallClock final : public Clock {
   mutable std::optional<Duration> offset_;  // wall - monotonic
   mutable std::uint64_t steps_ = 0;
   mutable Duration stepped_{0};
-  std::function<void()> waker_;
+  WakerSlot waker_;
 };
 
 /// Simulated time, advanced from outside: by `/clock` messages (see
@@ -234,7 +253,7 @@ class SimClock final : public Clock {
   bool interrupted_ = false;
   std::uint64_t session_ = 0;
   std::uint64_t backward_jumps_ = 0;
-  std::function<void()> waker_;
+  WakerSlot waker_;
   std::optional<MonoTime> wake_at_;
 };
 

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <memory>
 #include <thread>
 #include <type_traits>
 
@@ -228,6 +230,33 @@ TEST(SimClock, WakeAtCallsTheWakerOnceWhenTheDeadlineComes) {
   clock.WakeAt(MonoFromSeconds(10));
   clock.Interrupt();
   EXPECT_EQ(woken, 4);
+}
+
+TEST(SimClock, OnceTheWakerIsClearedNoCallOfTheOldOneRunsOrStarts) {
+  // A loop's waker points at its waitset; the loop clears the waker, then the waitset goes. A
+  // clock that called a copy of the waker outside any lock could call into the freed waitset.
+  SimClock clock;
+  std::atomic<bool> stop{false};
+  std::thread simulator([&] {
+    Time t{};
+    while (!stop) {
+      t += milliseconds(1);
+      clock.AdvanceTo(t);
+    }
+  });
+  for (int round = 0; round < 2000; ++round) {
+    auto alive = std::make_shared<std::atomic<bool>>(true);
+    std::atomic<int> bad{0};
+    clock.SetWaker([alive, &bad] {
+      if (!alive->load()) ++bad;
+    });
+    clock.WakeAt(clock.Read().mono + milliseconds(1));
+    clock.SetWaker(nullptr);
+    alive->store(false);  // the owner goes away
+    EXPECT_EQ(bad.load(), 0) << "round " << round;
+  }
+  stop = true;
+  simulator.join();
 }
 
 TEST(SimClock, InterruptReleasesSleepers) {
