@@ -30,6 +30,7 @@
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
+#include "common/error.h"
 #include "common/process.h"
 #include "common/time.h"
 #include "maps/builder.h"
@@ -278,16 +279,21 @@ void LampLatencyBenchmark(int samples, const std::string& partition, const fs::p
   const fs::path src = Source();
   std::string city = config::internal::ReadFile(src / "config/cities/driving_school.yaml");
   const std::string map_path = (src / "config/maps/driving_school.yaml").string();
-  city.replace(city.find("map: ../maps/driving_school.yaml"), 32, "map: " + map_path);
-  city.replace(city.find("{min_yellow_s: 3.0, min_red_clearance_s: 1.0, min_green_s: 4.0}"), 64,
-               "{min_yellow_s: 1.0, min_red_clearance_s: 0.5, min_green_s: 1.0}");
-  city.replace(
-      city.find("{min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 2.0}"), 73,
-      "{min_green_s: 1.0, max_green_s: 15.0, yellow_s: 1.0, red_clearance_s: 0.5}");
-  city += "\nstart_up: {flash_s: 1.0, all_red_s: 1.0}\n";
+  const auto replace = [](std::string& text, const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    if (at == std::string::npos) throw InputError("benchmark: the shipped file has no " + from);
+    text.replace(at, from.size(), to);
+  };
+  replace(city, "map: ../maps/driving_school.yaml", "map: " + map_path);
+  replace(city, "{min_yellow_s: 3.0, min_red_clearance_s: 1.0, min_green_s: 4.0}",
+          "{min_yellow_s: 1.0, min_red_clearance_s: 0.5, min_green_s: 1.0}");
+  replace(city, "{min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 2.0}",
+          "{min_green_s: 1.0, max_green_s: 15.0, yellow_s: 1.0, red_clearance_s: 0.5}");
+  replace(city, "start_up: {flash_s: 3.0, all_red_s: 2.0}",
+          "start_up: {flash_s: 1.0, all_red_s: 1.0}");
   { std::ofstream(dir / "fast_school.yaml") << city; }
   std::string infra = config::internal::ReadFile(src / "config/infra/driving_school.yaml");
-  infra.replace(infra.find("map: ../maps/driving_school.yaml"), 32, "map: " + map_path);
+  replace(infra, "map: ../maps/driving_school.yaml", "map: " + map_path);
   { std::ofstream(dir / "infra.yaml") << infra; }
   ChildProcess lights({Bin("autodrive-infra"), "--config", (dir / "infra.yaml").string(),
                        "--partition", partition, "--log-level", "error"});
