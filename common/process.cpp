@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <string_view>
 #include <thread>
 #include <utility>
 
@@ -26,11 +27,37 @@ int DecodeStatus(int status) {
   return -1;
 }
 
+std::string_view NameOf(std::string_view entry) { return entry.substr(0, entry.find('=')); }
+
 }  // namespace
+
+std::vector<std::string> ChildEnvironment(const char* const* inherited,
+                                          const std::vector<std::string>& extra_env) {
+  std::vector<std::string> out;
+  for (const auto& e : extra_env) {
+    AUTODRIVE_THROW_UNLESS(e.find('=') != std::string::npos && e.front() != '=',
+                           "an environment entry must be NAME=value, got \"" << e << "\"");
+  }
+  const auto overridden = [&](std::string_view name, std::size_t from) {
+    for (std::size_t i = from; i < extra_env.size(); ++i) {
+      if (NameOf(extra_env[i]) == name) return true;
+    }
+    return false;
+  };
+  for (const char* const* e = inherited; e != nullptr && *e != nullptr; ++e) {
+    if (!overridden(NameOf(*e), 0)) out.emplace_back(*e);
+  }
+  // A later extra entry wins over an earlier one of the same name.
+  for (std::size_t i = 0; i < extra_env.size(); ++i) {
+    if (!overridden(NameOf(extra_env[i]), i + 1)) out.push_back(extra_env[i]);
+  }
+  return out;
+}
 
 ChildProcess::ChildProcess(const std::vector<std::string>& argv,
                            const std::vector<std::string>& extra_env) {
   AUTODRIVE_THROW_UNLESS(!argv.empty(), "ChildProcess needs a program to run");
+  std::vector<std::string> env_strings = ChildEnvironment(environ, extra_env);
   int in_pipe[2];
   int out_pipe[2];
   AUTODRIVE_CHECK(::pipe2(in_pipe, O_CLOEXEC) == 0, std::strerror(errno));
@@ -41,9 +68,18 @@ ChildProcess::ChildProcess(const std::vector<std::string>& argv,
   posix_spawn_file_actions_adddup2(&actions, in_pipe[0], STDIN_FILENO);
   posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
 
-  std::vector<std::string> env_strings;
-  for (char** e = environ; *e != nullptr; ++e) env_strings.emplace_back(*e);
-  for (const auto& e : extra_env) env_strings.push_back(e);
+  // The child starts clean: nothing blocked (a parent that blocked SIGTERM for a signalfd
+  // must not pass that on) and every signal at its default action.
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  sigset_t none;
+  sigemptyset(&none);
+  sigset_t all;
+  sigfillset(&all);
+  posix_spawnattr_setsigmask(&attributes, &none);
+  posix_spawnattr_setsigdefault(&attributes, &all);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+
   std::vector<char*> envp;
   for (auto& e : env_strings) envp.push_back(e.data());
   envp.push_back(nullptr);
@@ -52,7 +88,8 @@ ChildProcess::ChildProcess(const std::vector<std::string>& argv,
   for (auto& a : args) argp.push_back(a.data());
   argp.push_back(nullptr);
 
-  const int rc = ::posix_spawnp(&pid_, argp[0], &actions, nullptr, argp.data(), envp.data());
+  const int rc = ::posix_spawnp(&pid_, argp[0], &actions, &attributes, argp.data(), envp.data());
+  posix_spawnattr_destroy(&attributes);
   posix_spawn_file_actions_destroy(&actions);
   ::close(in_pipe[0]);
   ::close(out_pipe[1]);

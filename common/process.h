@@ -17,9 +17,12 @@ namespace autodrive {
 class ChildProcess {
  public:
   /// Starts `argv[0]` (a path, or a name looked up in PATH) with arguments `argv[1..]`.
-  /// `extra_env` entries ("NAME=value") are added to this process's environment. The child's
-  /// stdin and stdout are pipes to us; its stderr is ours. Throws `InputError` when the
-  /// program cannot be started (with the path and the reason).
+  /// The child gets this process's environment with `extra_env` entries ("NAME=value")
+  /// added; an extra entry replaces an inherited variable of the same name (see
+  /// `ChildEnvironment`). The child starts with an empty signal mask and every signal at its
+  /// default action, whatever this process blocked or ignored. Its stdin and stdout are pipes
+  /// to us; its stderr is ours. Throws `InputError` when an extra entry is not NAME=value or
+  /// the program cannot be started (with the path and the reason).
   explicit ChildProcess(const std::vector<std::string>& argv,
                         const std::vector<std::string>& extra_env = {});
   ChildProcess(ChildProcess&& other) noexcept;
@@ -52,6 +55,13 @@ class ChildProcess {
   std::string buffer_;
   int exit_code_ = -1;
 };
+
+/// The environment a child gets: the `inherited` entries (a null-terminated array such as
+/// `environ`; may be null), except those whose name an entry of `extra_env` has, followed by
+/// `extra_env`, where a later entry replaces an earlier one of the same name. Throws
+/// `InputError` when an extra entry is not NAME=value.
+[[nodiscard]] std::vector<std::string> ChildEnvironment(const char* const* inherited,
+                                                        const std::vector<std::string>& extra_env);
 
 /// The directory of the running executable (from /proc/self/exe), to find sibling programs.
 [[nodiscard]] std::string ExecutableDir();

@@ -1,21 +1,31 @@
 #include "common/shutdown.h"
 
+#include <poll.h>
 #include <pthread.h>
 #include <signal.h>
+#include <sys/eventfd.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <system_error>
 
 #include "common/error.h"
 
 namespace autodrive {
 namespace {
 
-// SIGUSR2 is used internally to end the waiting thread.
 sigset_t WatchedSignals() {
   sigset_t set;
   sigemptyset(&set);
   sigaddset(&set, SIGINT);
   sigaddset(&set, SIGTERM);
-  sigaddset(&set, SIGUSR2);
   return set;
+}
+
+[[noreturn]] void ThrowErrno(const char* what) {
+  throw std::system_error(errno, std::generic_category(), what);
 }
 
 }  // namespace
@@ -23,20 +33,57 @@ sigset_t WatchedSignals() {
 ShutdownSignals::ShutdownSignals(std::function<void(int)> on_signal)
     : on_signal_(std::move(on_signal)) {
   const sigset_t set = WatchedSignals();
+  // Blocked first, so that from here on the signals wait for the signalfd instead of taking
+  // their default action.
   AUTODRIVE_CHECK(pthread_sigmask(SIG_BLOCK, &set, nullptr) == 0);
-  thread_ = std::jthread([this, set] {
-    for (;;) {
-      int sig = 0;
-      if (sigwait(&set, &sig) != 0) continue;
-      if (sig == SIGUSR2) return;
-      on_signal_(sig);
-    }
-  });
+  signal_fd_ = ::signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
+  if (signal_fd_ < 0) ThrowErrno("signalfd");
+  stop_fd_ = ::eventfd(0, EFD_CLOEXEC);
+  if (stop_fd_ < 0) {
+    const int error = errno;
+    ::close(signal_fd_);
+    throw std::system_error(error, std::generic_category(), "eventfd");
+  }
+  try {
+    thread_ = std::jthread([this] { Run(); });
+  } catch (...) {
+    ::close(signal_fd_);
+    ::close(stop_fd_);
+    throw;
+  }
 }
 
 ShutdownSignals::~ShutdownSignals() {
-  pthread_kill(thread_.native_handle(), SIGUSR2);
+  const std::uint64_t one = 1;
+  AUTODRIVE_CHECK(::write(stop_fd_, &one, sizeof one) == static_cast<ssize_t>(sizeof one),
+                  "eventfd write: " << std::system_category().message(errno));
   thread_.join();
+  ::close(signal_fd_);
+  ::close(stop_fd_);
+}
+
+void ShutdownSignals::Run() {
+  pollfd fds[2] = {{signal_fd_, POLLIN, 0}, {stop_fd_, POLLIN, 0}};
+  for (;;) {
+    const int n = ::poll(fds, 2, -1);
+    if (n < 0) {
+      AUTODRIVE_CHECK(errno == EINTR, "poll: " << std::system_category().message(errno));
+      continue;
+    }
+    if (fds[1].revents != 0) return;
+    if (fds[0].revents == 0) continue;
+    signalfd_siginfo info{};
+    const ssize_t got = ::read(signal_fd_, &info, sizeof info);
+    if (got < 0) {
+      // EAGAIN: someone else (sigwait, another signalfd) took the signal first; EINTR: a
+      // handler of another signal ran on this thread.
+      AUTODRIVE_CHECK(errno == EAGAIN || errno == EINTR,
+                      "signalfd read: " << std::system_category().message(errno));
+      continue;
+    }
+    AUTODRIVE_CHECK(got == static_cast<ssize_t>(sizeof info), "short signalfd read: " << got);
+    on_signal_(static_cast<int>(info.ssi_signo));
+  }
 }
 
 }  // namespace autodrive

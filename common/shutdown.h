@@ -7,20 +7,34 @@
 
 namespace autodrive {
 
-/// Blocks SIGINT and SIGTERM in the calling thread (and so in threads it starts afterwards)
-/// and waits for them on a thread of its own, which calls `on_signal(signal_number)` once per
-/// signal. Since the callback runs on an ordinary thread, it may lock, log and notify (unlike a
-/// signal handler). Construct it first in `main`, before other threads start. Not copyable.
+/// Reports SIGINT and SIGTERM on a thread of its own, which calls `on_signal(signal_number)`
+/// once per signal. Since the callback runs on an ordinary thread, it may lock, log and notify
+/// (unlike a signal handler).
+///
+/// It blocks SIGINT and SIGTERM in the calling thread (and so in threads it starts afterwards)
+/// and reads them through a signalfd; its thread is stopped through an eventfd, so it takes
+/// over no other signal (SIGUSR1, SIGUSR2 and the rest keep their dispositions). Construct it
+/// first in `main`, before other threads start: a thread that does not block SIGINT and SIGTERM
+/// may be chosen to receive them with their default action. Signals sent to the process
+/// (`kill(pid, …)`) are reported; one raised in another thread only (`raise`,
+/// `pthread_kill`) stays pending in that thread. SIGINT and SIGTERM stay blocked in the
+/// calling thread after destruction. Child processes started with `ChildProcess` begin with
+/// an empty signal mask. Not copyable or movable. Throws `std::system_error` when the
+/// signalfd, eventfd or thread cannot be made.
 class ShutdownSignals {
  public:
   explicit ShutdownSignals(std::function<void(int)> on_signal);
   ShutdownSignals(const ShutdownSignals&) = delete;
   ShutdownSignals& operator=(const ShutdownSignals&) = delete;
-  /// Stops the waiting thread.
+  /// Stops the waiting thread (after a callback that is running returns).
   ~ShutdownSignals();
 
  private:
+  void Run();
+
   std::function<void(int)> on_signal_;
+  int signal_fd_ = -1;
+  int stop_fd_ = -1;
   std::jthread thread_;
 };
 

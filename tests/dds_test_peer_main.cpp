@@ -23,7 +23,6 @@
 
 #include <iostream>
 #include <string>
-#include <thread>
 
 #include <CLI/CLI.hpp>
 
@@ -145,6 +144,14 @@ int ReadAll(const std::string& partition, const Endpoint& e) {
   return 0;
 }
 
+// Echo's burst goes through keep-all reliable writers (Qos::Command). Cyclone blocks such a
+// write while the writer's unacknowledged data is over its high-water mark (at first 30 KiB,
+// Internal/Watermarks/WhcHighInit) and fails it after max_blocking (100 ms): a flood written
+// faster than the other process acknowledges fails as soon as that process is not scheduled
+// for 100 ms, which a loaded machine does. Both sides wait for acknowledgements every
+// kAckEvery samples (a few KiB of Spat), far below the mark, so no write ever blocks.
+constexpr int kAckEvery = 20;
+
 int Echo(const std::string& partition, int n) {
   auto p = Join(partition);
   dds::Reader<msg::Spat> ping(p, "rt/test/ping", dds::Qos::Command());
@@ -155,6 +162,7 @@ int Echo(const std::string& partition, int n) {
   }
   std::cout << "ready" << std::endl;
   dds::Message<msg::Spat> m;
+  int unacknowledged = 0;
   for (int done = 0; done < n;) {
     if (!ping.WaitForData(20s)) {
       std::cout << "timeout after " << done << std::endl;
@@ -163,10 +171,22 @@ int Echo(const std::string& partition, int n) {
     while (ping.TakeOne(m)) {
       pong.Write(m);
       ++done;
+      // Keep-all and reliable: pace the replies by the test's acknowledgements (see
+      // kAckEvery) rather than fill the history while the test is not scheduled.
+      if (++unacknowledged == kAckEvery) {
+        if (!pong.WaitForAcks(60s)) {
+          std::cout << "replies not acknowledged after " << done << std::endl;
+          return 1;
+        }
+        unacknowledged = 0;
+      }
     }
   }
-  // Let the last reply reach the test before the writer goes away.
-  std::this_thread::sleep_for(200ms);
+  // The last replies reach the test before the writer goes away.
+  if (!pong.WaitForAcks(60s)) {
+    std::cout << "replies not acknowledged after " << n << std::endl;
+    return 1;
+  }
   std::cout << "done " << n << std::endl;
   return 0;
 }

@@ -33,6 +33,13 @@ dds::Participant Join(const std::string& partition) {
 TEST(DdsTwoProcess, SpatMessagesMakeTheRoundTripThroughAnotherProcessIntact) {
   const std::string partition = Partition("echo");
   constexpr int kCount = 200;
+  // Every sample matters, so ping and pong are keep-all reliable (Qos::Command). Such a write
+  // blocks while the writer's unacknowledged data is over Cyclone's high-water mark (at first
+  // 30 KiB) and fails after max_blocking (100 ms); a burst of 200 written faster than the
+  // peer acknowledges fails whenever the peer is not scheduled for 100 ms (a loaded machine).
+  // So the burst waits for the peer's acknowledgements every kAckEvery samples (a few KiB),
+  // and the peer does the same with its replies.
+  constexpr int kAckEvery = 20;
   auto p = Join(partition);
   dds::Writer<msg::Spat> ping(p, "rt/test/ping", dds::Qos::Command());
   dds::Reader<msg::Spat> pong(p, "rt/test/pong", dds::Qos::Command());
@@ -55,6 +62,9 @@ TEST(DdsTwoProcess, SpatMessagesMakeTheRoundTripThroughAnotherProcessIntact) {
     dds::ResizeSequence(x.signal_groups, 2);
     dds::Elements(x.signal_groups)[1].event_state = 6;
     ping.Write(out);
+    if ((i + 1) % kAckEvery == 0) {
+      ASSERT_TRUE(ping.WaitForAcks(60s)) << "the peer did not acknowledge ping " << i;
+    }
     while (pong.TakeOne(m)) {
       const auto id = dds::Elements(m->intersections)[0].intersection_id;
       ASSERT_LT(id, static_cast<std::uint32_t>(kCount));

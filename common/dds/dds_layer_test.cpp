@@ -179,6 +179,60 @@ TEST(DdsLayer, TransientLocalLateJoinerGetsTheLatchedSample) {
   EXPECT_EQ(all[0]->data, 3);
 }
 
+TEST(DdsLayer, MatchWaitsWakeWhenTheOtherSideAppearsInAnotherParticipant) {
+  const ParticipantOptions options = Isolated();
+  Participant writer_side(options);
+  Participant reader_side(options);
+  Writer<msg::Int32> writer(writer_side, "rt/test/match", Qos::Command());
+  EXPECT_FALSE(writer.WaitForReaders(1, 50ms)) << "no reader exists yet";
+  EXPECT_EQ(writer.matched_readers(), 0u);
+
+  // Two waiters on the same writer: each read of the matched status resets it for the other,
+  // so at least one of them relies on the periodic re-check to see the match.
+  std::atomic<int> matched{0};
+  std::jthread first([&] { matched += writer.WaitForReaders(1, 60s) ? 1 : 0; });
+  std::jthread second([&] { matched += writer.WaitForReaders(1, 60s) ? 1 : 0; });
+  Reader<msg::Int32> reader(reader_side, "rt/test/match", Qos::Command());
+  ASSERT_TRUE(reader.WaitForWriters(1, 60s));
+  EXPECT_EQ(reader.matched_writers(), 1u);
+  first.join();
+  second.join();
+  EXPECT_EQ(matched.load(), 2);
+  EXPECT_EQ(writer.matched_readers(), 1u);
+
+  // A count not reached: the wait ends at its deadline, across several re-check slices.
+  EXPECT_FALSE(writer.WaitForReaders(2, 2500ms));
+  EXPECT_FALSE(reader.WaitForWriters(2, 50ms));
+  // The status mask the waits set leaves data delivery to the reader alone.
+  writer.Write(msg::Int32{11});
+  ASSERT_TRUE(reader.WaitForData(60s));
+  ASSERT_EQ(reader.TakeOne().value()->data, 11);
+  Writer<msg::Int32> second_writer(writer_side, "rt/test/match", Qos::Command());
+  EXPECT_TRUE(reader.WaitForWriters(2, 60s));
+}
+
+TEST(DdsLayer, WaitForAcksReturnsOnceTheReaderHoldsEverySample) {
+  const ParticipantOptions options = Isolated();
+  Participant writer_side(options);
+  Participant reader_side(options);
+  Writer<msg::Int32> writer(writer_side, "rt/test/acks", Qos::Command());
+  EXPECT_TRUE(writer.WaitForAcks(1s)) << "nothing written, nothing to wait for";
+  Reader<msg::Int32> reader(reader_side, "rt/test/acks", Qos::Command());
+  ASSERT_TRUE(writer.WaitForReaders(1, 60s));
+  constexpr int kCount = 300;
+  for (int i = 0; i < kCount; ++i) {
+    writer.Write(msg::Int32{i});
+    if (i % 50 == 49) {
+      ASSERT_TRUE(writer.WaitForAcks(60s)) << "after " << i + 1 << " writes";
+    }
+  }
+  ASSERT_TRUE(writer.WaitForAcks(60s));
+  // Acknowledged means in the reader's history: all there without waiting for data.
+  const auto all = reader.TakeAll(2 * kCount);
+  ASSERT_EQ(all.size(), static_cast<std::size_t>(kCount));
+  for (int i = 0; i < kCount; ++i) EXPECT_EQ(all[static_cast<std::size_t>(i)]->data, i);
+}
+
 TEST(DdsLayer, ATopicNameUsedWithTwoTypesIsAnErrorNamingTopicAndTypes) {
   Participant p(Isolated());
   Writer<msg::Float32> writer(p, "rt/test/clash", Qos::Stream());

@@ -48,6 +48,11 @@ class ReaderBase {
   [[nodiscard]] std::uint64_t callback_errors() const { return callback_errors_.load(); }
   /// Writers currently matched.
   [[nodiscard]] std::uint32_t matched_writers() const;
+  /// Waits until at least `n` writers match or `timeout` passes (steady clock); true when
+  /// they do. Blocks on a waitset triggered by the subscription-matched status (the reader's
+  /// status mask becomes DDS_SUBSCRIPTION_MATCHED_STATUS only; read conditions and listeners
+  /// are unaffected), re-checking the count at least once a second.
+  bool WaitForWriters(std::uint32_t n, std::chrono::steady_clock::duration timeout) const;
   [[nodiscard]] dds_entity_t handle() const { return reader_.handle(); }
   [[nodiscard]] const std::string& topic_name() const { return topic_name_; }
   /// Takes at most one valid sample into `sample`; skips invalid (lifecycle-only) samples.
@@ -115,6 +120,12 @@ class Reader {
   }
   [[nodiscard]] std::uint64_t callback_errors() const { return base_.callback_errors(); }
   [[nodiscard]] std::uint32_t matched_writers() const { return base_.matched_writers(); }
+  /// Blocks until at least `n` writers match or `timeout` (steady clock) passes; true when
+  /// they do. Wakes on DDS's subscription-matched status (no polling). Throws `DdsError`
+  /// when Cyclone fails.
+  bool WaitForWriters(std::uint32_t n, std::chrono::steady_clock::duration timeout) const {
+    return base_.WaitForWriters(n, timeout);
+  }
   [[nodiscard]] const std::string& topic_name() const { return base_.topic_name(); }
   [[nodiscard]] dds_entity_t handle() const { return base_.handle(); }
 

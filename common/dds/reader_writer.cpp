@@ -1,6 +1,8 @@
 #include <spdlog/spdlog.h>
 
-#include <thread>
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
 
 #include "common/dds/reader.h"
 #include "common/dds/writer.h"
@@ -35,16 +37,73 @@ std::uint32_t MatchedReaders(dds_entity_t writer) {
   return status.current_count;
 }
 
-bool WaitForReaders(dds_entity_t writer, std::uint32_t n,
-                    std::chrono::steady_clock::duration timeout) {
+namespace {
+
+// Waits until `count(entity)` is at least `n` or `timeout` passes, on a waitset that the
+// `status` of `entity` triggers. `count` reads (and so resets) that status, and it is read
+// before every wait, so a match between the read and the wait still wakes the wait. The
+// wait is cut into slices of at most a second with a fresh read each: a trigger that someone
+// else reset first (another waiter on the same entity) costs at most a second, never a hang.
+template <typename Count>
+bool WaitForMatched(dds_entity_t entity, std::uint32_t status, const char* what, std::uint32_t n,
+                    std::chrono::steady_clock::duration timeout, Count count) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (MatchedReaders(writer) < n) {
-    if (std::chrono::steady_clock::now() >= deadline) {
+  if (count(entity) >= n) {
+    return true;
+  }
+  ThrowIfError(dds_set_status_mask(entity, status), "dds_set_status_mask");
+  const dds_entity_t participant = ThrowIfError(dds_get_participant(entity), "dds_get_participant");
+  const Entity waitset(dds_create_waitset(participant), "dds_create_waitset");
+  ThrowIfError(dds_waitset_attach(waitset.handle(), entity, 0), what);
+  for (;;) {
+    if (count(entity) >= n) {
+      return true;
+    }
+    const auto left = deadline - std::chrono::steady_clock::now();
+    if (left <= std::chrono::steady_clock::duration::zero()) {
       return false;
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ThrowIfError(dds_waitset_wait(waitset.handle(), nullptr, 0,
+                                  ToDdsDuration(std::min<std::chrono::steady_clock::duration>(
+                                      left, std::chrono::seconds(1)))),
+                 "dds_waitset_wait");
   }
-  return true;
+}
+
+std::uint32_t MatchedWriters(dds_entity_t reader) {
+  dds_subscription_matched_status_t status{};
+  ThrowIfError(dds_get_subscription_matched_status(reader, &status),
+               "dds_get_subscription_matched_status");
+  return status.current_count;
+}
+
+}  // namespace
+
+bool WaitForReaders(dds_entity_t writer, std::uint32_t n,
+                    std::chrono::steady_clock::duration timeout) {
+  return WaitForMatched(writer, DDS_PUBLICATION_MATCHED_STATUS, "dds_waitset_attach(writer)", n,
+                        timeout, &MatchedReaders);
+}
+
+bool WaitForAcks(dds_entity_t writer, std::chrono::steady_clock::duration timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    const auto left = deadline - std::chrono::steady_clock::now();
+    // Slices of at most a second, like WaitForMatched: no single wait is unbounded.
+    const dds_return_t rc = dds_wait_for_acks(
+        writer,
+        ToDdsDuration(std::min<std::chrono::steady_clock::duration>(
+            std::max(left, std::chrono::steady_clock::duration::zero()), std::chrono::seconds(1))));
+    if (rc == DDS_RETCODE_OK) {
+      return true;
+    }
+    if (rc != DDS_RETCODE_TIMEOUT) {
+      ThrowIfError(rc, "dds_wait_for_acks");
+    }
+    if (left <= std::chrono::steady_clock::duration::zero()) {
+      return false;
+    }
+  }
 }
 
 ReaderBase::ReaderBase(const Participant& participant, const dds_topic_descriptor_t* descriptor,
@@ -131,11 +190,12 @@ void ReaderBase::SetOnDataAvailable(std::function<void()> callback) {
   }
 }
 
-std::uint32_t ReaderBase::matched_writers() const {
-  dds_subscription_matched_status_t status{};
-  ThrowIfError(dds_get_subscription_matched_status(reader_.handle(), &status),
-               "dds_get_subscription_matched_status");
-  return status.current_count;
+std::uint32_t ReaderBase::matched_writers() const { return MatchedWriters(reader_.handle()); }
+
+bool ReaderBase::WaitForWriters(std::uint32_t n,
+                                std::chrono::steady_clock::duration timeout) const {
+  return WaitForMatched(reader_.handle(), DDS_SUBSCRIPTION_MATCHED_STATUS,
+                        "dds_waitset_attach(reader)", n, timeout, &MatchedWriters);
 }
 
 }  // namespace internal

@@ -2,6 +2,8 @@
 /// @file
 /// Typed DDS writer.
 
+#include <chrono>
+#include <cstdint>
 #include <string>
 
 #include "common/dds/entity.h"
@@ -20,9 +22,14 @@ Entity CreateTopic(const Participant& participant, const dds_topic_descriptor_t*
                    const std::string& name);
 /// Number of readers currently matched with `writer`.
 std::uint32_t MatchedReaders(dds_entity_t writer);
-/// Waits (polling the matched status, steady clock) until `writer` has at least `n` readers.
+/// Waits until `writer` has at least `n` matched readers or `timeout` (steady clock) passes.
+/// Blocks on a waitset triggered by the publication-matched status (the writer's status mask
+/// becomes DDS_PUBLICATION_MATCHED_STATUS only), re-checking the count at least once a second.
 bool WaitForReaders(dds_entity_t writer, std::uint32_t n,
                     std::chrono::steady_clock::duration timeout);
+/// Waits until every matched reader acknowledged every sample `writer` wrote, or `timeout`
+/// passes. True when they did.
+bool WaitForAcks(dds_entity_t writer, std::chrono::steady_clock::duration timeout);
 }  // namespace internal
 
 /// Writes samples of `T` to one topic. Move-only; deleting it unregisters the writer.
@@ -53,9 +60,19 @@ class Writer {
   [[nodiscard]] std::uint32_t matched_readers() const {
     return internal::MatchedReaders(writer_.handle());
   }
-  /// Blocks until at least `n` readers match or `timeout` (steady clock) passes.
+  /// Blocks until at least `n` readers match or `timeout` (steady clock) passes; true when
+  /// they do. Wakes on DDS's publication-matched status (no polling). Throws `DdsError`
+  /// when Cyclone fails.
   bool WaitForReaders(std::uint32_t n, std::chrono::steady_clock::duration timeout) const {
     return internal::WaitForReaders(writer_.handle(), n, timeout);
+  }
+  /// Blocks until every matched reader has acknowledged every sample written so far, or
+  /// `timeout` (steady clock) passes; true when they have (at once with no reader or a
+  /// best-effort writer). Lets a burst of writes to a keep-all writer pace itself instead of
+  /// filling the history and failing after `max_blocking`. Throws `DdsError` when Cyclone
+  /// fails.
+  bool WaitForAcks(std::chrono::steady_clock::duration timeout) const {
+    return internal::WaitForAcks(writer_.handle(), timeout);
   }
   [[nodiscard]] const std::string& topic_name() const { return topic_name_; }
   [[nodiscard]] dds_entity_t handle() const { return writer_.handle(); }
