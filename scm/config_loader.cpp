@@ -17,11 +17,9 @@ ConfigLoader::ConfigLoader(const dds::Participant& participant, Store& store,
       internal::Task job;
       {
         std::unique_lock lock(mutex_);
-        running_job_ = false;
         if (!cv_.wait(lock, stop, [&] { return !jobs_.empty(); })) return;
         job = std::move(jobs_.front());
         jobs_.pop_front();
-        running_job_ = true;
       }
       job();
     }
@@ -52,10 +50,7 @@ void ConfigLoader::Complete(internal::Task completion) {
   if (wake_) wake_();
 }
 
-bool ConfigLoader::busy() const {
-  std::lock_guard lock(mutex_);
-  return running_job_ || !jobs_.empty();
-}
+bool ConfigLoader::busy() const { return requests_in_flight_ > 0; }
 
 void ConfigLoader::RunCompletions() {
   std::vector<internal::Task> ready;
@@ -75,6 +70,7 @@ std::unique_ptr<City> ConfigLoader::Load(const std::string& yaml, const std::str
 
 void ConfigLoader::Check(std::string yaml, std::string label,
                          std::function<void(std::unique_ptr<City>, std::string)> done) {
+  ++requests_in_flight_;
   Post([this, yaml = std::move(yaml), label = std::move(label), done = std::move(done)]() mutable {
     std::unique_ptr<City> city;
     std::string error;
@@ -83,14 +79,17 @@ void ConfigLoader::Check(std::string yaml, std::string label,
     } catch (const std::exception& e) {
       error = e.what();
     }
-    Complete([done = std::move(done), city = std::move(city), error = std::move(error)]() mutable {
-      done(std::move(city), std::move(error));
-    });
+    Complete(
+        [this, done = std::move(done), city = std::move(city), error = std::move(error)]() mutable {
+          --requests_in_flight_;
+          done(std::move(city), std::move(error));
+        });
   });
 }
 
 void ConfigLoader::Build(std::string yaml, std::string label, std::uint32_t revision,
                          std::function<void(std::unique_ptr<CityBundle>, std::string)> done) {
+  ++requests_in_flight_;
   Post([this, yaml = std::move(yaml), label = std::move(label), revision,
         done = std::move(done)]() mutable {
     std::unique_ptr<CityBundle> bundle;
@@ -102,8 +101,11 @@ void ConfigLoader::Build(std::string yaml, std::string label, std::uint32_t revi
     } catch (const std::exception& e) {
       error = e.what();
     }
-    Complete([done = std::move(done), bundle = std::move(bundle),
-              error = std::move(error)]() mutable { done(std::move(bundle), std::move(error)); });
+    Complete([this, done = std::move(done), bundle = std::move(bundle),
+              error = std::move(error)]() mutable {
+      --requests_in_flight_;
+      done(std::move(bundle), std::move(error));
+    });
   });
 }
 

@@ -47,7 +47,8 @@ class ConfigLoader {
 
   /// Runs the completions that are ready, on the calling (loop) thread.
   void RunCompletions();
-  /// True while a job is queued or running (one configuration at a time is enough).
+  /// True from a Check or Build until its `done` runs (one configuration at a time is enough).
+  /// Loop thread only. A Dispose does not count: a request behind it just waits its turn.
   [[nodiscard]] bool busy() const;
 
  private:
@@ -62,8 +63,8 @@ class ConfigLoader {
   mutable std::mutex mutex_;
   std::condition_variable_any cv_;
   std::deque<internal::Task> jobs_;
-  bool running_job_ = false;
   std::vector<internal::Task> completions_;
+  int requests_in_flight_ = 0;  // loop thread only
   std::jthread thread_;
 };
 

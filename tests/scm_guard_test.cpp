@@ -155,8 +155,8 @@ TEST_F(ScmGuard, ANulByteIsRefusedByValidateAndApply) {
 }
 
 // An independent checker over SPaT while an operator drives the intersection through every
-// mode and plan: every min_end promise holds (a change into fail-safe flash excepted), and SPaT
-// keeps 10 Hz.
+// mode and plan: every min_end promise holds (a change into flash excepted, as documented), and
+// SPaT keeps 10 Hz.
 TEST_F(ScmGuard, SpatKeepsEveryMinEndPromiseAndItsRateWhileOperatorsCommand) {
   StartInfra();
   StartScm();

@@ -35,6 +35,7 @@
 #include "common/time.h"
 #include "maps/builder.h"
 #include "maps/grid_city.h"
+#include "scm/benchmarks/bench_support.h"
 #include "scm/client.h"
 
 namespace {
@@ -44,50 +45,11 @@ using Steady = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 namespace fs = std::filesystem;
 
-double Percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(i, v.size() - 1)];
-}
-
-/// utime + stime of a process, seconds.
-double CpuSeconds(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const auto close = text.rfind(')');
-  std::istringstream fields(text.substr(close + 2));
-  std::string f;
-  double ticks = 0;
-  for (int i = 3; i <= 15; ++i) {
-    fields >> f;
-    if (i == 14 || i == 15) ticks += std::stod(f);
-  }
-  return ticks / static_cast<double>(::sysconf(_SC_CLK_TCK));
-}
-
-std::string Bin(const std::string& name) { return (fs::path(ExecutableDir()) / name).string(); }
-fs::path Source() { return fs::canonical(fs::path(ExecutableDir()) / "../.."); }
-
-/// A grid city of n x n fixed-time intersections without lights, for operator "bench".
-fs::path WriteGridCity(int n, const fs::path& dir) {
-  const maps::Layout layout = maps::GridCity(n, n, "signal");
-  config::SaveFile(layout, (dir / "grid.yaml").string());
-  const maps::Map map = maps::Build(layout);
-  std::string city =
-      "name: grid\nmap: grid.yaml\ndevices: {wait_for_lights: false}\n"
-      "operators: {allowed: [bench]}\nintersections:\n";
-  for (const auto& x : map.intersections) {
-    city += "  - name: " + x.name +
-            "\n    groups: [{id: 1, name: e, approaches: [east]}, {id: 2, name: n, approaches: "
-            "[north]}, {id: 3, name: w, approaches: [west]}, {id: 4, name: s, approaches: "
-            "[south]}]\n    plans: [{name: day, phases: [{groups: [1], green_s: 8.0}, {groups: "
-            "[2], green_s: 8.0}, {groups: [3], green_s: 8.0}, {groups: [4], green_s: 8.0}]}]\n";
-  }
-  const fs::path path = dir / "grid_city.yaml";
-  std::ofstream(path) << city;
-  return path;
-}
+using bench::Bin;
+using bench::CpuSeconds;
+using bench::Percentile;
+using bench::Source;
+using bench::WriteGridCity;
 
 /// Watches SPaT: rate and jitter of the stamps and arrivals.
 struct SpatWatch {
