@@ -23,7 +23,7 @@ ControlPlane::Client& ControlPlane::ClientState(const std::string& id, MonoTime 
       }
       clients_.erase(oldest);
     }
-    it = clients_.emplace(id, Client{params_.burst, now, now, {}}).first;
+    it = clients_.emplace(id, Client{params_.burst, now, now, {}, {}}).first;
   }
   Client& c = it->second;
   c.last_seen = now;
@@ -70,6 +70,11 @@ Admission ControlPlane::Admit(const msg::OperatorRequest& request, std::string_v
       return a;
     }
   }
+  if (std::ranges::find(client.running, cmd.request_id) != client.running.end()) {
+    ++counters_.repeats_running;
+    a.kind = Admission::Kind::kRunning;
+    return a;
+  }
   if (client.tokens < 1.0) {
     ++counters_.rate_limited;
     Log("rate limited", a.client, cmd.name);
@@ -101,6 +106,8 @@ Admission ControlPlane::Admit(const msg::OperatorRequest& request, std::string_v
     }
   }
   ++counters_.accepted;
+  client.running.push_back(cmd.request_id);
+  while (client.running.size() > kRepliesPerClient) client.running.pop_front();
   a.kind = Admission::Kind::kRun;
   a.command = std::move(cmd);
   return a;
@@ -110,6 +117,8 @@ void ControlPlane::Remember(const std::string& client, std::uint64_t request_id,
                             const Reply& reply) {
   const auto it = clients_.find(client);
   if (it == clients_.end()) return;
+  auto& running = it->second.running;
+  if (const auto r = std::ranges::find(running, request_id); r != running.end()) running.erase(r);
   auto& replies = it->second.replies;
   replies.emplace_back(request_id, reply);
   while (replies.size() > kRepliesPerClient) replies.pop_front();

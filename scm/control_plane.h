@@ -48,13 +48,16 @@ struct ControlPlaneCounters {
   std::uint64_t accepted = 0;
   std::uint64_t invalid = 0;  ///< malformed, unknown command or argument, over a size cap
   std::uint64_t rate_limited = 0;
-  std::uint64_t not_allowed = 0;  ///< state-changing commands from no allowed operator
-  std::uint64_t repeats = 0;      ///< answered again from the cache
+  std::uint64_t not_allowed = 0;      ///< state-changing commands from no allowed operator
+  std::uint64_t repeats = 0;          ///< answered again from the cache
+  std::uint64_t repeats_running = 0;  ///< repeats of a command still running: left to its answer
 };
 
 /// The guard's decision on one request.
 struct Admission {
-  enum class Kind { kRun, kAnswer } kind = Kind::kAnswer;
+  /// kRun: run the command; kAnswer: send `reply`; kRunning: a repeat of a command that is still
+  /// running (a configuration being loaded): send nothing, its answer is on the way.
+  enum class Kind { kRun, kAnswer, kRunning } kind = Kind::kAnswer;
   OperatorCommand command;  ///< kRun: the checked command
   /// kAnswer: the reply to send (a refusal, or the cached reply of a repeat).
   Reply reply;
@@ -78,7 +81,9 @@ class ControlPlane {
   /// read-only topic), at `now`.
   [[nodiscard]] Admission Admit(const msg::OperatorRequest& request, std::string_view operator_name,
                                 MonoTime now);
-  /// Remembers the reply to a command that ran, for repeats.
+  /// Remembers the reply to a command that ran, for repeats; until then, a repeat of it is
+  /// admitted as kRunning (a client re-sends when an answer is late, and a configuration can
+  /// take longer to load than that).
   void Remember(const std::string& client, std::uint64_t request_id, const Reply& reply);
   /// Replaces the allowed operators (a configuration was applied).
   void SetParams(ControlPlaneParams params);
@@ -92,6 +97,7 @@ class ControlPlane {
     MonoTime refilled{};
     MonoTime last_seen{};
     std::deque<std::pair<std::uint64_t, Reply>> replies;
+    std::deque<std::uint64_t> running;  // admitted, not answered yet
   };
   Client& ClientState(const std::string& id, MonoTime now);
   void Log(std::string_view what, const std::string& client, const std::string& detail);

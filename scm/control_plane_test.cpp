@@ -124,6 +124,26 @@ TEST(ControlPlane, ARepeatedRequestIsAnsweredFromTheCacheNotRunAgain) {
   EXPECT_EQ(cp.counters().accepted, 1u);
 }
 
+// A client re-sends a request whose answer is late (OperatorClient::kResendAfter). A
+// configuration can take longer than that to load: the repeat must neither run it a second
+// time nor be answered "another configuration is being loaded" (seen in the soak, and in CI on
+// a loaded machine, as a refused validate or apply that was in fact going through).
+TEST(ControlPlane, ARepeatOfACommandStillRunningWaitsForItsAnswer) {
+  ControlPlane cp(Params());
+  const auto apply = Request("c", 5, "config_apply", {{"yaml", "name: x\n"}});
+  ASSERT_EQ(cp.Admit(*apply, "lab", t0).kind, Admission::Kind::kRun);
+  EXPECT_EQ(cp.Admit(*apply, "lab", t0 + milliseconds(250)).kind, Admission::Kind::kRunning);
+  EXPECT_EQ(cp.Admit(*apply, "lab", t0 + milliseconds(500)).kind, Admission::Kind::kRunning);
+  EXPECT_EQ(cp.counters().repeats_running, 2u);
+  EXPECT_EQ(cp.counters().accepted, 1u);
+  cp.Remember("c", 5, Reply::Ok("applied"));
+  const Admission after = cp.Admit(*apply, "lab", t0 + milliseconds(750));
+  EXPECT_EQ(after.kind, Admission::Kind::kAnswer);
+  EXPECT_EQ(after.reply.message, "applied");
+  // Another request of the same client runs as usual.
+  EXPECT_EQ(cp.Admit(*Request("c", 6, "status"), "", t0 + seconds(1)).kind, Admission::Kind::kRun);
+}
+
 TEST(ControlPlane, RemembersABoundedNumberOfClients) {
   ControlPlane cp(Params());
   for (std::size_t i = 0; i < ControlPlane::kMaxClients + 100; ++i) {

@@ -398,6 +398,7 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
       ++handled;
       ++counters.operator_requests;
       Admission a = control->Admit(*request_sample, operator_name, now.mono);
+      if (a.kind == Admission::Kind::kRunning) continue;  // its answer is on the way
       if (a.kind == Admission::Kind::kAnswer) {
         if (a.reply.code != ReplyCode::kOk) ++counters.refused_requests;
         publishers->Reply(a.client, a.request_id, a.reply.code, a.reply.message, a.reply.values,

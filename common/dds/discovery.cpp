@@ -1,9 +1,35 @@
 #include "common/dds/discovery.h"
 
+#include <fnmatch.h>
+
 namespace autodrive::dds {
 
+namespace {
+
+/// Whether a writer whose publisher has the partitions `qos` says can reach a reader in
+/// `partition` (our one partition name; empty is the default partition). DDS partition names
+/// may be wildcard patterns (fnmatch syntax) on either side; ours never is.
+bool SharesPartition(const dds_qos_t* qos, const std::string& partition) {
+  uint32_t n = 0;
+  char** names = nullptr;
+  if (qos == nullptr || !dds_qget_partition(qos, &n, &names) || n == 0) {
+    return partition.empty();  // no partition QoS: the default partition
+  }
+  bool shared = false;
+  for (uint32_t i = 0; i < n; ++i) {
+    const char* name = names[i] != nullptr ? names[i] : "";
+    if (partition == name || ::fnmatch(name, partition.c_str(), 0) == 0) shared = true;
+    dds_free(names[i]);
+  }
+  dds_free(names);
+  return shared;
+}
+
+}  // namespace
+
 PublicationWatcher::PublicationWatcher(const Participant& participant)
-    : reader_(dds_create_reader(participant.handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr,
+    : partition_(participant.partition()),
+      reader_(dds_create_reader(participant.handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr,
                                 nullptr),
               "dds_create_reader(DCPSPublication)") {}
 
@@ -18,7 +44,8 @@ std::vector<std::string> PublicationWatcher::TakeTopics() {
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data || infos[i].instance_state != DDS_IST_ALIVE) continue;
       const auto* endpoint = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
-      if (endpoint->topic_name != nullptr) topics.emplace_back(endpoint->topic_name);
+      if (endpoint->topic_name == nullptr || !SharesPartition(endpoint->qos, partition_)) continue;
+      topics.emplace_back(endpoint->topic_name);
     }
     if (n > 0) (void)dds_return_loan(reader_.handle(), samples, n);
     if (n < kBatch) return topics;

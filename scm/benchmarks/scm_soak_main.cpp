@@ -38,6 +38,7 @@
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
 #include "common/process.h"
+#include "common/shutdown.h"
 #include "common/time.h"
 #include "scm/benchmarks/bench_support.h"
 #include "scm/client.h"
@@ -51,6 +52,9 @@ using Steady = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 namespace fs = std::filesystem;
+
+/// Set on SIGINT or SIGTERM: the soak ends early, stops the daemon and reports.
+std::atomic<bool> g_interrupted{false};
 
 struct Options {
   int grid = 32;
@@ -193,8 +197,14 @@ int Soak(const Options& o) {
     m.clock = dds::ToMsg(t);
     clock.Write(m);
   };
-  publish(sim0);
-  if (!map.WaitForData(seconds(120))) {
+  // The SCM starts once it has a time: the simulator publishes /clock all along (a single
+  // message could go before the SCM's reader has matched our writer).
+  bool have_map = false;
+  for (const auto until = Steady::now() + seconds(120); !have_map && Steady::now() < until;) {
+    publish(sim0);
+    have_map = map.WaitForData(milliseconds(100));
+  }
+  if (!have_map) {
     std::printf("   no MAP within 120 s\n");
     return 1;
   }
@@ -229,7 +239,7 @@ int Soak(const Options& o) {
   std::printf("   %8s %9s %8s %8s %8s %6s %9s %8s %6s %6s %9s %9s\n", "wall_min", "sim_days",
               "rss_MB", "hwm_MB", "db_MB", "cpu%", "spat", "changes", "viol", "confl", "cmd_ok",
               "v2i_sent");
-  while (Steady::now() < end) {
+  while (Steady::now() < end && !g_interrupted.load()) {
     const auto now = Steady::now();
     if (now >= next_clock) {
       next_clock += std::chrono::duration_cast<Steady::duration>(clock_period);
@@ -413,6 +423,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
+  autodrive::ShutdownSignals signals([](int) { g_interrupted = true; });
   try {
     return Soak(o);
   } catch (const std::exception& e) {
