@@ -81,7 +81,9 @@ int main(int argc, char** argv) {
   app.add_option("--domain", dds_options.domain_id, "DDS domain id");
   app.add_option("--operator", operator_name,
                  "operator name for commands that change state (default: $AUTODRIVE_OPERATOR)");
-  app.add_option("--timeout", timeout_s, "seconds to wait for the SCM and its answer")
+  app.add_option("--timeout", timeout_s,
+                 "seconds to wait for the SCM and its answer (config apply: 120 unless given; "
+                 "the SCM builds the whole city before it answers)")
       ->capture_default_str();
   app.add_flag("--json", json, "print answers (and watched messages) as JSON, one per line");
 
@@ -131,6 +133,9 @@ int main(int argc, char** argv) {
   }
   dds_options.security = security;
 
+  // A city of a thousand intersections takes the SCM seconds to build (its map, its
+  // controllers, its writers), more on a busy machine; the loop runs on meanwhile.
+  if (apply->parsed() && app.count("--timeout") == 0) timeout_s = 120.0;
   try {
     const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
         std::chrono::duration<double>(timeout_s));

@@ -117,10 +117,13 @@ void RunOperator(dds::Participant& participant, const std::vector<std::string>& 
       if (name == "plan") args["plan"] = value;
       if (name == "events") args["limit"] = "20";
     }
-    const auto answer = client.Call(command, args, seconds(30));
+    // As scmctl: 120 s for an apply (the SCM builds the whole city first), 30 s otherwise.
+    const auto timeout = command == "config_apply" ? seconds(120) : seconds(30);
+    const auto answer = client.Call(command, args, timeout);
     if (!answer) {
       ++counts.unanswered;
-      std::fprintf(stderr, "soak: no answer to %s %s within 30 s\n", command.c_str(), x.c_str());
+      std::fprintf(stderr, "soak: no answer to %s %s within %lld s\n", command.c_str(), x.c_str(),
+                   static_cast<long long>(timeout.count()));
     } else if (answer->code == scm::ReplyCode::kOk) {
       ++counts.ok;
       if (command == "config_apply") ++counts.applied;
