@@ -87,7 +87,8 @@ std::optional<OperatorAnswer> OperatorClient::Call(const std::string& command,
     ++i;
   }
   writer->Write(m);
-  auto next_send = std::chrono::steady_clock::now() + kResendAfter;
+  std::chrono::steady_clock::duration wait = kResendAfter;
+  auto next_send = std::chrono::steady_clock::now() + wait;
   dds::Message<msg::OperatorReply> r;
   while (std::chrono::steady_clock::now() < deadline) {
     reader_.WaitForData(std::min(next_send, deadline) - std::chrono::steady_clock::now());
@@ -103,10 +104,16 @@ std::optional<OperatorAnswer> OperatorClient::Call(const std::string& command,
     }
     if (std::chrono::steady_clock::now() >= next_send) {
       // No reply yet: the request or its reply may have gone before discovery completed on the
-      // SCM's side. Same id again: the SCM runs it at most once.
-      writer->Write(m);
-      ++resends_;
-      next_send = std::chrono::steady_clock::now() + kResendAfter;
+      // SCM's side. Same id again: the SCM runs it at most once. A resend that cannot go out
+      // now (the earlier copies are not acknowledged yet) is skipped: they are on their way.
+      try {
+        writer->Write(m);
+        ++resends_;
+      } catch (const DdsError&) {
+        ++resends_skipped_;
+      }
+      wait = std::min<std::chrono::steady_clock::duration>(2 * wait, kResendAtMost);
+      next_send = std::chrono::steady_clock::now() + wait;
     }
   }
   return std::nullopt;

@@ -36,8 +36,11 @@ struct OperatorAnswer {
 /// Talks to one SCM over DDS. Not thread-safe; not movable (readers and writers).
 class OperatorClient {
  public:
-  /// How long to wait for a reply before sending the request again.
+  /// How long to wait for a reply before sending the request again; each resend waits twice
+  /// as long as the one before, up to kResendAtMost (a large configuration is not sent again
+  /// every 250 ms while the SCM builds it).
   static constexpr std::chrono::milliseconds kResendAfter{250};
+  static constexpr std::chrono::milliseconds kResendAtMost{4000};
 
   /// Joins DDS on `participant` (which must outlive it). `client_id` should be unique per
   /// session (e.g. "scmctl/user@host/pid"). With `operator_name`, state-changing commands go on
@@ -58,6 +61,8 @@ class OperatorClient {
                                      std::chrono::steady_clock::duration timeout);
   /// Requests sent again because a reply was late (diagnostics).
   [[nodiscard]] std::uint64_t resends() const { return resends_; }
+  /// Resends skipped because the writer could not take them at once (diagnostics).
+  [[nodiscard]] std::uint64_t resends_skipped() const { return resends_skipped_; }
   [[nodiscard]] const std::string& client_id() const { return client_id_; }
 
  private:
@@ -66,6 +71,7 @@ class OperatorClient {
   std::optional<std::string> operator_name_;
   std::uint64_t next_id_ = 1;
   std::uint64_t resends_ = 0;
+  std::uint64_t resends_skipped_ = 0;
   dds::Writer<msg::OperatorRequest> shared_writer_;
   std::unique_ptr<dds::Writer<msg::OperatorRequest>> operator_writer_;
   dds::Reader<msg::OperatorReply> reader_;

@@ -84,6 +84,9 @@ struct Scm::Impl final : EventSink, ConfigService {
   void WatchStrangers();
   void NewSession(const ClockReading& now);
   void TakeDeviceStatuses(const ClockReading& now);
+  /// True once SPaT's deadline has come: requests then wait for the next pass (the waitset
+  /// wakes it at once) so that a flood, or a slow machine, never holds SPaT back.
+  [[nodiscard]] bool SpatDue() const { return clock.Read().mono >= next_spat; }
   void HandleOperatorRequests(const ClockReading& now, const DayClock& day);
   void HandleSignalRequests(const ClockReading& now, const DayClock& day);
   void Housekeeping(const ClockReading& now);
@@ -394,7 +397,8 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
   for (std::size_t i = 0; i < inboxes.size() && handled < options.max_requests_per_pass; ++i) {
     auto* reader = inboxes[i].reader.get();
     const std::string& operator_name = inboxes[i].operator_name;
-    while (handled < options.max_requests_per_pass && reader->TakeOne(request_sample)) {
+    while (handled < options.max_requests_per_pass && !SpatDue() &&
+           reader->TakeOne(request_sample)) {
       ++handled;
       ++counters.operator_requests;
       Admission a = control->Admit(*request_sample, operator_name, now.mono);
@@ -431,7 +435,8 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
 
 void Scm::Impl::HandleSignalRequests(const ClockReading& now, const DayClock& day) {
   std::size_t handled = 0;
-  while (handled < options.max_requests_per_pass && signal_requests->TakeOne(signal_sample)) {
+  while (handled < options.max_requests_per_pass && !SpatDue() &&
+         signal_requests->TakeOne(signal_sample)) {
     ++handled;
     ++counters.signal_requests;
     ++figures.signal_requests;

@@ -119,7 +119,12 @@ void RunOperator(dds::Participant& participant, const std::vector<std::string>& 
     }
     // As scmctl: 120 s for an apply (the SCM builds the whole city first), 30 s otherwise.
     const auto timeout = command == "config_apply" ? seconds(120) : seconds(30);
-    const auto answer = client.Call(command, args, timeout);
+    std::optional<scm::OperatorAnswer> answer;
+    try {
+      answer = client.Call(command, args, timeout);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "soak: %s could not be sent: %s\n", command.c_str(), e.what());
+    }
     if (!answer) {
       ++counts.unanswered;
       std::fprintf(stderr, "soak: no answer to %s %s within %lld s\n", command.c_str(), x.c_str(),
