@@ -224,6 +224,15 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   EXPECT_THAT(r.text, HasSubstr("rejected: advance needs manual mode"));
   r = Lab({"mode", "driving_school_crossing", "manual"});
   EXPECT_EQ(r.code, 0) << r.text;
+  // Manual mode holds the next green it reaches (the switch may come during a yellow, when
+  // advance is refused); advance once SPaT shows that green under manual control.
+  ASSERT_TRUE(WaitSpat(
+      [](const msg::Spat& s) {
+        return Flag(&First(s),
+                    autodrive_msgs_msg_IntersectionState_Constants_MANUAL_CONTROL_ENABLED) &&
+               AnyGreen(s);
+      },
+      seconds(60)));
   r = Lab({"advance", "driving_school_crossing"});
   EXPECT_EQ(r.code, 0) << r.text;
   r = Lab({"plan", "driving_school_crossing", "evening"});
