@@ -48,6 +48,11 @@ constexpr std::size_t kMaxDetailBytes = 1024;
 // Topics of operators the city does not allow that are still answered (with a refusal).
 constexpr std::size_t kMaxStrangerOperators = 32;
 
+// SPaT is filled this many intersections at a time (about 0.1 ms on a lab PC), looking for
+// waiting requests in between; when one waits, up to kRequestsBeforeSpat are answered first.
+constexpr std::size_t kSpatSlice = 128;
+constexpr std::size_t kRequestsBeforeSpat = 4;
+
 constexpr std::string_view kOperatorTopicPrefix = "rt/autodrive/scm/operator/";
 constexpr std::string_view kOperatorTopicSuffix = "/request";
 
@@ -87,6 +92,18 @@ struct Scm::Impl final : EventSink, ConfigService {
   /// True once SPaT's deadline has come: requests then wait for the next pass (the waitset
   /// wakes it at once) so that a flood, or a slow machine, never holds SPaT back.
   [[nodiscard]] bool SpatDue() const { return clock.Read().mono >= next_spat; }
+  /// Whether one more request may be handled in this pass: before SPaT's deadline, or one of
+  /// the few that SPaT's filling gave way to (`PublishSpatUnlessAsked`).
+  [[nodiscard]] bool MayHandleRequest() const;
+  /// Counts a request handled past SPaT's deadline against those SPaT gave way to.
+  void CountRequestPastSpat();
+  /// Whether an operator or V2I request is waiting (not taken).
+  [[nodiscard]] bool RequestWaiting() const;
+  /// Fills SPaT in slices; when a request is waiting between two slices, and SPaT has not
+  /// already given way once for this deadline, it stops (returns false) so that the next pass
+  /// answers a few requests first and then fills SPaT afresh without stopping. A request thus
+  /// waits for a slice, not for the whole city's SPaT. True when SPaT was handed to its sender.
+  bool PublishSpatUnlessAsked(const CityBundle& c, const ClockReading& now);
   void HandleOperatorRequests(const ClockReading& now, const DayClock& day);
   void HandleSignalRequests(const ClockReading& now, const DayClock& day);
   void Housekeeping(const ClockReading& now);
@@ -125,6 +142,8 @@ struct Scm::Impl final : EventSink, ConfigService {
   dds::Message<msg::DeviceStatus> status_sample;
 
   MonoTime next_spat{};
+  bool spat_gave_way = false;            // SPaT's filling stopped once for this deadline
+  std::size_t requests_before_spat = 0;  // requests still allowed past SPaT's deadline
   MonoTime next_tick{};
   MonoTime next_housekeeping{};
   MonoTime next_prune{};
@@ -397,9 +416,10 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
   for (std::size_t i = 0; i < inboxes.size() && handled < options.max_requests_per_pass; ++i) {
     auto* reader = inboxes[i].reader.get();
     const std::string& operator_name = inboxes[i].operator_name;
-    while (handled < options.max_requests_per_pass && !SpatDue() &&
+    while (handled < options.max_requests_per_pass && MayHandleRequest() &&
            reader->TakeOne(request_sample)) {
       ++handled;
+      CountRequestPastSpat();
       ++counters.operator_requests;
       Admission a = control->Admit(*request_sample, operator_name, now.mono);
       if (a.kind == Admission::Kind::kRunning) continue;  // its answer is on the way
@@ -435,13 +455,41 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
 
 void Scm::Impl::HandleSignalRequests(const ClockReading& now, const DayClock& day) {
   std::size_t handled = 0;
-  while (handled < options.max_requests_per_pass && !SpatDue() &&
+  while (handled < options.max_requests_per_pass && MayHandleRequest() &&
          signal_requests->TakeOne(signal_sample)) {
     ++handled;
+    CountRequestPastSpat();
     ++counters.signal_requests;
     ++figures.signal_requests;
     v2i.Handle(*signal_sample, now, day, *bundle, *publishers, *this);
   }
+}
+
+bool Scm::Impl::MayHandleRequest() const { return requests_before_spat > 0 || !SpatDue(); }
+
+void Scm::Impl::CountRequestPastSpat() {
+  if (requests_before_spat > 0 && SpatDue()) --requests_before_spat;
+}
+
+bool Scm::Impl::RequestWaiting() const {
+  if (signal_requests->HasSamples()) return true;
+  return std::any_of(inboxes.begin(), inboxes.end(),
+                     [](const OperatorInbox& in) { return in.reader->HasSamples(); });
+}
+
+bool Scm::Impl::PublishSpatUnlessAsked(const CityBundle& c, const ClockReading& now) {
+  publishers->StartSpat(now);
+  while (!publishers->FillSpat(*c.runtime, kSpatSlice)) {
+    if (!spat_gave_way && RequestWaiting()) {
+      spat_gave_way = true;
+      requests_before_spat = kRequestsBeforeSpat;
+      return false;
+    }
+  }
+  publishers->SendSpat();
+  spat_gave_way = false;
+  requests_before_spat = 0;
+  return true;
 }
 
 void Scm::Impl::Housekeeping(const ClockReading& now) {
@@ -475,8 +523,7 @@ void Scm::Impl::Pass() {
   figures.monitor_violations = counters.monitor_violations;
   v2i.PublishUpdates(c, *publishers, now);
   c.lights->Sync(*c.runtime, *c.supervisor, now.mono);
-  if (now.mono >= next_spat) {
-    publishers->PublishSpat(*c.runtime, now);
+  if (now.mono >= next_spat && PublishSpatUnlessAsked(c, now)) {
     c.fleet->DropStale(now.wire);
     publishers->PublishFleet(*c.fleet, now.wire);
     publishers->PublishHeartbeat(now.wire, ScmState::kRunning);

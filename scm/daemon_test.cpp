@@ -1,7 +1,7 @@
 // The daemon in-process, pass by pass, on clocks the test controls: a wall clock stepped by
 // +-5 s during a yellow and a red clearance, a simulated clock that restarts, the loop's
-// allocations in steady state, and the ips fleet source. Real DDS (its own partition) and a
-// real SQLite database in the test's temporary folder.
+// allocations in steady state, the ips fleet source, and requests that come while SPaT is due. Real
+// DDS (its own partition) and a real SQLite database in the test's temporary folder.
 #include "scm/daemon.h"
 
 #include <gmock/gmock.h>
@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <new>
+#include <set>
 
 #include "autodrive_msgs/msg/SignalGroupState.h"
 
@@ -22,6 +23,7 @@
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
 #include "common/test_support.h"
+#include "scm/benchmarks/bench_support.h"
 
 // Counts the C++ allocations of this process while `g_count_allocations` is set.
 namespace {
@@ -262,6 +264,62 @@ TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {
   EXPECT_EQ(v.source, autodrive_msgs_msg_TrackedVehicle_Constants_IPS);
   EXPECT_EQ(dds::View(v.map_lane_id), lane.name) << "a car that never moved has its lane";
   EXPECT_EQ(v.intersection_id, map.intersections[0].id.value());
+}
+
+TEST_F(DaemonTest, RequestsWaitingWhenSpatIsDueAreAnsweredFirstButOnlyAFew) {
+  // 12 x 12 intersections: SPaT is filled in slices (128 intersections each), and the loop
+  // looks for waiting requests between them.
+  TestTime time;
+  WallClock clock(time.Sources());
+  ScmOptions options = Options(bench::WriteGridCity(12, dir_, "lab"));
+  options.config_root = dir_;
+  Scm scm(options, clock, *participant_);
+  ASSERT_GT(scm.runtime().intersections().size(), 128u);
+  dds::Reader<msg::OperatorReply> replies(*participant_, dds::topics::OperatorReplies().name,
+                                          dds::Qos::Stream(64));
+  dds::Writer<msg::OperatorRequest> requests(*participant_, dds::topics::OperatorRequests());
+  ASSERT_TRUE(requests.WaitForReaders(1, seconds(10)));
+  // Pass at every deadline until a SPaT goes out: the next is due 100 ms later.
+  std::uint64_t spats = scm.counters().spat_published;
+  for (int i = 0; i < 100 && scm.counters().spat_published == spats; ++i) {
+    time.AdvanceTo(std::min(scm.next_deadline(), time.mono() + milliseconds(20)));
+    scm.Pass();
+  }
+  ASSERT_GT(scm.counters().spat_published, spats);
+  const MonoTime spat_due = time.mono() + milliseconds(100);
+  time.AdvanceTo(spat_due - milliseconds(1));
+  scm.Pass();
+  spats = scm.counters().spat_published;
+  const std::uint64_t handled = scm.counters().operator_requests;
+
+  // Ten requests arrive (acknowledged: they are in the SCM's reader) as SPaT comes due.
+  for (std::uint64_t k = 1; k <= 10; ++k) {
+    dds::Message<msg::OperatorRequest> m;
+    dds::SetString(m->client_id, "waiting");
+    m->request_id = k;
+    dds::SetString(m->command, "status");
+    requests.Write(m);
+  }
+  ASSERT_TRUE(requests.WaitForAcks(seconds(10)));
+  time.AdvanceTo(spat_due);
+  scm.Pass();
+  EXPECT_EQ(scm.counters().spat_published, spats) << "SPaT gave way to the waiting requests";
+  EXPECT_EQ(scm.counters().operator_requests, handled) << "SPaT's deadline had come";
+  scm.Pass();  // at the same instant
+  EXPECT_EQ(scm.counters().operator_requests, handled + 4) << "four answered before SPaT";
+  EXPECT_EQ(scm.counters().spat_published, spats + 1)
+      << "then SPaT, without giving way again (a flood cannot hold it back)";
+  scm.Pass();
+  EXPECT_EQ(scm.counters().operator_requests, handled + 10) << "and the rest after it";
+  std::set<std::uint64_t> answered;
+  const auto until = std::chrono::steady_clock::now() + seconds(10);
+  while (answered.size() < 10 && std::chrono::steady_clock::now() < until) {
+    replies.WaitForData(milliseconds(100));
+    for (auto& r : replies.TakeAll()) {
+      if (dds::View(r->client_id) == "waiting") answered.insert(r->request_id);
+    }
+  }
+  EXPECT_EQ(answered.size(), 10u);
 }
 
 }  // namespace

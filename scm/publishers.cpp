@@ -3,6 +3,12 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
 #include "autodrive_msgs/msg/DeviceCommand.h"
 #include "autodrive_msgs/msg/Event.h"
 #include "autodrive_msgs/msg/Heartbeat.h"
@@ -127,7 +133,89 @@ std::uint16_t StatusBits(const IntersectionController& c) {
 
 dds::Qos NonBlocking(const dds::Qos& qos) { return qos.NonBlocking(); }
 
+void LogWriteFailure(std::string_view topic, std::uint64_t failures, const DdsError& e) {
+  if (failures <= 5 || failures % 100 == 0)
+    spdlog::error("writing {} failed ({} failures so far): {}", topic, failures, e.what());
+}
+
 }  // namespace
+
+/// SPaT's writer and its own thread. Two messages: the loop fills one while the other may be in
+/// the sender's hands; a hand-over waits only if the sender has not yet taken the previous
+/// message, which would mean it is a whole SPaT period behind (its writes never block:
+/// `Qos::NonBlocking`). Nothing here allocates once both messages have their shape.
+class SpatSender {
+ public:
+  explicit SpatSender(const dds::Participant& p)
+      : writer_(p, dds::topics::Spat().name, NonBlocking(dds::topics::Spat().qos)),
+        thread_([this] { Run(); }) {}
+  SpatSender(const SpatSender&) = delete;
+  SpatSender& operator=(const SpatSender&) = delete;
+  ~SpatSender() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+  }
+
+  /// The message to fill next (the sender has neither it nor anything not yet taken).
+  msg::Spat& Next() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return !queued_ && sending_ != fill_; });
+    return buffers_[fill_].get();
+  }
+  /// Hands the message from `Next` to the sender.
+  void Send() {
+    {
+      std::lock_guard lock(mutex_);
+      queued_ = fill_;
+      fill_ ^= 1U;
+    }
+    changed_.notify_all();
+  }
+  /// Waits until the sender has written everything handed over.
+  void WaitIdle() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return !queued_ && !sending_; });
+  }
+  /// Both messages, for reshaping (after `WaitIdle`, from the thread that hands over).
+  std::array<dds::Message<msg::Spat>, 2>& buffers() { return buffers_; }
+  [[nodiscard]] std::uint64_t failures() const { return failures_.load(); }
+
+ private:
+  void Run() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      changed_.wait(lock, [&] { return stop_ || queued_.has_value(); });
+      if (!queued_) return;  // stopping, and everything handed over is written
+      sending_ = queued_;
+      queued_.reset();
+      lock.unlock();
+      changed_.notify_all();  // a hand-over may be waiting for the queue to empty
+      try {
+        writer_.Write(buffers_[*sending_].get());
+      } catch (const DdsError& e) {
+        LogWriteFailure(writer_.topic_name(), ++failures_, e);
+      }
+      lock.lock();
+      sending_.reset();
+      changed_.notify_all();
+    }
+  }
+
+  dds::Writer<msg::Spat> writer_;
+  std::array<dds::Message<msg::Spat>, 2> buffers_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::size_t fill_ = 0;                // the loop's message (guarded by mutex_)
+  std::optional<std::size_t> queued_;   // handed over, not yet taken
+  std::optional<std::size_t> sending_;  // being written by the sender
+  bool stop_ = false;
+  std::atomic<std::uint64_t> failures_{0};
+  std::thread thread_;  // last: starts once everything above exists
+};
 
 std::string_view ToString(ReplyCode code) {
   switch (code) {
@@ -168,7 +256,6 @@ MapMessages BuildMapMessages(const City& city, std::uint32_t revision) {
 ScmPublishers::ScmPublishers(const dds::Participant& p, std::string city, std::uint64_t session)
     : city_(std::move(city)),
       session_(session),
-      spat_writer_(p, dds::topics::Spat().name, NonBlocking(dds::topics::Spat().qos)),
       map_writer_(p, dds::topics::Map().name, NonBlocking(dds::topics::Map().qos)),
       signs_writer_(p, dds::topics::Signs().name, NonBlocking(dds::topics::Signs().qos)),
       fleet_writer_(p, dds::topics::Fleet().name, NonBlocking(dds::topics::Fleet().qos)),
@@ -180,7 +267,8 @@ ScmPublishers::ScmPublishers(const dds::Participant& p, std::string city, std::u
       reply_writer_(p, dds::topics::OperatorReplies().name,
                     NonBlocking(dds::topics::OperatorReplies().qos)),
       device_command_writer_(p, dds::topics::DeviceCommands().name,
-                             NonBlocking(dds::topics::DeviceCommands().qos)) {
+                             NonBlocking(dds::topics::DeviceCommands().qos)),
+      spat_(std::make_unique<SpatSender>(p)) {
   dds::SetString(heartbeat_->sender, "scm");
   dds::SetString(heartbeat_->city, city_);
   heartbeat_->session_id = session_;
@@ -192,50 +280,73 @@ bool ScmPublishers::TryWrite(dds::Writer<T>& writer, const T& sample) {
     writer.Write(sample);
     return true;
   } catch (const DdsError& e) {
-    ++counters_.write_failures;
-    if (counters_.write_failures <= 5 || counters_.write_failures % 100 == 0) {
-      spdlog::error("writing {} failed ({} failures so far): {}", writer.topic_name(),
-                    counters_.write_failures, e.what());
-    }
+    LogWriteFailure(writer.topic_name(), ++counters_.write_failures, e);
     return false;
   }
+}
+
+ScmPublishers::~ScmPublishers() = default;
+
+PublisherCounters ScmPublishers::counters() const {
+  PublisherCounters c = counters_;
+  c.write_failures += spat_->failures();
+  return c;
 }
 
 void ScmPublishers::Reset(const CityRuntime& runtime, std::string city) {
   city_ = std::move(city);
   dds::UpdateString(heartbeat_->city, city_);
-  spat_.Clear();
-  dds::SetString(spat_->header.frame_id, "map");
-  dds::SetString(spat_->city, city_);
+  spat_->WaitIdle();
   const auto& xs = runtime.intersections();
-  dds::SetLengthKeepingCapacity(spat_->intersections, static_cast<std::uint32_t>(xs.size()));
   std::size_t max_groups = 0;
-  for (std::size_t i = 0; i < xs.size(); ++i) {
-    auto& s = dds::Elements(spat_->intersections)[i];
-    s.intersection_id = xs[i].model->id.value();
-    dds::SetString(s.name, xs[i].model->name);
-    const auto n = static_cast<std::uint32_t>(xs[i].model->groups.size());
-    dds::SetLengthKeepingCapacity(s.signal_groups, n);
-    for (std::uint32_t g = 0; g < n; ++g) {
-      dds::Elements(s.signal_groups)[g].signal_group = xs[i].model->groups[g].id.value();
+  for (auto& spat : spat_->buffers()) {
+    spat.Clear();
+    dds::SetString(spat->header.frame_id, "map");
+    dds::SetString(spat->city, city_);
+    dds::SetLengthKeepingCapacity(spat->intersections, static_cast<std::uint32_t>(xs.size()));
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      auto& s = dds::Elements(spat->intersections)[i];
+      s.intersection_id = xs[i].model->id.value();
+      dds::SetString(s.name, xs[i].model->name);
+      const auto n = static_cast<std::uint32_t>(xs[i].model->groups.size());
+      dds::SetLengthKeepingCapacity(s.signal_groups, n);
+      for (std::uint32_t g = 0; g < n; ++g) {
+        dds::Elements(s.signal_groups)[g].signal_group = xs[i].model->groups[g].id.value();
+      }
+      max_groups = std::max<std::size_t>(max_groups, n);
     }
-    max_groups = std::max<std::size_t>(max_groups, n);
   }
   signals_.reserve(max_groups);
 }
 
 void ScmPublishers::PublishSpat(const CityRuntime& runtime, const ClockReading& now) {
-  spat_->header.stamp = dds::ToMsg(now.wire);
+  StartSpat(now);
+  while (!FillSpat(runtime, runtime.intersections().size())) {
+  }
+  SendSpat();
+}
+
+void ScmPublishers::StartSpat(const ClockReading& now) {
+  spat_fill_ = &spat_->Next();
+  spat_now_ = now;
+  spat_filled_ = 0;
+  spat_fill_->header.stamp = dds::ToMsg(now.wire);
+}
+
+bool ScmPublishers::FillSpat(const CityRuntime& runtime, std::size_t count) {
+  AUTODRIVE_CHECK(spat_fill_ != nullptr, "FillSpat before StartSpat");
+  const ClockReading& now = spat_now_;
   const auto& xs = runtime.intersections();
-  auto states = dds::Elements(spat_->intersections);
+  auto states = dds::Elements(spat_fill_->intersections);
   AUTODRIVE_CHECK(states.size() == xs.size(), "SPaT not reset for this city");
-  for (std::size_t i = 0; i < xs.size(); ++i) {
+  const std::size_t end = std::min(xs.size(), spat_filled_ + count);
+  for (std::size_t i = spat_filled_; i < end; ++i) {
     const auto& x = xs[i];
     const IntersectionController& c = *x.controller;
     auto& s = states[i];
     s.revision = x.revision;
     s.status = StatusBits(c);
-    s.timestamp = spat_->header.stamp;
+    s.timestamp = spat_fill_->header.stamp;
     dds::UpdateString(s.plan, c.plan().name);
     c.SignalsInto(now.mono, signals_);
     auto groups = dds::Elements(s.signal_groups);
@@ -253,7 +364,15 @@ void ScmPublishers::PublishSpat(const CityRuntime& runtime, const ClockReading& 
       o.next_time = sig.next_green ? dds::ToMsg(now.ToWire(*sig.next_green)) : msg::Time{};
     }
   }
-  if (TryWrite(spat_writer_, spat_.get())) ++counters_.spat;
+  spat_filled_ = end;
+  return end == xs.size();
+}
+
+void ScmPublishers::SendSpat() {
+  AUTODRIVE_CHECK(spat_fill_ != nullptr, "SendSpat before StartSpat");
+  spat_->Send();
+  spat_fill_ = nullptr;
+  ++counters_.spat;
 }
 
 void ScmPublishers::PublishFleet(const FleetRegistry& fleet, Time now) {

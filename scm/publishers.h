@@ -50,23 +50,39 @@ struct MapMessages {
 
 /// Publication counters.
 struct PublisherCounters {
-  std::uint64_t spat = 0;
+  std::uint64_t spat = 0;            ///< SPaT messages handed to the SPaT sender
   std::uint64_t write_failures = 0;  ///< writes Cyclone refused (not sent; counted and logged)
 };
 
-/// The SCM's writers (all but the lights'). Single-threaded (the loop's). Not copyable.
+class SpatSender;
+
+/// The SCM's writers (all but the lights'). Called from the loop only. SPaT, the one big
+/// message (about 200 kB for 1,024 intersections), is filled on the loop and written by a
+/// sender thread of its own, so that its serialisation and sends do not hold up requests
+/// waiting behind the loop. Not copyable.
 class ScmPublishers {
  public:
   /// `city` and `session` go into heartbeats and device commands.
   ScmPublishers(const dds::Participant& participant, std::string city, std::uint64_t session);
   ScmPublishers(const ScmPublishers&) = delete;
   ScmPublishers& operator=(const ScmPublishers&) = delete;
+  /// Sends the SPaT handed over last, then stops the sender.
+  ~ScmPublishers();
 
   /// Rebuilds the SPaT message's shape for `runtime` (after a configuration swap).
   void Reset(const CityRuntime& runtime, std::string city);
   /// SPaT of every intersection at `now`: each group's state and its times on the wire through
-  /// `now.ToWire`, so every time of one message shares one mapping.
+  /// `now.ToWire`, so every time of one message shares one mapping. The message is filled here
+  /// and written by the sender thread.
   void PublishSpat(const CityRuntime& runtime, const ClockReading& now);
+  /// The same in slices, so that the loop can look for waiting requests between them:
+  /// `StartSpat`, then `FillSpat` until it returns true, then `SendSpat`. A message left unsent
+  /// is begun again from scratch by the next `StartSpat` (nothing half-filled is ever sent).
+  void StartSpat(const ClockReading& now);
+  /// Fills up to `count` more intersections of the message begun by `StartSpat`, at its
+  /// reading; true once every intersection is filled.
+  bool FillSpat(const CityRuntime& runtime, std::size_t count);
+  void SendSpat();
   void PublishFleet(const FleetRegistry& fleet, Time now);
   void PublishHeartbeat(Time now, ScmState state);
   void PublishEvent(const Event& event, Time now, std::uint64_t event_id);
@@ -83,7 +99,7 @@ class ScmPublishers {
   std::optional<std::uint64_t> ResetMonitor(const IntersectionModel& x, std::string_view issued_by,
                                             std::uint64_t request_id, Time now);
 
-  [[nodiscard]] const PublisherCounters& counters() const { return counters_; }
+  [[nodiscard]] PublisherCounters counters() const;
   [[nodiscard]] std::uint64_t session() const { return session_; }
 
  private:
@@ -94,7 +110,6 @@ class ScmPublishers {
   std::uint64_t session_;
   std::uint64_t heartbeat_seq_ = 0;
   std::uint64_t device_command_id_ = 0;
-  dds::Writer<msg::Spat> spat_writer_;
   dds::Writer<msg::MapData> map_writer_;
   dds::Writer<msg::SignRegistry> signs_writer_;
   dds::Writer<msg::FleetState> fleet_writer_;
@@ -103,7 +118,10 @@ class ScmPublishers {
   dds::Writer<msg::SignalRequestStatus> request_status_writer_;
   dds::Writer<msg::OperatorReply> reply_writer_;
   dds::Writer<msg::DeviceCommand> device_command_writer_;
-  dds::Message<msg::Spat> spat_;
+  std::unique_ptr<SpatSender> spat_;
+  msg::Spat* spat_fill_ = nullptr;  // the message begun by StartSpat, not yet sent
+  ClockReading spat_now_;
+  std::size_t spat_filled_ = 0;
   std::vector<GroupSignal> signals_;
   FleetStateMessage fleet_;
   dds::Message<msg::Heartbeat> heartbeat_;

@@ -40,6 +40,8 @@ class ReaderBase {
 
   /// Blocks until data is available or `timeout` passes (steady clock). True when data is.
   bool WaitForData(std::chrono::steady_clock::duration timeout);
+  /// Whether a sample is waiting (valid or lifecycle-only), without taking it. Never blocks.
+  [[nodiscard]] bool HasSamples() const;
   /// Calls `callback` from a Cyclone thread whenever data arrives. Exceptions it throws are
   /// logged and counted, never propagated into Cyclone. Replaces any earlier callback; an
   /// empty function removes it.
@@ -109,6 +111,8 @@ class Reader {
   bool WaitForData(std::chrono::steady_clock::duration timeout) {
     return base_.WaitForData(timeout);
   }
+  /// Whether a sample is waiting (it may be lifecycle-only), without taking it. Never blocks.
+  [[nodiscard]] bool HasSamples() const { return base_.HasSamples(); }
   /// Listener delivery: `callback(*this)` runs on a Cyclone thread when data arrives; it
   /// should take the samples. Exceptions are logged and counted (`callback_errors`).
   void OnDataAvailable(std::function<void(Reader&)> callback) {

@@ -132,6 +132,10 @@ bool ReaderBase::WaitForData(std::chrono::steady_clock::duration timeout) {
   return n > 0;
 }
 
+bool ReaderBase::HasSamples() const {
+  return ThrowIfError(dds_triggered(read_condition_.handle()), "dds_triggered") > 0;
+}
+
 bool ReaderBase::TakeInto(void* sample, SampleInfo* info) {
   void* buffer[1] = {sample};
   dds_sample_info_t dds_info;

@@ -2,13 +2,17 @@
 //  1. SPaT for a grid city of N x N signalised intersections (default 32 x 32 = 1024) at 10 Hz:
 //     the daemon's CPU per second of wall time, and the jitter of its SPaT ticks (stamp
 //     intervals against 100 ms) and of their arrival at a subscriber.
-//  2. Request to reply: `status` from an operator client to its reply, p50 and p99.
+//  2. Request to reply: `intersections` and `status` from an operator client to its reply, p50
+//     and p99; SPaT goes meanwhile to a subscriber in a process of its own (as to a dashboard),
+//     and is measured once more with the client's own process subscribed to SPaT as well (its
+//     DDS receive thread then also takes the 200 kB SPaT samples, ten a second).
 //  3. Command to lamp: `advance` in manual mode to the light's `signal_<i>/state` showing yellow,
 //     through autodrive-scm and autodrive-infra, p50 and p99.
 //  4. A flood: 10 clients sending 200 operator requests per second each (2,000/s) while the
 //     grid city runs: SPaT's rate and jitter meanwhile, and how many requests were answered,
 //     refused or left unanswered.
 //  5. The DDS round trip of the same run (autodrive-bench-dds-latency), for reference.
+#include <poll.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -94,28 +98,66 @@ struct SpatWatch {
   }
 };
 
-void SpatAndFloodBenchmark(int n, double seconds, int clients, double rate,
+/// `--spat-subscriber`: takes SPaT in a process of its own until its stdin closes, then prints
+/// how many messages it took.
+int SpatSubscriber(const std::string& partition) {
+  dds::Participant participant(dds::ParticipantOptions{{}, partition, {}});
+  dds::Reader<msg::Spat> spat(participant, dds::topics::Spat().name, dds::Qos::Stream(64));
+  std::size_t taken = 0;
+  for (;;) {
+    spat.WaitForData(milliseconds(50));
+    taken += spat.TakeAll().size();
+    pollfd in{STDIN_FILENO, POLLIN, 0};
+    if (::poll(&in, 1, 0) > 0) {
+      char buffer[64];
+      if (::read(STDIN_FILENO, buffer, sizeof buffer) <= 0) break;
+    }
+  }
+  std::printf("%zu\n", taken);
+  return 0;
+}
+
+/// `intersections` and `status`, `requests` of each, 7 ms apart; p50 and p99 of request to reply.
+void RequestToReply(dds::Participant& participant, const char* label, int requests) {
+  scm::OperatorClient client(participant, "bench_latency", std::string("bench"));
+  client.WaitForScm(std::chrono::seconds(10));
+  for (const char* command : {"intersections", "status"}) {
+    std::vector<double> ms;
+    for (int i = 0; i < requests; ++i) {
+      const auto t0 = Steady::now();
+      const auto a = client.Call(command, {}, std::chrono::seconds(5));
+      if (a) ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
+      std::this_thread::sleep_for(milliseconds(7));
+    }
+    std::printf("   %s, %s: p50 %.2f ms, p99 %.2f ms (%zu requests)\n", command, label,
+                Percentile(ms, 0.5), Percentile(ms, 0.99), ms.size());
+  }
+}
+
+void SpatAndFloodBenchmark(int n, double seconds, int requests, int clients, double rate,
                            const std::string& partition, const fs::path& dir) {
   std::printf("== SPaT of a %d x %d grid city (%d signalised intersections), 10 Hz\n", n, n, n * n);
   std::fflush(stdout);
   const fs::path city = WriteGridCity(n, dir);
   dds::Participant participant(dds::ParticipantOptions{{}, partition, {}});
-  dds::Reader<msg::Spat> spat(participant, dds::topics::Spat().name, dds::Qos::Stream(64));
+  std::optional<dds::Reader<msg::Spat>> spat_reader;
+  spat_reader.emplace(participant, dds::topics::Spat().name, dds::Qos::Stream(64));
+  ChildProcess subscriber({Bin("autodrive-bench-scm"), "--spat-subscriber", partition});
   ChildProcess scm({Bin("autodrive-scm"), "--config", city.string(), "--partition", partition,
                     "--db", (dir / "grid.db").string(), "--log-level", "error"});
-  if (!spat.WaitForData(std::chrono::seconds(120))) {
+  if (!spat_reader->WaitForData(std::chrono::seconds(120))) {
     std::printf("   no SPaT within 120 s\n");
     return;
   }
   std::this_thread::sleep_for(std::chrono::seconds(2));  // settle (not a test: a benchmark)
-  (void)spat.TakeAll();
+  (void)spat_reader->TakeAll();
   {
     SpatWatch watch;
     const double cpu0 = CpuSeconds(scm.pid());
     const auto t0 = Steady::now();
     while (Steady::now() - t0 < std::chrono::duration<double>(seconds)) {
-      spat.WaitForData(milliseconds(20));
-      watch.Take(spat);
+      spat_reader->WaitForData(milliseconds(20));
+      watch.Take(*spat_reader);
     }
     const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
     const double cpu = CpuSeconds(scm.pid()) - cpu0;
@@ -125,29 +167,12 @@ void SpatAndFloodBenchmark(int n, double seconds, int clients, double rate,
   }
 
   // Request to reply, with the grid city running.
-  std::printf("== request -> reply: scmctl-like status requests to the grid city's SCM\n");
-  {
-    scm::OperatorClient client(participant, "bench_latency", std::string("bench"));
-    client.WaitForScm(std::chrono::seconds(10));
-    std::vector<double> ms;
-    for (int i = 0; i < 300; ++i) {
-      const auto t0 = Steady::now();
-      const auto a = client.Call("intersections", {}, std::chrono::seconds(5));
-      if (a) ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
-      std::this_thread::sleep_for(milliseconds(7));
-    }
-    std::printf("   %zu requests: p50 %.2f ms, p99 %.2f ms (1024-line answers)\n", ms.size(),
-                Percentile(ms, 0.5), Percentile(ms, 0.99));
-    ms.clear();
-    for (int i = 0; i < 300; ++i) {
-      const auto t0 = Steady::now();
-      const auto a = client.Call("status", {}, std::chrono::seconds(5));
-      if (a) ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
-      std::this_thread::sleep_for(milliseconds(7));
-    }
-    std::printf("   status: p50 %.2f ms, p99 %.2f ms (%zu requests)\n", Percentile(ms, 0.5),
-                Percentile(ms, 0.99), ms.size());
-  }
+  std::printf("== request -> reply: scmctl-like requests to the grid city's SCM\n");
+  RequestToReply(participant, "client's process also subscribed to SPaT", requests);
+  spat_reader.reset();
+  RequestToReply(participant, "SPaT to another process only", requests);
+  spat_reader.emplace(participant, dds::topics::Spat().name, dds::Qos::Stream(64));
+  (void)spat_reader->WaitForData(std::chrono::seconds(10));
 
   // The flood.
   std::printf("== flood: %d clients x %.0f operator requests/s while the grid city runs\n", clients,
@@ -205,11 +230,11 @@ void SpatAndFloodBenchmark(int n, double seconds, int clients, double rate,
       });
     }
     SpatWatch watch;
-    (void)spat.TakeAll();
+    (void)spat_reader->TakeAll();
     const double cpu0 = CpuSeconds(scm.pid());
     while (Steady::now() - t0 < flood_for) {
-      spat.WaitForData(milliseconds(20));
-      watch.Take(spat);
+      spat_reader->WaitForData(milliseconds(20));
+      watch.Take(*spat_reader);
     }
     for (auto& t : senders) t.join();
     const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
@@ -232,6 +257,11 @@ void SpatAndFloodBenchmark(int n, double seconds, int clients, double rate,
     std::printf("   autodrive-scm CPU during the flood: %.1f%% of one core\n", 100.0 * cpu / wall);
   }
   scm.Stop();
+  subscriber.CloseStdin();
+  if (auto taken = subscriber.ReadLine(milliseconds(5000))) {
+    std::printf("   the separate SPaT subscriber took %s SPaT messages\n", taken->c_str());
+  }
+  subscriber.Stop();
 }
 
 void LampLatencyBenchmark(int samples, const std::string& partition, const fs::path& dir) {
@@ -319,22 +349,30 @@ int main(int argc, char** argv) {
   int n = 32;
   double seconds = 20.0;
   int samples = 50;
+  int requests = 1000;
   int clients = 10;
   double rate = 200.0;
   bool skip_lamp = false;
+  std::string spat_subscriber;
   app.add_option("--grid", n, "grid city size N (N x N intersections)")->capture_default_str();
   app.add_option("--seconds", seconds, "how long to measure SPaT and the flood")
+      ->capture_default_str();
+  app.add_option("--requests", requests, "request-to-reply samples per command")
       ->capture_default_str();
   app.add_option("--samples", samples, "command-to-lamp samples")->capture_default_str();
   app.add_option("--clients", clients, "flood clients")->capture_default_str();
   app.add_option("--rate", rate, "requests per second per flood client")->capture_default_str();
   app.add_flag("--skip-lamp", skip_lamp, "skip the command-to-lamp measurement");
+  app.add_option("--spat-subscriber", spat_subscriber,
+                 "internal: take SPaT on this partition until stdin closes")
+      ->group("");
   CLI11_PARSE(app, argc, argv);
+  if (!spat_subscriber.empty()) return SpatSubscriber(spat_subscriber);
   const std::string partition = "bench_scm_" + std::to_string(::getpid());
   const fs::path dir = fs::temp_directory_path() / partition;
   fs::create_directories(dir);
   try {
-    SpatAndFloodBenchmark(n, seconds, clients, rate, partition + "_spat", dir);
+    SpatAndFloodBenchmark(n, seconds, requests, clients, rate, partition + "_spat", dir);
     if (!skip_lamp) LampLatencyBenchmark(samples, partition + "_lamp", dir);
     std::printf("== DDS round trip in the same run (autodrive-bench-dds-latency)\n");
     std::fflush(stdout);
