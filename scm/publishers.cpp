@@ -319,13 +319,6 @@ void ScmPublishers::Reset(const CityRuntime& runtime, std::string city) {
   signals_.reserve(max_groups);
 }
 
-void ScmPublishers::PublishSpat(const CityRuntime& runtime, const ClockReading& now) {
-  StartSpat(now);
-  while (!FillSpat(runtime, runtime.intersections().size())) {
-  }
-  SendSpat();
-}
-
 void ScmPublishers::StartSpat(const ClockReading& now) {
   spat_fill_ = &spat_->Next();
   spat_now_ = now;

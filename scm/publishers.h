@@ -72,12 +72,11 @@ class ScmPublishers {
   /// Rebuilds the SPaT message's shape for `runtime` (after a configuration swap).
   void Reset(const CityRuntime& runtime, std::string city);
   /// SPaT of every intersection at `now`: each group's state and its times on the wire through
-  /// `now.ToWire`, so every time of one message shares one mapping. The message is filled here
-  /// and written by the sender thread.
-  void PublishSpat(const CityRuntime& runtime, const ClockReading& now);
-  /// The same in slices, so that the loop can look for waiting requests between them:
-  /// `StartSpat`, then `FillSpat` until it returns true, then `SendSpat`. A message left unsent
-  /// is begun again from scratch by the next `StartSpat` (nothing half-filled is ever sent).
+  /// `now.ToWire`, so every time of one message shares one mapping. Filled on the loop in
+  /// slices, so that it can look for waiting requests between them: `StartSpat`, then
+  /// `FillSpat` until it returns true, then `SendSpat`, which hands the message to the sender
+  /// thread. A message left unsent is begun again from scratch by the next `StartSpat`
+  /// (nothing half-filled is ever sent).
   void StartSpat(const ClockReading& now);
   /// Fills up to `count` more intersections of the message begun by `StartSpat`, at its
   /// reading; true once every intersection is filled.
