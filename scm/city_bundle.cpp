@@ -12,6 +12,7 @@ SupervisionParams SupervisionParamsOf(const City& city) {
 }
 
 CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& participant,
+                       SignalCommandWriters& writers,
                        std::vector<IntersectionStateRecord> restore_states,
                        std::uint32_t map_revision)
     : restore(std::move(restore_states)) {
@@ -20,7 +21,7 @@ CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& parti
   runtime = std::make_unique<CityRuntime>(std::move(city));
   const City& owned = runtime->city();
   supervisor = std::make_unique<DeviceSupervisor>(*runtime, SupervisionParamsOf(owned));
-  lights = std::make_unique<LightCommander>(participant, *runtime);
+  lights = std::make_unique<LightCommander>(writers, *runtime);
   fleet = std::make_unique<FleetRegistry>(
       owned.map, FleetRegistryParams{owned.fleet_staleness, 0.05, kPi / 3});
   std::vector<VehicleId> vehicles;

@@ -24,10 +24,12 @@ namespace autodrive::scm {
 /// city go before it. Not copyable or movable.
 class CityBundle {
  public:
-  /// Builds everything for `city` (creating its DDS writers and readers in `participant`).
-  /// `restore`: the operator states to start the intersections with. Slow for a big city.
+  /// Builds everything for `city`: its readers in `participant`, its lights' writers from
+  /// `writers` (shared with the city it replaces). `restore`: the operator states to start the
+  /// intersections with. Slow for a big city.
   CityBundle(std::unique_ptr<City> city, const dds::Participant& participant,
-             std::vector<IntersectionStateRecord> restore, std::uint32_t map_revision);
+             SignalCommandWriters& writers, std::vector<IntersectionStateRecord> restore,
+             std::uint32_t map_revision);
   CityBundle(const CityBundle&) = delete;
   CityBundle& operator=(const CityBundle&) = delete;
   ~CityBundle();

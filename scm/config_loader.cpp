@@ -7,9 +7,10 @@
 
 namespace autodrive::scm {
 
-ConfigLoader::ConfigLoader(const dds::Participant& participant, Store& store,
-                           MapResolution resolution, std::function<void()> wake)
+ConfigLoader::ConfigLoader(const dds::Participant& participant, SignalCommandWriters& writers,
+                           Store& store, MapResolution resolution, std::function<void()> wake)
     : participant_(participant),
+      writers_(writers),
       store_(store),
       resolution_(std::move(resolution)),
       wake_(std::move(wake)) {
@@ -97,7 +98,7 @@ void ConfigLoader::Build(std::string yaml, std::string label, std::uint32_t revi
     std::string error;
     try {
       auto city = Load(yaml, label);
-      bundle = std::make_unique<CityBundle>(std::move(city), participant_,
+      bundle = std::make_unique<CityBundle>(std::move(city), participant_, writers_,
                                             store_.LoadIntersectionStates(), revision);
     } catch (const std::exception& e) {
       error = e.what();

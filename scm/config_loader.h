@@ -28,8 +28,9 @@ class ConfigLoader {
  public:
   /// Where network-supplied city text may find its map: relative to `base_dir`, under `root`.
   /// `wake` is called from the loader's thread when a completion is ready.
-  ConfigLoader(const dds::Participant& participant, Store& store, MapResolution resolution,
-               std::function<void()> wake);
+  /// Cities are built on `participant` with `writers` (both must outlive the loader).
+  ConfigLoader(const dds::Participant& participant, SignalCommandWriters& writers, Store& store,
+               MapResolution resolution, std::function<void()> wake);
   ConfigLoader(const ConfigLoader&) = delete;
   ConfigLoader& operator=(const ConfigLoader&) = delete;
   /// Finishes the job under way, drops the rest, stops.
@@ -57,6 +58,7 @@ class ConfigLoader {
   std::unique_ptr<City> Load(const std::string& yaml, const std::string& label) const;
 
   const dds::Participant& participant_;
+  SignalCommandWriters& writers_;
   Store& store_;
   MapResolution resolution_;
   std::function<void()> wake_;

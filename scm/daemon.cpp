@@ -121,6 +121,7 @@ struct Scm::Impl final : EventSink, ConfigService {
 
   dds::LoopWaitSet waitset;
   std::unique_ptr<Persistence> persistence;
+  std::unique_ptr<SignalCommandWriters> signal_writers;  // outlives every city (and the loader)
   std::unique_ptr<ConfigLoader> loader;
   std::unique_ptr<ScmPublishers> publishers;
   std::unique_ptr<ControlPlane> control;
@@ -162,8 +163,9 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
           : std::filesystem::absolute(options.config_path).parent_path().parent_path();
   resolution = MapResolution{std::filesystem::absolute(options.config_path).parent_path(), root};
   persistence = std::make_unique<Persistence>(Store(options.db_path), [this] { waitset.Wake(); });
-  loader = std::make_unique<ConfigLoader>(participant, persistence->store(), resolution,
-                                          [this] { waitset.Wake(); });
+  signal_writers = std::make_unique<SignalCommandWriters>(participant);
+  loader = std::make_unique<ConfigLoader>(participant, *signal_writers, persistence->store(),
+                                          resolution, [this] { waitset.Wake(); });
   auto city = LoadStartupCity();
   figures.config_path = city->config_path.string();
   figures.clock = clock.kind();
@@ -181,8 +183,9 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   current = now;
   clock_session = now.session;
   figures.started = now.mono;
-  auto first = std::make_unique<CityBundle>(
-      std::move(city), participant, persistence->store().LoadIntersectionStates(), ++map_revision);
+  auto first =
+      std::make_unique<CityBundle>(std::move(city), participant, *signal_writers,
+                                   persistence->store().LoadIntersectionStates(), ++map_revision);
   Install(std::move(first), now);
   watchdog = systemd::WatchdogPeriod();
   Emit(Event{Severity::kInfo, "scm_started",

@@ -47,18 +47,19 @@ class OperatorCommandsTest : public ::testing::Test {
       : dir_(std::filesystem::temp_directory_path() /
              fmt::format("scm_commands_{}_{}", ::getpid(),
                          ::testing::UnitTest::GetInstance()->current_test_info()->name())),
-        participant_(dds::ParticipantOptions{{}, dir_.filename().string(), {}}) {
+        participant_(dds::ParticipantOptions{{}, dir_.filename().string(), {}}),
+        writers_(participant_) {
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
     persistence_ = std::make_unique<Persistence>(Store((dir_ / "scm.db").string()), nullptr);
     bundle_ = std::make_unique<CityBundle>(
         std::make_unique<City>(LoadCity(test::SourceDir() / "config/cities/small_town.yaml")),
-        participant_, std::vector<IntersectionStateRecord>{}, 1);
+        participant_, writers_, std::vector<IntersectionStateRecord>{}, 1);
     bundle_->Start(now_.mono);
     publishers_ = std::make_unique<ScmPublishers>(participant_, "small_town", 42);
     publishers_->Reset(*bundle_->runtime, "small_town");
     loader_ = std::make_unique<ConfigLoader>(
-        participant_, persistence_->store(),
+        participant_, writers_, persistence_->store(),
         MapResolution{test::SourceDir() / "config/cities", test::SourceDir() / "config"}, nullptr);
     service_ = std::make_unique<LoaderService>(*loader_);
     control_ = std::make_unique<ControlPlane>(ControlPlaneParams{});
@@ -123,6 +124,7 @@ class OperatorCommandsTest : public ::testing::Test {
 
   std::filesystem::path dir_;
   dds::Participant participant_;
+  SignalCommandWriters writers_;
   ClockReading now_{MonoFromSeconds(1000), TimeFromSeconds(1'795'000'000), 0};
   std::unique_ptr<Persistence> persistence_;
   std::unique_ptr<CityBundle> bundle_;

@@ -455,13 +455,29 @@ std::optional<std::uint64_t> ScmPublishers::ResetMonitor(const IntersectionModel
 
 // --- Lights -----------------------------------------------------------------------------------
 
-LightCommander::LightCommander(const dds::Participant& participant, const CityRuntime& runtime)
+SignalCommandWriters::SignalCommandWriters(const dds::Participant& participant)
+    : participant_(participant) {}
+
+std::shared_ptr<SignalCommandWriters::Writer> SignalCommandWriters::Acquire(SignalHeadId id) {
+  std::lock_guard lock(mutex_);
+  std::weak_ptr<Writer>& slot = writers_[id];
+  if (auto held = slot.lock()) return held;
+  const auto spec = dds::topics::SignalCommand(id);
+  auto writer = std::make_shared<Writer>(participant_, spec.name, spec.qos.NonBlocking());
+  slot = writer;
+  ++created_;
+  return writer;
+}
+
+std::size_t SignalCommandWriters::created() const {
+  std::lock_guard lock(mutex_);
+  return created_;
+}
+
+LightCommander::LightCommander(SignalCommandWriters& writers, const CityRuntime& runtime)
     : sent_(runtime.heads().size()) {
-  for (const HeadSlot& h : runtime.heads()) {
-    const auto spec = dds::topics::SignalCommand(h.id);
-    writers_.push_back(
-        std::make_unique<dds::Writer<msg::Int32>>(participant, spec.name, spec.qos.NonBlocking()));
-  }
+  writers_.reserve(runtime.heads().size());
+  for (const HeadSlot& h : runtime.heads()) writers_.push_back(writers.Acquire(h.id));
 }
 
 void LightCommander::Forget() {

@@ -88,6 +88,13 @@ class SpatChecker {
     std::sort(v.begin(), v.end());
     return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
   }
+  /// The mean SPaT interval, in seconds: the period when none was skipped.
+  [[nodiscard]] double MeanInterval() const {
+    if (intervals_.empty()) return 0;
+    double sum = 0;
+    for (double i : intervals_) sum += i;
+    return sum / static_cast<double>(intervals_.size());
+  }
   [[nodiscard]] double MaxInterval() const {
     return intervals_.empty() ? 0 : *std::max_element(intervals_.begin(), intervals_.end());
   }
