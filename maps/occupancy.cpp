@@ -17,6 +17,9 @@ namespace autodrive::maps {
 namespace {
 
 constexpr double kMaxCells = 1e8;
+// Cells are shrunk by this fraction of their edge on each side before the test against an
+// obstacle: contact along a cell's edge, or an overlap thinner than rounding, occupies nothing.
+constexpr double kTouchTolerance = 1e-6;
 
 // The row (or column) whose centre is the first at or above `v`, in cell units from the origin.
 // Only a starting guess: callers test the centres themselves so that neighbouring edges agree.
@@ -71,6 +74,60 @@ void FillRings(const std::vector<const Polyline*>& rings, std::uint8_t value, Oc
       int c = std::max(0, FirstCentreAtOrAbove((xs[k] - g.origin_m.x()) / res) - 1);
       while (c < g.width && centre_x(c) < xs[k]) ++c;
       for (; c < g.width && centre_x(c) < xs[k + 1]; ++c) row[c] = value;
+    }
+  }
+}
+
+// `v` (a cell index as a real number, already rounded) as an index in [-1, n]: values beyond
+// either end (or NaN) are clamped, so that a far-away obstacle gives an empty range.
+int ClampIndex(double v, int n) {
+  if (!(v > -1.0)) return -1;
+  if (!(v < n)) return n;
+  return static_cast<int>(v);
+}
+
+// Sets to `value` every cell whose square, shrunk by `eps` (m) on each side, meets an edge of
+// the closed `ring` (a conservative "supercover" of its boundary). For each row, the edge is
+// clipped to the row's shrunk band of y; the clipped piece is a segment whose x extent is an
+// interval, and the cells whose shrunk x range meets that interval are exactly the cells of
+// the row that the edge touches. Time: the number of cells touched, plus one per edge.
+void MarkEdges(const Polyline& ring, double eps, std::uint8_t value, OccupancyGrid& g) {
+  const double res = g.resolution_m;
+  const double ox = g.origin_m.x();
+  const double oy = g.origin_m.y();
+  const std::size_t n = ring.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& a = ring[i];
+    const Eigen::Vector2d& b = ring[(i + 1) % n];
+    const double y_lo = std::min(a.y(), b.y());
+    const double y_hi = std::max(a.y(), b.y());
+    // Rows whose band [oy + r res + eps, oy + (r + 1) res - eps] meets [y_lo, y_hi].
+    const int r0 = std::max(0, ClampIndex(std::ceil((y_lo - oy + eps) / res - 1), g.height));
+    const int r1 =
+        std::min(g.height - 1, ClampIndex(std::floor((y_hi - oy - eps) / res), g.height));
+    for (int r = r0; r <= r1; ++r) {
+      const double band_lo = std::max(y_lo, oy + r * res + eps);
+      const double band_hi = std::min(y_hi, oy + (r + 1) * res - eps);
+      if (band_lo > band_hi) continue;  // only by rounding at the ends of the range
+      double x_lo = std::min(a.x(), b.x());
+      double x_hi = std::max(a.x(), b.x());
+      if (a.y() != b.y()) {
+        // t along a -> b at the band's ends; x is monotonic in t.
+        const double dy = b.y() - a.y();
+        const double t0 = std::clamp((band_lo - a.y()) / dy, 0.0, 1.0);
+        const double t1 = std::clamp((band_hi - a.y()) / dy, 0.0, 1.0);
+        const double x0 = a.x() + t0 * (b.x() - a.x());
+        const double x1 = a.x() + t1 * (b.x() - a.x());
+        x_lo = std::min(x0, x1);
+        x_hi = std::max(x0, x1);
+      }
+      // Columns whose range [ox + c res + eps, ox + (c + 1) res - eps] meets [x_lo, x_hi].
+      const int c0 = std::max(0, ClampIndex(std::ceil((x_lo - ox + eps) / res - 1), g.width));
+      const int c1 =
+          std::min(g.width - 1, ClampIndex(std::floor((x_hi - ox - eps) / res), g.width));
+      if (c0 > c1) continue;
+      std::uint8_t* row = g.cells.data() + static_cast<std::ptrdiff_t>(r) * g.width;
+      std::fill(row + c0, row + c1 + 1, value);
     }
   }
 }
@@ -150,15 +207,24 @@ OccupancyGrid MakeOccupancyGrid(const Map& map, double resolution_m, bool road_o
   g.cells.assign(static_cast<std::size_t>(g.width) * static_cast<std::size_t>(g.height),
                  road_only ? OccupancyGrid::kOccupied : OccupancyGrid::kFree);
   if (road_only) {
-    // The drivable regions are disjoint, so even-odd over all their rings is their union.
+    // The road side: a cell is free when its centre is on the drivable area. The drivable
+    // regions are disjoint, so even-odd over all their rings is their union.
     std::vector<const Polyline*> rings;
     for (const Region& region : map.drivable) {
       rings.push_back(&region.outer);
       for (const Polyline& hole : region.holes) rings.push_back(&hole);
     }
     FillRings(rings, OccupancyGrid::kFree, g);
-  } else {
-    for (const Obstacle& o : map.obstacles) FillRings({&o.footprint}, OccupancyGrid::kOccupied, g);
+  }
+  // The obstacle side, conservative: a cell the footprint touches is occupied. If no edge of
+  // the footprint meets the (shrunk) cell, the cell is wholly inside or wholly outside the
+  // footprint, and its centre tells which; so edges plus centres give exactly the cells that
+  // the closed footprint meets.
+  const double eps = kTouchTolerance * resolution_m;
+  for (const Obstacle& o : map.obstacles) {
+    if (o.footprint.empty()) continue;
+    FillRings({&o.footprint}, OccupancyGrid::kOccupied, g);
+    MarkEdges(o.footprint, eps, OccupancyGrid::kOccupied, g);
   }
   return g;
 }
