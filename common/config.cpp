@@ -371,6 +371,23 @@ std::string JoinIndex(std::string_view path, std::size_t index) {
   return std::string(path) + "[" + std::to_string(index) + "]";
 }
 
+namespace {
+void SetBlockStyle(YAML::Node node) {
+  if (node.IsMap() || node.IsSequence()) {
+    node.SetStyle(YAML::EmitterStyle::Block);
+    for (auto it = node.begin(); it != node.end(); ++it) {
+      SetBlockStyle(node.IsMap() ? it->second : *it);
+    }
+  }
+}
+}  // namespace
+
+std::string DumpSection(const YAML::Node& node) {
+  YAML::Node copy = YAML::Clone(node);
+  SetBlockStyle(copy);
+  return YAML::Dump(copy);
+}
+
 std::string Quote(std::string_view text) { return "\"" + Escape(text) + "\""; }
 
 std::string Describe(const YAML::Node& node) {

@@ -130,6 +130,14 @@ Predicate(std::string, F) -> Predicate<F>;
 /// Validator for `float` and `double` fields: also accept `.inf`, `-.inf` and `.nan`.
 struct AllowNonFinite {};
 
+/// A field that holds a section belonging to another program, carried without being read: any
+/// YAML value, kept as its YAML text. A city file's `sim:` section is one for the SCM; the
+/// simulator reads it with `LoadFile<SimConfig>(path, "sim")`. Equal when the texts are.
+struct ForeignSection {
+  std::string yaml;  ///< The value as YAML text (yaml-cpp's dump of it).
+  bool operator==(const ForeignSection&) const = default;
+};
+
 namespace internal {
 
 class KeyLister;
@@ -151,6 +159,9 @@ struct Loc {
 [[nodiscard]] std::string Describe(const YAML::Node& node);
 /// A string in double quotes with escapes, shortened if long.
 [[nodiscard]] std::string Quote(std::string_view text);
+/// The YAML text of `node` in one canonical form (block style throughout), so that a
+/// `ForeignSection` reads back equal from the text it was saved as.
+[[nodiscard]] std::string DumpSection(const YAML::Node& node);
 
 /// A key's value in a mapping, and where to report problems with it.
 struct Entry {
@@ -502,7 +513,9 @@ void ReadLeaf(const YAML::Node& node, const Loc& loc, T& value) {
 /// applies the scalar validators to every scalar read.
 template <typename T, typename... V>
 void ReadValue(const YAML::Node& node, const Loc& loc, T& value, const V&... validators) {
-  if constexpr (IsOptional<T>::value) {
+  if constexpr (std::is_same_v<T, ForeignSection>) {
+    value.yaml = DumpSection(node);
+  } else if constexpr (IsOptional<T>::value) {
     if (node.IsNull()) {
       value.reset();
       return;
@@ -562,7 +575,9 @@ void ReadStruct(const YAML::Node& node, const Loc& loc, T& value) {
 /// Writes `value` of any supported type.
 template <typename T>
 void WriteValue(YAML::Emitter& out, const std::string& path, const T& value) {
-  if constexpr (IsOptional<T>::value) {
+  if constexpr (std::is_same_v<T, ForeignSection>) {
+    out << YAML::Load(value.yaml);
+  } else if constexpr (IsOptional<T>::value) {
     if (value) {
       WriteValue(out, path, *value);
     } else {

@@ -1100,5 +1100,46 @@ TEST(ConfigStringTypes, BadTextIsAConfigErrorWithTheElementsLocation) {
             "<test>:3:5: turns[1]: expected left or right, got \"up\"");
 }
 
+// A program's config that carries another program's section without reading it.
+struct CityWithForeignSection {
+  std::string name;
+  std::optional<config::ForeignSection> sim;
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("name", name);
+    a.Optional("sim", sim);
+  }
+  bool operator==(const CityWithForeignSection&) const = default;
+};
+
+struct SimSection {
+  int seed = 0;
+  std::vector<std::string> cars;
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("seed", seed);
+    a.Optional("cars", cars);
+  }
+  bool operator==(const SimSection&) const = default;
+};
+
+TEST(ConfigForeignSection, IsCarriedUnreadAndRoundTripsForItsOwnerToRead) {
+  const std::string yaml = "name: town\nsim:\n  seed: 7\n  cars: [a, b]\n  anything: {x: 1}\n";
+  const auto city = config::LoadString<CityWithForeignSection>(yaml);
+  ASSERT_TRUE(city.sim.has_value());
+  EXPECT_NE(city.sim->yaml.find("anything"), std::string::npos);  // not checked by the carrier
+  const std::string saved = config::SaveString(city);
+  EXPECT_EQ(config::LoadString<CityWithForeignSection>(saved), city);
+  // Its owner reads it strictly, from the original or the saved text alike.
+  for (const std::string& text : {yaml, saved}) {
+    const std::string message = test::ErrorMessage<ConfigError>(
+        [&] { (void)config::LoadString<SimSection>(text, "<city>", "sim"); });
+    EXPECT_NE(message.find("anything"), std::string::npos) << message;
+  }
+  const auto absent = config::LoadString<CityWithForeignSection>("name: town\n");
+  EXPECT_FALSE(absent.sim.has_value());
+  EXPECT_EQ(config::LoadString<SimSection>("name: t\nsim: {seed: 3}\n", "<c>", "sim").seed, 3);
+}
+
 }  // namespace
 }  // namespace autodrive

@@ -333,6 +333,8 @@ struct CityConfig {
   FleetConfig fleet;
   DevicesConfig devices;
   OperatorsConfig operators;
+  /// The simulator's section (vehicle_sim/sim_config.h): carried, not read, by the SCM.
+  std::optional<config::ForeignSection> sim;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -345,6 +347,7 @@ struct CityConfig {
     a.Optional("fleet", fleet);
     a.Optional("devices", devices);
     a.Optional("operators", operators);
+    a.Optional("sim", sim);
   }
   bool operator==(const CityConfig&) const = default;
 };

@@ -92,6 +92,8 @@ std::string_view LeafName(VehicleTopic topic) {
       return "headlights_command";
     case VehicleTopic::kIndicatorsCommand:
       return "indicators_command";
+    case VehicleTopic::kGroundTruth:
+      return "ground_truth";
   }
   AUTODRIVE_CHECK(false, "unknown VehicleTopic " << static_cast<int>(topic));
 }
@@ -134,6 +136,9 @@ TopicSpec<msg::Int32> HeadlightsCommand(VehicleId v) {
 }
 TopicSpec<msg::Int32> IndicatorsCommand(VehicleId v) {
   return {Vehicle(v, VehicleTopic::kIndicatorsCommand), Qos::Stream()};
+}
+TopicSpec<msg::TrackedVehicle> GroundTruth(VehicleId v) {
+  return {Vehicle(v, VehicleTopic::kGroundTruth), Qos::Stream()};
 }
 
 TopicSpec<msg::Int32> SignalCommand(SignalHeadId s) {

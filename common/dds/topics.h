@@ -43,6 +43,7 @@ enum class VehicleTopic {
   kSteeringCommand,    ///< std_msgs/Float32, subscribed, normalised [-1, 1], + = left
   kHeadlightsCommand,  ///< std_msgs/Int32, subscribed: 0 off, 1 low, 2 high
   kIndicatorsCommand,  ///< std_msgs/Int32, subscribed: 0 off, 1 left, 2 right, 3 hazard
+  kGroundTruth,        ///< autodrive_msgs/TrackedVehicle, published by the simulator only
 };
 /// The devkit leaf name, e.g. "throttle_command".
 [[nodiscard]] std::string_view LeafName(VehicleTopic topic);
@@ -64,6 +65,9 @@ TopicSpec<msg::Float32> ThrottleCommand(VehicleId v);
 TopicSpec<msg::Float32> SteeringCommand(VehicleId v);
 TopicSpec<msg::Int32> HeadlightsCommand(VehicleId v);
 TopicSpec<msg::Int32> IndicatorsCommand(VehicleId v);
+/// The simulator's ground truth of a car (`/autodrive/nigel_<n>/ground_truth`): pose, twist,
+/// source SIM_GROUND_TRUTH. Not a devkit topic: the real car has none. Stream.
+TopicSpec<msg::TrackedVehicle> GroundTruth(VehicleId v);
 
 // --- Traffic lights (AutoDRIVE devkit), /autodrive/signal_<i>/... --------------------------
 /// What the light must show (0 off, 1 red, 2 yellow, 3 green). Latched, so that a light that

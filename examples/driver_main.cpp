@@ -1,0 +1,175 @@
+// autodrive-example-driver: drives every car of a city along its lanes over DDS, as user code on
+// the real cars would: from each car's devkit topics (ips, imu, lidar) and the lights' states
+// (signal_<i>/state) to its throttle and steering commands. See examples/README.md.
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "common/dds/messages.h"
+#include "common/dds/participant.h"
+#include "common/dds/reader.h"
+#include "common/dds/security_cli.h"
+#include "common/dds/topics.h"
+#include "common/dds/writer.h"
+#include "common/geometry.h"
+#include "common/logging.h"
+#include "common/shutdown.h"
+#include "examples/lane_driver.h"
+#include "maps/map_io.h"
+#include "vehicle_sim/sim_config.h"
+
+namespace {
+
+using namespace autodrive;
+namespace topics = dds::topics;
+
+struct Car {
+  Car(const dds::Participant& p, VehicleId id, const maps::Map& map,
+      const examples::DriverOptions& options)
+      : name(VehicleName(id)),
+        driver(map, options),
+        ips(p, topics::Ips(id)),
+        imu(p, topics::Imu(id)),
+        lidar(p, topics::Lidar(id)),
+        throttle(p, topics::ThrottleCommand(id)),
+        steering(p, topics::SteeringCommand(id)) {}
+  std::string name;
+  examples::LaneDriver driver;
+  dds::Reader<msg::Point> ips;
+  dds::Reader<msg::Imu> imu;
+  dds::Reader<msg::LaserScan> lidar;
+  dds::Writer<msg::Float32> throttle, steering;
+  std::optional<Eigen::Vector2d> position;
+  std::optional<double> yaw;
+  std::vector<float> scan;
+  examples::DriverDecision::Reason reason = examples::DriverDecision::Reason::kLost;
+};
+
+const char* ToString(examples::DriverDecision::Reason r) {
+  switch (r) {
+    case examples::DriverDecision::Reason::kCruise:
+      return "driving";
+    case examples::DriverDecision::Reason::kRedLight:
+      return "stopping at a red light";
+    case examples::DriverDecision::Reason::kStopSign:
+      return "stopping at a stop sign";
+    case examples::DriverDecision::Reason::kObstacle:
+      return "stopping for something ahead";
+    case examples::DriverDecision::Reason::kLost:
+      return "off the lanes";
+  }
+  return "?";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "autodrive-example-driver: drives every car of a city's sim section along its lanes over "
+      "DDS (the devkit topics), stopping at red lights, at stop signs and for what its LIDAR "
+      "sees ahead. Runs until SIGINT or SIGTERM."};
+  std::string city_path;
+  std::string partition;
+  std::string log_level = "info";
+  double rate_hz = 20.0;
+  double throttle = 0.6;
+  std::uint64_t seed = 1;
+  app.add_option("--city", city_path, "city file (its map and the cars of its sim section)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--partition", partition, "DDS partition");
+  app.add_option("--rate-hz", rate_hz, "decisions per second")
+      ->check(CLI::Range(1.0, 200.0))
+      ->capture_default_str();
+  app.add_option("--throttle", throttle, "cruising throttle (normalised)")
+      ->check(CLI::Range(0.05, 1.0))
+      ->capture_default_str();
+  app.add_option("--seed", seed, "seed of the route choices")->capture_default_str();
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
+      ->capture_default_str();
+  auto security = dds::SecurityOptions::FromEnvironment();
+  dds::AddSecurityOptions(app, security);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    InitLogging("autodrive-example-driver", ParseLogLevel(log_level));
+    const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
+    const maps::Map map = maps::LoadMapOrLayout(city.map_path);
+    std::atomic<bool> stop{false};
+    ShutdownSignals signals([&](int) { stop.store(true); });
+    dds::ParticipantOptions participant_options;
+    participant_options.partition = partition;
+    if (security.enclave.empty()) security.enclave = "/autodrive/example_driver";
+    participant_options.security = security;
+    dds::Participant participant(participant_options);
+
+    std::vector<std::unique_ptr<Car>> cars;
+    for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
+      examples::DriverOptions options;
+      options.cruise_throttle = throttle;
+      options.seed = seed + i;
+      const vehicle_sim::VehicleParams& p = city.sim.vehicles[i].params;
+      options.wheelbase_m = p.wheelbase_m;
+      options.steering_limit_rad = p.steering_limit_rad;
+      options.front_overhang_m = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
+      cars.push_back(std::make_unique<Car>(participant, ParseVehicleName(city.sim.vehicles[i].name),
+                                           map, options));
+    }
+    std::map<SignalHeadId, std::unique_ptr<dds::Reader<msg::Int32>>> lamp_readers;
+    std::map<SignalHeadId, std::int32_t> lamps;
+    for (const auto& h : map.signal_heads) {
+      lamp_readers.emplace(
+          h.id, std::make_unique<dds::Reader<msg::Int32>>(participant, topics::SignalState(h.id)));
+    }
+    spdlog::info("driving {} cars on map {}", cars.size(), map.name);
+    const auto start = std::chrono::steady_clock::now();
+    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(1.0 / rate_hz));
+    auto next = start;
+    while (!stop.load()) {
+      for (auto& [id, reader] : lamp_readers) {
+        while (auto m = reader->TakeOne()) lamps[id] = (*m)->data;
+      }
+      const Duration now = std::chrono::steady_clock::now() - start;
+      for (auto& car : cars) {
+        while (auto m = car->ips.TakeOne()) car->position = Eigen::Vector2d((*m)->x, (*m)->y);
+        while (auto m = car->imu.TakeOne()) {
+          const auto& q = (*m)->orientation;
+          car->yaw = YawFromQuaternion(Eigen::Quaterniond(q.w, q.x, q.y, q.z));
+        }
+        while (auto m = car->lidar.TakeOne()) {
+          const auto& r = (*m)->ranges;
+          car->scan.assign(r._buffer, r._buffer + r._length);
+        }
+        if (!car->position || !car->yaw) continue;
+        const auto decision = car->driver.Step(
+            RigidTransform2::FromXyYaw(car->position->x(), car->position->y(), *car->yaw),
+            [&](SignalHeadId h) -> std::optional<std::int32_t> {
+              const auto it = lamps.find(h);
+              if (it == lamps.end()) return std::nullopt;
+              return it->second;
+            },
+            car->scan, now);
+        car->throttle.Write(msg::Float32{static_cast<float>(decision.throttle)});
+        car->steering.Write(msg::Float32{static_cast<float>(decision.steering)});
+        if (decision.reason != car->reason) {
+          spdlog::debug("{}: {} on {}", car->name, ToString(decision.reason),
+                        car->driver.lane_name());
+          car->reason = decision.reason;
+        }
+      }
+      next += period;
+      std::this_thread::sleep_until(next);
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "autodrive-example-driver: %s\n", e.what());
+    return 1;
+  }
+}

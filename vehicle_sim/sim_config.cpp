@@ -1,0 +1,122 @@
+#include "vehicle_sim/sim_config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <set>
+#include <utility>
+
+#include "common/error.h"
+#include "common/ids.h"
+#include "maps/map.h"
+
+namespace autodrive::vehicle_sim {
+
+void SpawnConfig::Validate() const {
+  const bool pose = x_m || y_m || yaw_rad;
+  AUTODRIVE_THROW_UNLESS(lane.has_value() != pose,
+                         "give either lane (and along_m) or x_m, y_m and yaw_rad");
+  AUTODRIVE_THROW_UNLESS(!pose || (x_m && y_m && yaw_rad),
+                         "a pose needs all of x_m, y_m and yaw_rad");
+}
+
+void SimVehicleConfig::Validate() const { (void)ParseVehicleName(name); }
+
+void SimConfig::Validate() const {
+  AUTODRIVE_THROW_UNLESS(!vehicles.empty(), "vehicles: at least one car");
+  std::set<std::string> names;
+  for (const SimVehicleConfig& v : vehicles) {
+    AUTODRIVE_THROW_UNLESS(names.insert(v.name).second, "vehicle " << v.name << " is listed twice");
+  }
+}
+
+SimCity LoadSimCity(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw ConfigError(path + ": cannot read the city file");
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
+                      std::to_string(e.mark.column + 1) + ": YAML syntax error (" + e.msg + ")");
+  }
+  const auto text = [&](const char* key) {
+    const YAML::Node n = root.IsMap() ? root[key] : YAML::Node();
+    if (!n || !n.IsScalar()) {
+      throw ConfigError(path + ": " + key + ": missing or not a string (the city file's " + key +
+                        ")");
+    }
+    return n.as<std::string>();
+  };
+  SimCity city;
+  city.name = text("name");
+  std::filesystem::path map = text("map");
+  if (map.is_relative()) map = std::filesystem::path(path).parent_path() / map;
+  city.map_path = map.lexically_normal().string();
+  if (root["sim"]) city.sim = config::LoadFile<SimConfig>(path, "sim");
+  return city;
+}
+
+std::vector<RigidTransform2> SpawnPoses(const SimConfig& sim, const maps::Map& map) {
+  std::vector<RigidTransform2> poses;
+  std::set<std::pair<int, int>> used_tiles;
+  std::set<std::uint32_t> used_lanes;
+  const auto pose_on = [&](const maps::Lane& lane, double along, const std::string& car) {
+    const maps::Polyline& c = lane.centreline;
+    AUTODRIVE_THROW_UNLESS(c.size() >= 2, car << ": lane " << lane.name << " has no centreline");
+    double left = along;
+    for (std::size_t i = 0; i + 1 < c.size(); ++i) {
+      const Eigen::Vector2d d = c[i + 1] - c[i];
+      const double n = d.norm();
+      if (left <= n || i + 2 == c.size()) {
+        AUTODRIVE_THROW_UNLESS(left <= n + 1e-9, car << ": along_m " << along
+                                                     << " is beyond the end of lane " << lane.name
+                                                     << " (" << lane.length_m << " m)");
+        return RigidTransform2(c[i] + d * (left / n), std::atan2(d.y(), d.x()));
+      }
+      left -= n;
+    }
+    return RigidTransform2(c.front(), 0.0);
+  };
+  for (const SimVehicleConfig& v : sim.vehicles) {
+    if (v.spawn && v.spawn->lane) {
+      const maps::Lane* found = nullptr;
+      for (const maps::Lane& lane : map.lanes) {
+        if (lane.name == *v.spawn->lane) found = &lane;
+      }
+      AUTODRIVE_THROW_UNLESS(found != nullptr, v.name << ": the map " << map.name
+                                                      << " has no lane '" << *v.spawn->lane << "'");
+      poses.push_back(pose_on(*found, v.spawn->along_m, v.name));
+    } else if (v.spawn) {
+      poses.push_back(RigidTransform2::FromXyYaw(*v.spawn->x_m, *v.spawn->y_m, *v.spawn->yaw_rad));
+    } else {
+      // The middle of a lane that no car took: first lanes on tiles no car took, then lanes
+      // that no intersection starts or ends, then any lane long enough.
+      const auto fits = [&](const maps::Lane& lane, int pass) {
+        if (used_lanes.count(lane.id.value()) > 0 || lane.length_m < 0.3) return false;
+        const bool open_road = !lane.ingress_of && !lane.egress_of;
+        if (pass == 0) return open_road && used_tiles.count({lane.tile.row, lane.tile.col}) == 0;
+        if (pass == 1) return open_road;
+        return true;
+      };
+      const maps::Lane* found = nullptr;
+      for (int pass = 0; pass < 3 && found == nullptr; ++pass) {
+        for (const maps::Lane& lane : map.lanes) {
+          if (fits(lane, pass)) {
+            found = &lane;
+            break;
+          }
+        }
+      }
+      AUTODRIVE_THROW_UNLESS(found != nullptr, v.name << ": no free lane left on map " << map.name
+                                                      << " to start on; give it a spawn");
+      const maps::Lane& lane = *found;
+      used_lanes.insert(lane.id.value());
+      used_tiles.insert({lane.tile.row, lane.tile.col});
+      poses.push_back(pose_on(lane, lane.length_m / 2, v.name));
+    }
+  }
+  return poses;
+}
+
+}  // namespace autodrive::vehicle_sim

@@ -1,0 +1,188 @@
+// autodrive-sim: the simulator of Nigel. With --city it runs the city's cars as a DDS service
+// (the devkit topics, /clock); `replay` runs one car headless from a command file.
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <exception>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "common/dds/participant.h"
+#include "common/dds/security_cli.h"
+#include "common/error.h"
+#include "common/ids.h"
+#include "common/logging.h"
+#include "common/shutdown.h"
+#include "maps/map.h"
+#include "maps/map_io.h"
+#include "vehicle_sim/replay.h"
+#include "vehicle_sim/service.h"
+#include "vehicle_sim/sim_config.h"
+#include "vehicle_sim/world.h"
+
+namespace {
+
+using namespace autodrive;
+using namespace autodrive::vehicle_sim;
+
+int Replay(const std::string& city_path, const std::string& vehicle_name,
+           const std::string& commands_path, const std::string& out_path, double log_rate_hz,
+           bool quiet) {
+  const SimCity city = LoadSimCity(city_path);
+  const std::vector<TimedCommand> commands = ReadCommandCsv(commands_path);
+  const maps::Map map = maps::LoadMapOrLayout(city.map_path);
+  const std::vector<RigidTransform2> spawns = SpawnPoses(city.sim, map);
+  int index = -1;
+  std::string names;
+  for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
+    if (city.sim.vehicles[i].name == vehicle_name) index = static_cast<int>(i);
+    names += (names.empty() ? "" : ", ") + city.sim.vehicles[i].name;
+  }
+  AUTODRIVE_THROW_UNLESS(index >= 0, city_path << ": no vehicle '" << vehicle_name
+                                               << "' in the sim section (it has " << names << ")");
+  // The replayed car alone in the map's world (the others would only stand in its way).
+  World world(map, city.sim.world);
+  world.AddVehicle(city.sim.vehicles[static_cast<std::size_t>(index)].params,
+                   spawns[static_cast<std::size_t>(index)]);
+  std::ofstream out(out_path, std::ios::binary);
+  AUTODRIVE_THROW_UNLESS(out.good(), out_path << ": cannot write the log");
+  ReplayOptions options;
+  options.log_period = FromSeconds(1.0 / log_rate_hz);
+  // On a terminal the progress line is rewritten every simulated second; in a log, a line every
+  // ten.
+  const bool tty = isatty(fileno(stderr)) != 0;
+  const auto progress = [&](Duration done, Duration total) {
+    const auto whole = static_cast<long long>(ToSeconds(done));
+    if (quiet || (!tty && whole % 10 != 0)) return;
+    std::fprintf(stderr, "%sreplay: %lld / %.0f s simulated%s", tty ? "\r" : "", whole,
+                 ToSeconds(total), tty ? "" : "\n");
+  };
+  RunReplay(world, 0, commands, options, out, progress);
+  out.close();
+  AUTODRIVE_THROW_UNLESS(!out.fail(), out_path << ": writing the log failed");
+  if (!quiet) {
+    std::fprintf(stderr, "%sreplay: %zu commands over %.3f s, %lld steps of %.4g s, log %s\n",
+                 tty ? "\r" : "", commands.size(), ToSeconds(commands.back().time),
+                 static_cast<long long>(world.steps()), ToSeconds(world.options().step),
+                 out_path.c_str());
+  }
+  return 0;
+}
+
+int Serve(const std::string& city_path, const ServiceOptions& options, const std::string& partition,
+          dds::SecurityOptions security) {
+  const SimCity city = LoadSimCity(city_path);
+  const maps::Map map = maps::LoadMapOrLayout(city.map_path);
+  std::atomic<bool> stop{false};
+  // Before any other thread starts, so that they all inherit the blocked signals.
+  ShutdownSignals signals([&](int sig) {
+    spdlog::info("signal {}: stopping", sig);
+    stop.store(true);
+  });
+  dds::ParticipantOptions participant_options;
+  participant_options.partition = partition;
+  if (security.enclave.empty()) security.enclave = "/autodrive/sim";
+  participant_options.security = security;
+  dds::Participant participant(participant_options);
+  SimService service(participant, city, map, options);
+  std::string names;
+  for (const auto& v : city.sim.vehicles) names += (names.empty() ? "" : ", ") + v.name;
+  spdlog::info(
+      "sim: city {} on map {}: {} ({}), {} mode{}, partition '{}'", city.name, map.name, names,
+      city.sim.vehicles.size() == 1 ? "1 car" : std::to_string(city.sim.vehicles.size()) + " cars",
+      options.mode == SimMode::kRealTime ? "real-time" : "fast",
+      options.mode == SimMode::kRealTime && options.real_time_factor != 1.0
+          ? " x" + std::to_string(options.real_time_factor)
+          : "",
+      partition);
+  service.Run(stop);
+  spdlog::info("sim: stopped after {:.3f} simulated s ({} steps)", ToSeconds(service.time()),
+               service.steps());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "autodrive-sim: the simulator of Nigel, the 1:14 car, on ODE. With --city: runs the city's "
+      "cars (its sim section) as a DDS service speaking the AutoDRIVE devkit topics, with "
+      "/clock, until SIGINT or SIGTERM. See docs/vehicle_sim.md."};
+  app.require_subcommand(0, 1);
+  std::string service_city;
+  std::string mode = "realtime";
+  double real_time_factor = 1.0;
+  double duration_s = 0.0;
+  double command_timeout_s = 0.5;
+  std::string partition;
+  std::string log_level = "info";
+  app.add_option("--city", service_city, "city file (its map and sim section)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--mode", mode, "realtime: paced by the wall clock; fast: as fast as it goes")
+      ->check(CLI::IsMember({"realtime", "fast"}))
+      ->capture_default_str();
+  app.add_option("--real-time-factor", real_time_factor,
+                 "simulated seconds per wall second in realtime mode")
+      ->check(CLI::Range(0.01, 1000.0))
+      ->capture_default_str();
+  app.add_option("--duration", duration_s, "stop after this many simulated seconds (0: never)")
+      ->check(CLI::Range(0.0, 1e9));
+  app.add_option("--command-timeout", command_timeout_s,
+                 "seconds without a throttle or steering command after which a car holds still")
+      ->check(CLI::Range(0.01, 3600.0))
+      ->capture_default_str();
+  app.add_option("--partition", partition,
+                 "DDS partition (separates cities or test runs sharing a domain)");
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
+      ->capture_default_str();
+  auto security = dds::SecurityOptions::FromEnvironment();
+  dds::AddSecurityOptions(app, security);
+
+  auto* replay = app.add_subcommand(
+      "replay",
+      "run one car headless from a CSV of time_s,throttle,steering and write its "
+      "ground-truth state as CSV (no DDS)");
+  std::string city;
+  std::string vehicle = "nigel_1";
+  std::string commands;
+  std::string out;
+  double log_rate_hz = 100.0;
+  bool quiet = false;
+  replay->add_option("--city", city, "city file (its map and sim section)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  replay->add_option("--vehicle", vehicle, "which car of the sim section")->capture_default_str();
+  replay->add_option("--commands", commands, "CSV: time_s,throttle,steering")
+      ->required()
+      ->check(CLI::ExistingFile);
+  replay->add_option("--out", out, "CSV log to write")->required();
+  replay->add_option("--log-rate-hz", log_rate_hz, "rows per simulated second")
+      ->check(CLI::Range(0.1, 10000.0))
+      ->capture_default_str();
+  replay->add_flag("-q,--quiet", quiet, "no progress on stderr");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    InitLogging("autodrive-sim", ParseLogLevel(log_level));
+    if (replay->parsed()) return Replay(city, vehicle, commands, out, log_rate_hz, quiet);
+    if (service_city.empty()) {
+      std::fprintf(stderr,
+                   "autodrive-sim: give --city CONFIG to run the simulator, or a "
+                   "subcommand (--help)\n");
+      return 2;
+    }
+    ServiceOptions options;
+    options.mode = mode == "fast" ? SimMode::kFast : SimMode::kRealTime;
+    options.real_time_factor = real_time_factor;
+    options.command_timeout = FromSeconds(command_timeout_s);
+    if (duration_s > 0) options.duration = FromSeconds(duration_s);
+    return Serve(service_city, options, partition, security);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "autodrive-sim: %s\n", e.what());
+    return 1;
+  }
+}

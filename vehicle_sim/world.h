@@ -1,0 +1,123 @@
+#pragma once
+/// @file
+/// The simulated world on ODE: the ground (and the terrain of a map, with its ramps), the map's
+/// walls, boxes, light poles and signs as static obstacles, and the vehicles, stepped together
+/// at a fixed physics step. See docs/vehicle_sim.md for the model and how the tyre curve meets
+/// ODE's contacts.
+///
+/// Copy: no (it owns an ODE world). Move: no. One thread steps a World at a time; several
+/// Worlds may live in one process (each is deterministic on its own: `dWorldStep`, whose
+/// solver has no random reordering, and collision spaces whose order depends on insertion
+/// only).
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "common/geometry.h"
+#include "common/time.h"
+#include "vehicle_sim/raycast.h"
+#include "vehicle_sim/vehicle.h"
+#include "vehicle_sim/vehicle_params.h"
+
+namespace autodrive::maps {
+struct Map;
+}
+
+namespace autodrive::vehicle_sim {
+
+/// How the world is stepped, and its contacts other than the tyres'.
+struct WorldOptions {
+  /// Physics step. 2 ms: ODE's implicit joints, motors and force-dependent-slip tyres are
+  /// stable far beyond it; the explicit parts (rolling resistance) have time constants above
+  /// a second; a car at top speed moves 0.5 mm per step, so nothing tunnels.
+  Duration step = std::chrono::milliseconds(2);
+  double gravity_mps2 = 9.81;
+  /// Coulomb friction between bodies (car against wall, box or car), not the tyres.
+  double body_friction = 0.5;
+  double body_bounce = 0.1;  ///< restitution of body contacts
+  /// The static world's poles (at signal heads and signs) and the sensors' ray-casting grid.
+  StaticSceneOptions scene;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional(
+        "step_s", step,
+        config::Range<Duration>{std::chrono::microseconds(100), std::chrono::milliseconds(20)});
+    a.Optional("gravity_mps2", gravity_mps2, config::Range{0.0, 100.0});
+    a.Optional("body_friction", body_friction, config::Range{0.0, 10.0});
+    a.Optional("body_bounce", body_bounce, config::Range{0.0, 1.0});
+    a.Optional("scene", scene);
+  }
+  bool operator==(const WorldOptions&) const = default;
+};
+
+/// A step produced a non-finite number. The message names the vehicle, the step and the
+/// quantity; the world is not stepped further (`Step` throws again).
+class NumericalError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// An extra static box in the world (an unmapped obstacle): footprint centre, yaw, size.
+struct StaticBox {
+  RigidTransform2 X_MB;                   ///< centre of the footprint and its heading
+  Eigen::Vector3d size_m{0.1, 0.1, 0.1};  ///< length (along B's x), width, height
+};
+
+class World {
+ public:
+  /// A world on flat ground (z = 0 everywhere), with nothing on it.
+  explicit World(const WorldOptions& options = {});
+  /// The world of a built map: its terrain (flat ground when it has no ramps or raised tiles,
+  /// else a triangle mesh over the map's extent, two triangles per tile, as maps/ writes
+  /// mesh.obj, with the lab's floor at z = 0 around it) and its static geometry as the sensors
+  /// see it (`GeometryFromMap`: every obstacle standing on the terrain, a pole at every signal
+  /// head and sign). @throws InputError for an obstacle that is not a rectangle.
+  World(const maps::Map& map, const WorldOptions& options = {});
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  /// Adds an unmapped obstacle (standing at z = 0 on flat ground, or on the terrain).
+  void AddStaticBox(const StaticBox& box);
+
+  /// Adds a vehicle at rest at `X_MV` (its rear axle's middle; z from the terrain), wheels on
+  /// the ground, springs at their static deflection. Returns its index (0, 1, ...).
+  /// @throws InputError (or ConfigError) when `params` fail their validation.
+  int AddVehicle(const VehicleParams& params, const RigidTransform2& X_MV);
+
+  /// The command that holds from the next step on. @throws InputError for a non-finite value.
+  void SetCommand(int vehicle, const VehicleCommand& command);
+  /// One physics step of `options().step`. @throws NumericalError (see the class).
+  void Step();
+  /// Steps until `time()` reaches `until` (whole steps; none when it already has).
+  void StepUntil(Duration until);
+
+  [[nodiscard]] const VehicleState& State(int vehicle) const;
+  /// The pose of the car's collision box (its body, spanning the wheels) and its half
+  /// extents (m): what other cars' LIDARs and cameras see of it.
+  void VehicleBox(int vehicle, Eigen::Isometry3d& X_MB, Eigen::Vector3d& half_extents_m) const;
+  [[nodiscard]] const VehicleParams& Params(int vehicle) const;
+  [[nodiscard]] int vehicles() const;
+  /// Simulated time since the start: steps() * step.
+  [[nodiscard]] Duration time() const;
+  [[nodiscard]] std::int64_t steps() const;
+  [[nodiscard]] const WorldOptions& options() const;
+  /// Height of the ground at (x, y) as the world has it (0 off the map).
+  [[nodiscard]] double GroundHeight(double x_m, double y_m) const;
+  /// The static world (terrain, obstacles, poles, unmapped boxes) indexed for ray casting:
+  /// what the LIDAR and cameras see. Built on first use and again after `AddStaticBox`.
+  [[nodiscard]] const StaticScene& Scene() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace autodrive::vehicle_sim
