@@ -9,8 +9,6 @@ namespace autodrive::examples {
 
 namespace {
 
-double WrapAngle(double a) { return std::remainder(a, 2 * std::numbers::pi); }
-
 double PolylineLength(const maps::Polyline& p) {
   double length = 0;
   for (std::size_t i = 0; i + 1 < p.size(); ++i) length += (p[i + 1] - p[i]).norm();
