@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -12,6 +13,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
 #include "common/dds/reader.h"
@@ -68,6 +70,45 @@ const char* ToString(examples::DriverDecision::Reason r) {
   return "?";
 }
 
+// The simulator's lockstep protocol (docs/vehicle_sim.md, "Lockstep"): register, then at
+// each step decide on the simulated time, make sure the commands arrived, and answer.
+int Lockstep(const dds::Participant& participant, const std::string& name,
+             const std::vector<std::unique_ptr<Car>>& cars,
+             const std::function<void(Duration)>& decide, const std::atomic<bool>& stop) {
+  dds::Reader<msg::Header> steps(participant, topics::SimStep());
+  dds::Writer<msg::Header> done(participant, topics::SimStepDone());
+  const auto answer = [&](const msg::Time& stamp) {
+    msg::Header h{};
+    h.stamp = stamp;
+    dds::BorrowString(h.frame_id, name.c_str());
+    done.Write(h);
+  };
+  while (!done.WaitForReaders(1, std::chrono::milliseconds(200))) {
+    if (stop.load()) return 0;
+  }
+  answer(msg::Time{0, 0});
+  std::int64_t answered = 0;
+  while (!stop.load()) {
+    if (!steps.WaitForData(std::chrono::milliseconds(200))) continue;
+    while (auto m = steps.TakeOne()) {
+      if (std::string_view(dds::View((*m)->frame_id)) == "end") {
+        spdlog::info("lockstep: the simulator ended after {} steps", answered);
+        return 0;
+      }
+      const auto& t = (*m)->stamp;
+      decide(dds::FromMsg(t) - Time{});
+      // The commands are in the simulator's readers before the answer is sent.
+      for (const auto& car : cars) {
+        (void)car->throttle.WaitForAcks(std::chrono::seconds(2));
+        (void)car->steering.WaitForAcks(std::chrono::seconds(2));
+      }
+      answer(t);
+      ++answered;
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -92,6 +133,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0))
       ->capture_default_str();
   app.add_option("--seed", seed, "seed of the route choices")->capture_default_str();
+  std::string lockstep;
+  app.add_option("--lockstep", lockstep,
+                 "take part in the simulator's lockstep as the controller of this name: decide "
+                 "once per simulated step, on the simulated time (--rate-hz is then unused)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
   auto security = dds::SecurityOptions::FromEnvironment();
@@ -127,16 +172,11 @@ int main(int argc, char** argv) {
       lamp_readers.emplace(
           h.id, std::make_unique<dds::Reader<msg::Int32>>(participant, topics::SignalState(h.id)));
     }
-    spdlog::info("driving {} cars on map {}", cars.size(), map.name);
-    const auto start = std::chrono::steady_clock::now();
-    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(1.0 / rate_hz));
-    auto next = start;
-    while (!stop.load()) {
+    // One decision for every car: from what its topics brought since the last one.
+    const auto decide = [&](Duration now) {
       for (auto& [id, reader] : lamp_readers) {
         while (auto m = reader->TakeOne()) lamps[id] = (*m)->data;
       }
-      const Duration now = std::chrono::steady_clock::now() - start;
       for (auto& car : cars) {
         while (auto m = car->ips.TakeOne()) car->position = Eigen::Vector2d((*m)->x, (*m)->y);
         while (auto m = car->imu.TakeOne()) {
@@ -164,6 +204,16 @@ int main(int argc, char** argv) {
           car->reason = decision.reason;
         }
       }
+    };
+    spdlog::info("driving {} cars on map {}{}", cars.size(), map.name,
+                 lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
+    if (!lockstep.empty()) return Lockstep(participant, lockstep, cars, decide, stop);
+    const auto start = std::chrono::steady_clock::now();
+    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(1.0 / rate_hz));
+    auto next = start;
+    while (!stop.load()) {
+      decide(std::chrono::steady_clock::now() - start);
       next += period;
       std::this_thread::sleep_until(next);
     }

@@ -404,14 +404,21 @@ TEST_F(ScmSystem, AResetClearsOnlyTheIntersectionItNamesAndOnlyWhenAccepted) {
              c->second.health == kFault;
     };
     const auto end = Clock::now() + seconds(30);
-    int round = 0;
+    std::uint64_t round = 0;
     while (Clock::now() < end && !WaitDevices(both_latched, milliseconds(100))) {
-      hb->sequence_number = static_cast<std::uint64_t>(++round);
+      hb->sequence_number = ++round;
       hb->header.stamp = dds::ToMsg(WallClock().Now());
       beat.Write(hb);
+      // Each head is sent red until it reports red or green, then green: a head leaves start-up
+      // (or a flash, should a loaded machine delay this fake SCM's heartbeat past the host's
+      // time-out) only through red, and the host may come up after the first rounds.
+      CollectDevices();
       for (const std::uint32_t h : {1u, 2u, 4u, 5u}) {
+        const auto it = devices_seen_.find("signal_" + std::to_string(h));
+        const bool ready = it != devices_seen_.end() && it->second.mode != kFlashMode &&
+                           (it->second.displayed == 1 || it->second.displayed == 3);
         dds::Message<msg::Int32> m;
-        m->data = round < 10 ? 1 : 3;  // red first (a head leaves start-up on red), then green
+        m->data = ready ? 3 : 1;
         commands[h - 1]->Write(m);
       }
     }

@@ -4,13 +4,19 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
+#include <sstream>
 #include <string>
+#include <vector>
 
+#include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
 #include "common/dds/reader.h"
@@ -159,6 +165,123 @@ TEST_F(SimProcess, ACarDrivenOverTheDevkitTopicsMovesAndReportsOnEveryDevkitSens
   }
   EXPECT_GE(still, 20) << "the car kept moving without commands";
   EXPECT_EQ(sim_->Stop(), 0);
+}
+
+// Two runs of the simulator in lockstep with the example driver in another process, with the
+// paper's noise: the same seed gives the same log, byte for byte.
+TEST_F(SimProcess, InLockstepWithADriverInAnotherProcessTwoRunsGiveTheSameLog) {
+  const std::string city = (dir_ / "lockstep.yaml").string();
+  std::ofstream(city) << "name: lockstep_test\nmap: " << Config("config/maps/small_town.yaml")
+                      << "\nsim:\n  seed: 11\n  variability: {preset: paper}\n"
+                         "  service: {mode: lockstep, controllers: [driver]}\n"
+                         "  vehicles:\n"
+                         "    - {name: nigel_1, spawn: {lane: \"r4c1:W>E:0\", along_m: 0.2}}\n"
+                         "    - {name: nigel_2, spawn: {lane: \"r2c1:E>W:0\", along_m: 0.2}}\n";
+  const auto run = [&](const std::string& name) {
+    const std::string partition = partition_ + "_" + name;
+    const std::string log = (dir_ / (name + ".csv")).string();
+    ChildProcess sim({Bin("autodrive-sim"), "--city", city, "--partition", partition, "--duration",
+                      "12", "--log", log, "--log-level", "warn"});
+    ChildProcess driver({Bin("autodrive-example-driver"), "--city", city, "--partition", partition,
+                         "--lockstep", "driver", "--log-level", "warn"});
+    const auto start = std::chrono::steady_clock::now();
+    const auto sim_code = sim.Wait(milliseconds(240'000));
+    const double took =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::printf("%s: 12 simulated s in lockstep in %.1f s of wall time\n", name.c_str(), took);
+    EXPECT_EQ(sim_code, std::optional<int>(0)) << name;
+    EXPECT_EQ(driver.Wait(milliseconds(60'000)), std::optional<int>(0))
+        << name << ": the driver ends with the simulator";
+    std::ifstream in(log, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string a = run("first");
+  const std::string b = run("second");
+  // 1,201 control periods of two cars, and a header.
+  EXPECT_EQ(std::count(a.begin(), a.end(), '\n'), 1 + 2 * 1201);
+  EXPECT_TRUE(a == b) << "the two runs' logs differ";
+  // The cars drove: nigel_1 east along its lane.
+  std::istringstream rows(a);
+  std::string line;
+  std::getline(rows, line);
+  double first_x = NAN, last_x = NAN;
+  while (std::getline(rows, line)) {
+    if (!line.starts_with("nigel_1,")) continue;
+    std::istringstream fields(line);
+    std::string field;
+    std::getline(fields, field, ',');  // vehicle
+    std::getline(fields, field, ',');  // time
+    std::getline(fields, field, ',');  // x
+    last_x = std::stod(field);
+    if (std::isnan(first_x)) first_x = last_x;
+  }
+  EXPECT_GT(last_x - first_x, 0.5) << "nigel_1 did not drive";
+}
+
+// Over DDS, at full throttle: a car stops at an obstacle (an unmapped one, from the city
+// file) and two cars driven at each other meet and push, none passing through the other.
+TEST_F(SimProcess, ACarStopsAtAWallAndTwoCarsCollideWithoutPassingThroughEachOther) {
+  const std::string city = (dir_ / "crash.yaml").string();
+  // The southern road (eastbound lane at y = 0.35): nigel_1 from x = 1.2 towards a box whose
+  // west face is at x = 2.0; nigel_2 and nigel_3 on the northbound road's line, facing.
+  std::ofstream(city) << "name: crash_test\nmap: " << Config("config/maps/small_town.yaml")
+                      << "\nsim:\n  variability:\n    obstacles:\n"
+                         "      - {x_m: 2.05, y_m: 0.35, length_m: 0.1, width_m: 0.4, "
+                         "height_m: 0.2}\n"
+                         "  vehicles:\n"
+                         "    - {name: nigel_1, spawn: {x_m: 1.2, y_m: 0.35, yaw_rad: 0}}\n"
+                         "    - {name: nigel_2, spawn: {x_m: 3.0, y_m: 0.35, yaw_rad: 0}}\n"
+                         "    - {name: nigel_3, spawn: {x_m: 4.3, y_m: 0.35, yaw_rad: "
+                         "3.14159265}}\n";
+  ChildProcess sim(
+      {Bin("autodrive-sim"), "--city", city, "--partition", partition_, "--log-level", "warn"});
+  std::vector<std::unique_ptr<dds::Writer<msg::Float32>>> throttles;
+  std::vector<std::unique_ptr<dds::Reader<msg::TrackedVehicle>>> truths;
+  for (std::uint32_t i = 1; i <= 3; ++i) {
+    throttles.push_back(std::make_unique<dds::Writer<msg::Float32>>(
+        *participant_, dds::topics::ThrottleCommand(VehicleId(i))));
+    truths.push_back(std::make_unique<dds::Reader<msg::TrackedVehicle>>(
+        *participant_, dds::topics::GroundTruth(VehicleId(i))));
+  }
+  for (auto& w : throttles) ASSERT_TRUE(w->WaitForReaders(1, seconds(60)));
+  constexpr double kFront = 0.2297;  // rear axle to the front of the body (Nigel)
+  double wall_front = -1e9, wall_speed = 1, min_gap = 1e9, last_gap = 0;
+  double t = 0, t_start = -1;
+  const auto end = std::chrono::steady_clock::now() + seconds(120);
+  std::array<std::optional<double>, 3> x{};
+  // Full throttle for 8 simulated seconds.
+  while (std::chrono::steady_clock::now() < end && (t_start < 0 || t - t_start < 8.0)) {
+    for (auto& w : throttles) w->Write(msg::Float32{1.0F});
+    truths[0]->WaitForData(milliseconds(50));
+    for (std::size_t i = 0; i < 3; ++i) {
+      while (auto m = truths[i]->TakeOne()) {
+        const double xi = (*m)->pose.pose.position.x;
+        x[i] = xi;
+        if (i == 0) {
+          t = ToSeconds(dds::FromMsg((*m)->observed) - Time{});
+          if (t_start < 0) t_start = t;
+          wall_front = std::max(wall_front, xi + kFront);
+          wall_speed = std::abs((*m)->twist.twist.linear.x);
+        }
+      }
+    }
+    if (x[1] && x[2]) {
+      // nigel_3 faces west: its front is at x - kFront.
+      last_gap = (*x[2] - kFront) - (*x[1] + kFront);
+      min_gap = std::min(min_gap, last_gap);
+    }
+  }
+  std::printf("wall: front reached x = %.4f m (face at 2.0), speed at the end %.4f m/s\n",
+              wall_front, wall_speed);
+  std::printf("head-on: smallest gap between the fronts %.4f m, at the end %.4f m\n", min_gap,
+              last_gap);
+  ASSERT_GE(t - t_start, 8.0) << "the simulator did not run 8 s";
+  EXPECT_GT(wall_front, 1.98) << "nigel_1 reached the box";
+  EXPECT_LT(wall_front, 2.005) << "nigel_1 went into the box";
+  EXPECT_LT(wall_speed, 0.02) << "nigel_1 stands at the box";
+  EXPECT_LT(min_gap, 0.01) << "the two cars met";
+  EXPECT_GT(min_gap, -0.01) << "a car went into the other";
+  EXPECT_EQ(sim.Stop(), 0);
 }
 
 TEST_F(SimProcess, ABadCityFileIsRefusedWithTheFileAndKeyNamed) {

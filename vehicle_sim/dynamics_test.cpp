@@ -6,6 +6,7 @@
 #include <numbers>
 #include <vector>
 
+#include "common/error.h"
 #include "common/test_support.h"
 #include "maps/builder.h"
 #include "maps/layout.h"
@@ -277,6 +278,43 @@ TEST(Dynamics, TwoRunsWithTheSameCommandsAreBitIdentical) {
   const std::vector<double> b = run();
   ASSERT_EQ(a.size(), b.size());
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0);
+}
+
+// A diverged state is reported with the vehicle, the step and the quantity before ODE sees it
+// (ODE aborts the process on a state that overflows inside its step), and the world stays
+// failed.
+TEST(Dynamics, ADivergedStateIsReportedWithTheVehicleTheStepAndTheQuantity) {
+  World world;
+  world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, 0, 0));
+  world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, 1, 0));
+  for (int i = 0; i < 10; ++i) world.Step();
+  world.SetVelocity(1, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 1e300));
+  std::string message;
+  try {
+    world.Step();
+  } catch (const NumericalError& e) {
+    message = e.what();
+  }
+  std::printf("%s\n", message.c_str());
+  EXPECT_EQ(message,
+            "vehicle 1: chassis angular velocity (1e+300 rad/s) is beyond any plausible value "
+            "before step 11 (t = 0.02 s)");
+  EXPECT_THROW(world.Step(), NumericalError) << "a failed world is not stepped further";
+  EXPECT_EQ(world.steps(), 10);
+  EXPECT_THROW(world.SetVelocity(0, Eigen::Vector3d(NAN, 0, 0), Eigen::Vector3d::Zero()),
+               InputError);
+}
+
+TEST(Dynamics, ACarSetGoingAtTopSpeedCoastsAndIsStoppedByItsBrake) {
+  World world;
+  world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, 0, 0));
+  for (int i = 0; i < 100; ++i) world.Step();
+  world.SetVelocity(0, Eigen::Vector3d(0.26, 0, 0), Eigen::Vector3d::Zero());
+  world.Step();
+  EXPECT_NEAR(world.State(0).v_V_mps.x(), 0.26, 0.03);
+  world.StepUntil(world.time() + std::chrono::seconds(3));
+  EXPECT_LT(std::abs(world.State(0).v_V_mps.x()), 0.005) << "zero throttle holds the car";
+  EXPECT_GT(world.State(0).X_MV.translation().x(), 0.0);
 }
 
 TEST(Dynamics, ACarAtTopSpeedStopsAtAWallWithoutPassingThroughIt) {

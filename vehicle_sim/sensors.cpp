@@ -5,30 +5,12 @@
 #include <numbers>
 
 #include "common/error.h"
+#include "vehicle_sim/variability.h"
 #include "vehicle_sim/world.h"
 
 namespace autodrive::vehicle_sim {
 
 namespace {
-
-// Seeds of one car's sensors: independent streams from one simulation seed (SplitMix64 of the
-// seed, the car and the sensor).
-std::uint64_t Mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-std::uint64_t SensorSeed(std::uint64_t seed, int vehicle, int sensor) {
-  return Mix(Mix(Mix(seed) ^ static_cast<std::uint64_t>(vehicle)) ^
-             static_cast<std::uint64_t>(sensor));
-}
-
-// A normal draw that costs nothing when sigma is 0 (so that turning noise off leaves no trace).
-double Gaussian(std::mt19937_64& rng, double sigma) {
-  if (sigma == 0.0) return 0.0;
-  return std::normal_distribution<double>(0.0, sigma)(rng);
-}
 
 // Whether a rate-driven sensor is due at `now`: its `count`-th sample is at count / rate.
 bool Due(Duration now, double rate_hz, std::int64_t& count) {
@@ -56,9 +38,9 @@ void SensorReadings::Clear() {
 SensorSuite::SensorSuite(const SensorConfig& config, int vehicle, std::uint64_t seed)
     : config_(config),
       vehicle_(vehicle),
-      ips_rng_(SensorSeed(seed, vehicle, 1)),
-      imu_rng_(SensorSeed(seed, vehicle, 2)),
-      lidar_rng_(SensorSeed(seed, vehicle, 3)) {
+      ips_rng_(StreamSeed(seed, vehicle, 1)),
+      imu_rng_(StreamSeed(seed, vehicle, 2)),
+      lidar_rng_(StreamSeed(seed, vehicle, 3)) {
   config_.lidar.Validate();
   const LidarConfig& l = config_.lidar;
   scan_.angle_min_rad = -std::numbers::pi;

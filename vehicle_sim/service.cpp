@@ -1,9 +1,12 @@
 #include "vehicle_sim/service.h"
 
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <cmath>
 #include <mutex>
+#include <ostream>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -14,7 +17,9 @@
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
 #include "common/error.h"
+#include "vehicle_sim/replay.h"
 #include "vehicle_sim/sensors.h"
+#include "vehicle_sim/variability.h"
 #include "vehicle_sim/world.h"
 
 namespace autodrive::vehicle_sim {
@@ -30,7 +35,7 @@ void SetHeader(std_msgs_msg_dds__Header_& header, Time stamp, const char* frame)
 
 // One car's DDS endpoints and what it was last told.
 struct CarEndpoints {
-  CarEndpoints(const dds::Participant& p, VehicleId id)
+  CarEndpoints(const dds::Participant& p, VehicleId id, CommandNoise command_noise)
       : name(VehicleName(id)),
         throttle(p, topics::Throttle(id)),
         steering(p, topics::Steering(id)),
@@ -43,7 +48,8 @@ struct CarEndpoints {
         throttle_command(p, topics::ThrottleCommand(id)),
         steering_command(p, topics::SteeringCommand(id)),
         headlights_command(p, topics::HeadlightsCommand(id)),
-        indicators_command(p, topics::IndicatorsCommand(id)) {}
+        indicators_command(p, topics::IndicatorsCommand(id)),
+        noise(std::move(command_noise)) {}
 
   std::string name;
   dds::Writer<msg::Float32> throttle, steering;
@@ -55,7 +61,17 @@ struct CarEndpoints {
   dds::Reader<msg::Float32> throttle_command, steering_command;
   dds::Reader<msg::Int32> headlights_command, indicators_command;
 
+  // Waits until every reader of every writer above has acknowledged what it was sent.
+  void WaitForAcks(std::chrono::steady_clock::duration timeout) const {
+    bool ok = throttle.WaitForAcks(timeout) && steering.WaitForAcks(timeout) &&
+              left_encoder.WaitForAcks(timeout) && right_encoder.WaitForAcks(timeout) &&
+              ips.WaitForAcks(timeout) && imu.WaitForAcks(timeout) && lidar.WaitForAcks(timeout) &&
+              ground_truth.WaitForAcks(timeout);
+    if (!ok) spdlog::warn("{}: a reader did not acknowledge its data in time", name);
+  }
+
   VehicleCommand command;
+  CommandNoise noise;
   std::int32_t headlights = 0;
   std::int32_t indicators = 0;
   Duration last_command{0};
@@ -79,11 +95,15 @@ struct SimService::Impl {
   std::int64_t steps_per_period = 1;
   std::vector<DynamicBox> boxes;
   SensorReadings readings;
+  std::ostream* log = nullptr;
+  // Lockstep only.
+  std::unique_ptr<dds::Writer<msg::Header>> step_writer;
+  std::unique_ptr<dds::Reader<msg::Header>> done_reader;
 
   Impl(const dds::Participant& participant, const SimCity& city, const maps::Map& map,
        const ServiceOptions& o)
       : options(o),
-        world(map, city.sim.world),
+        world(SimulatedMap(city.sim, map), city.sim.world),
         cars_config(city.sim.vehicles),
         clock(participant, topics::Clock()) {
     AUTODRIVE_THROW_UNLESS(o.control_period >= world.options().step,
@@ -92,17 +112,30 @@ struct SimService::Impl {
                                                  << ToSeconds(world.options().step) << " s");
     AUTODRIVE_THROW_UNLESS(o.real_time_factor > 0 && std::isfinite(o.real_time_factor),
                            "the real-time factor must be positive, got " << o.real_time_factor);
+    o.Validate();
     steps_per_period = o.control_period / world.options().step;
     const std::vector<RigidTransform2> poses = SpawnPoses(city.sim, map);
+    const std::vector<UnmappedObstacle> obstacles = UnmappedObstacles(city.sim, map, poses);
+    AddObstacles(obstacles, world);
+    for (const UnmappedObstacle& ob : obstacles) {
+      spdlog::info("unmapped obstacle: {:.2f} x {:.2f} x {:.2f} m at ({:.3f}, {:.3f}), {:.3f} rad",
+                   ob.length_m, ob.width_m, ob.height_m, ob.x_m, ob.y_m, ob.yaw_rad);
+    }
     for (std::size_t i = 0; i < cars_config.size(); ++i) {
       const SimVehicleConfig& c = cars_config[i];
       const int index = world.AddVehicle(c.params, poses[i]);
-      suites.emplace_back(c.sensors, index, city.sim.seed);
-      cars.push_back(std::make_unique<CarEndpoints>(participant, ParseVehicleName(c.name)));
+      suites.emplace_back(EffectiveSensors(city.sim, i), index, city.sim.seed);
+      cars.push_back(std::make_unique<CarEndpoints>(
+          participant, ParseVehicleName(c.name),
+          CommandNoise(city.sim.variability, c.params, city.sim.seed, index)));
     }
     for (const maps::SignalHead& head : map.signal_heads) {
       lamp_readers.emplace_back(head.id, std::make_unique<dds::Reader<msg::Int32>>(
                                              participant, topics::SignalState(head.id)));
+    }
+    if (o.mode == SimMode::kLockstep) {
+      step_writer = std::make_unique<dds::Writer<msg::Header>>(participant, topics::SimStep());
+      done_reader = std::make_unique<dds::Reader<msg::Header>>(participant, topics::SimStepDone());
     }
     origin = o.mode == SimMode::kRealTime ? WallClock().Now() : Time{};
   }
@@ -146,7 +179,7 @@ struct SimService::Impl {
         spdlog::warn("{}: no command for {:.3f} s: holding still", car.name,
                      ToSeconds(options.command_timeout));
       }
-      VehicleCommand applied = car.command;
+      VehicleCommand applied = car.noise.Apply(car.command);
       if (car.timed_out) applied.throttle = 0.0;
       world.SetCommand(static_cast<int>(i), applied);
     }
@@ -236,8 +269,92 @@ struct SimService::Impl {
         Publish(i);
       }
     }
+    PublishState();
+  }
+
+  // Every car's ground truth, /clock, and the log's rows, for the world's time.
+  void PublishState() {
     for (std::size_t i = 0; i < cars.size(); ++i) PublishGroundTruth(i);
     clock.Write(msg::Clock{dds::ToMsg(Stamp(world.time()))});
+    if (log != nullptr) {
+      for (std::size_t i = 0; i < cars.size(); ++i) {
+        *log << cars[i]->name << ',';
+        WriteReplayRow(*log, world.time(), world.State(static_cast<int>(i)));
+      }
+    }
+  }
+
+  // --- Lockstep ---------------------------------------------------------------------------
+
+  // Waits until every controller has said it is there (any step_done), and the step topic has
+  // a reader per controller. False when stopped first.
+  bool WaitForControllers(const std::atomic<bool>& stop) {
+    std::set<std::string> missing(options.controllers.begin(), options.controllers.end());
+    std::set<std::string> strangers;
+    auto next_report = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    spdlog::info("lockstep: waiting for {} controller(s): {}", missing.size(),
+                 fmt::join(missing, ", "));
+    while (!missing.empty()) {
+      if (stop.load()) return false;
+      (void)done_reader->WaitForData(std::chrono::milliseconds(100));
+      while (auto m = done_reader->TakeOne()) {
+        const std::string who(dds::View((*m)->frame_id));
+        if (missing.erase(who) > 0) {
+          spdlog::info("lockstep: controller {} is here", who);
+        } else if (!options.controllers.empty() &&
+                   std::find(options.controllers.begin(), options.controllers.end(), who) ==
+                       options.controllers.end() &&
+                   strangers.insert(who).second) {
+          spdlog::warn("lockstep: '{}' answers but is not a configured controller: ignored", who);
+        }
+      }
+      if (std::chrono::steady_clock::now() >= next_report && !missing.empty()) {
+        spdlog::info("lockstep: still waiting for {}", fmt::join(missing, ", "));
+        next_report += std::chrono::seconds(5);
+      }
+    }
+    const auto n = static_cast<std::uint32_t>(options.controllers.size());
+    while (!step_writer->WaitForReaders(n, std::chrono::milliseconds(100))) {
+      if (stop.load()) return false;
+    }
+    return true;
+  }
+
+  // Makes sure every message of this step reached its readers, then announces the step
+  // (`last`: the simulator stops after it; its frame id says "end").
+  void Tick(bool last = false) {
+    constexpr auto kAckTimeout = std::chrono::seconds(2);
+    for (const auto& car : cars) car->WaitForAcks(kAckTimeout);
+    msg::Header h{};
+    h.stamp = dds::ToMsg(Stamp(world.time()));
+    dds::BorrowString(h.frame_id, last ? "end" : "");
+    step_writer->Write(h);
+    if (last) (void)step_writer->WaitForAcks(std::chrono::seconds(2));
+  }
+
+  // Waits until every controller answered the step at the world's time. False when stopped.
+  bool WaitForAnswers(const std::atomic<bool>& stop) {
+    const auto now = dds::ToMsg(Stamp(world.time()));
+    std::set<std::string> missing(options.controllers.begin(), options.controllers.end());
+    const auto wait_start = std::chrono::steady_clock::now();
+    auto next_report = wait_start + std::chrono::seconds(10);
+    while (!missing.empty()) {
+      if (stop.load()) return false;
+      while (auto m = done_reader->TakeOne()) {
+        const auto& t = (*m)->stamp;
+        if (t.sec == now.sec && t.nanosec == now.nanosec) {
+          missing.erase(std::string(dds::View((*m)->frame_id)));
+        }
+      }
+      if (missing.empty()) break;
+      (void)done_reader->WaitForData(std::chrono::milliseconds(100));
+      if (std::chrono::steady_clock::now() >= next_report) {
+        spdlog::warn("lockstep: step at {:.3f} s: still waiting for {}", ToSeconds(world.time()),
+                     fmt::join(missing, ", "));
+        next_report += std::chrono::seconds(10);
+      }
+    }
+    return true;
   }
 };
 
@@ -247,14 +364,31 @@ SimService::SimService(const dds::Participant& participant, const SimCity& city,
 
 SimService::~SimService() = default;
 
+void SimService::LogTo(std::ostream* out) {
+  impl_->log = out;
+  if (out != nullptr) *out << "vehicle," << kReplayLogHeader << '\n';
+}
+
 void SimService::Run(const std::atomic<bool>& stop) {
   Impl& s = *impl_;
+  const bool lockstep = s.options.mode == SimMode::kLockstep;
+  if (lockstep && !s.WaitForControllers(stop)) return;
   const auto wall_start = std::chrono::steady_clock::now();
   const Duration sim_start = s.world.time();
   Duration last_report = sim_start;
+  if (lockstep) {
+    s.PublishState();
+    s.Tick();
+  }
   while (!stop.load()) {
     if (s.options.duration && s.world.time() - sim_start >= *s.options.duration) break;
+    if (lockstep && !s.WaitForAnswers(stop)) break;
     s.Period();
+    if (lockstep) {
+      const bool last =
+          stop.load() || (s.options.duration && s.world.time() - sim_start >= *s.options.duration);
+      s.Tick(last);
+    }
     if (s.options.mode == SimMode::kRealTime) {
       const auto due = wall_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                         (s.world.time() - sim_start) / s.options.real_time_factor);

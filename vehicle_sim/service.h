@@ -7,9 +7,12 @@
 ///
 /// Each control period (10 ms by default) the service takes the newest command of every car,
 /// advances the physics by whole steps, publishes every sensor reading that fell due and
-/// `/clock`, and in real-time mode sleeps until the wall clock catches up. A car whose command
-/// stream stops (no throttle or steering command for `command_timeout`) is held still (throttle
-/// 0), as the real car's firmware does, until a command arrives again.
+/// `/clock`, and in real-time mode sleeps until the wall clock catches up. In lockstep it
+/// then waits until every reader acknowledged the step's messages, announces the step on
+/// `/autodrive/sim/step` and waits for every configured controller's `step_done` before the
+/// next period, so that the same seed and the same controllers give the same run. A car whose
+/// command stream stops (no throttle or steering command for `command_timeout`) is held still
+/// (throttle 0), as the real car's firmware does, until a command arrives again.
 ///
 /// Times: messages carry the simulated time as ROS time. In real time it starts at the wall
 /// clock's time when the service starts, so that programs on the wall clock (the SCM, the
@@ -17,6 +20,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <iosfwd>
 #include <map>
 #include <memory>
 #include <optional>
@@ -28,23 +32,6 @@
 #include "vehicle_sim/sim_config.h"
 
 namespace autodrive::vehicle_sim {
-
-enum class SimMode {
-  kRealTime,  ///< paced by the wall clock (times real_time_factor)
-  kFast,      ///< as fast as the machine goes
-};
-constexpr auto ConfigEnumNames(SimMode) {
-  return std::array{std::pair{SimMode::kRealTime, std::string_view{"realtime"}},
-                    std::pair{SimMode::kFast, std::string_view{"fast"}}};
-}
-
-struct ServiceOptions {
-  SimMode mode = SimMode::kRealTime;
-  double real_time_factor = 1.0;  ///< simulated seconds per wall second in real-time mode
-  Duration control_period = std::chrono::milliseconds(10);
-  Duration command_timeout = std::chrono::milliseconds(500);
-  std::optional<Duration> duration;  ///< stop after this much simulated time
-};
 
 /// What a light shows: 0 off, 1 red, 2 yellow, 3 green (the devkit's values).
 using LampState = std::int32_t;
@@ -59,7 +46,13 @@ class SimService {
   SimService(const SimService&) = delete;
   SimService& operator=(const SimService&) = delete;
 
-  /// Runs until `stop` becomes true, the duration is reached, or a step fails (rethrown).
+  /// Writes every car's ground truth after each control period to `out` (header first; CSV,
+  /// `vehicle,` then `kReplayLogHeader`'s columns, 9 significant digits): the same run gives
+  /// the same bytes. nullptr: no log. `out` must outlive `Run`.
+  void LogTo(std::ostream* out);
+
+  /// Runs until `stop` becomes true, the duration is reached, or a step fails (rethrown). In
+  /// lockstep, first waits for every controller (see docs/vehicle_sim.md, "Lockstep").
   void Run(const std::atomic<bool>& stop);
 
   /// The lamp each signal head shows, as last reported on `signal_<i>/state` (absent: none

@@ -22,6 +22,43 @@ void SpawnConfig::Validate() const {
 
 void SimVehicleConfig::Validate() const { (void)ParseVehicleName(name); }
 
+void ServiceOptions::Validate() const {
+  AUTODRIVE_THROW_UNLESS(mode != SimMode::kLockstep || !controllers.empty(),
+                         "controllers: lockstep needs at least one controller to wait for");
+  std::set<std::string> names;
+  for (const std::string& c : controllers) {
+    AUTODRIVE_THROW_UNLESS(!c.empty(), "controllers: a controller's name cannot be empty");
+    AUTODRIVE_THROW_UNLESS(names.insert(c).second, "controllers: " << c << " is listed twice");
+  }
+}
+
+namespace {
+double Preset(const std::optional<double>& given, VariabilityPreset preset, double paper) {
+  if (given) return *given;
+  return preset == VariabilityPreset::kPaper ? paper : 0.0;
+}
+}  // namespace
+
+// The paper's parking study (NIGEL.md, "Variability used in the paper's parking study").
+double VariabilityConfig::DriveNoiseMps() const { return Preset(drive_noise_mps, preset, 0.013); }
+double VariabilityConfig::SteeringNoiseRad() const {
+  return Preset(steering_noise_rad, preset, 0.018);
+}
+double VariabilityConfig::WallPositionNoiseM() const {
+  return Preset(wall_position_noise_m, preset, 0.01);
+}
+double VariabilityConfig::WallHeadingNoiseRad() const {
+  return Preset(wall_heading_noise_rad, preset, 0.087);
+}
+double VariabilityConfig::LidarRangeNoiseM() const {
+  return Preset(lidar_range_noise_m, preset, 0.025);
+}
+
+int VariabilityConfig::RandomObstacles() const {
+  if (random_obstacles) return *random_obstacles;
+  return preset == VariabilityPreset::kPaper ? 3 : 0;
+}
+
 void SimConfig::Validate() const {
   AUTODRIVE_THROW_UNLESS(!vehicles.empty(), "vehicles: at least one car");
   std::set<std::string> names;

@@ -16,6 +16,7 @@
 ///       params: {top_speed_mps: 0.2}                # VehicleParams: Nigel's figures by default
 /// ```
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -23,6 +24,7 @@
 
 #include "common/config.h"
 #include "common/geometry.h"
+#include "common/time.h"
 #include "vehicle_sim/sensors.h"
 #include "vehicle_sim/vehicle_params.h"
 #include "vehicle_sim/world.h"
@@ -72,17 +74,138 @@ struct SimVehicleConfig {
   bool operator==(const SimVehicleConfig&) const = default;
 };
 
+/// How `autodrive-sim --city` advances time (see service.h and docs/vehicle_sim.md).
+enum class SimMode {
+  kRealTime,  ///< paced by the wall clock (times real_time_factor)
+  kFast,      ///< as fast as the machine goes
+  kLockstep,  ///< one control period each time every named controller has answered the last
+};
+constexpr auto ConfigEnumNames(SimMode) {
+  return std::array{std::pair{SimMode::kRealTime, std::string_view{"realtime"}},
+                    std::pair{SimMode::kFast, std::string_view{"fast"}},
+                    std::pair{SimMode::kLockstep, std::string_view{"lockstep"}}};
+}
+
+/// The DDS service's settings (`sim.service` in a city file; `autodrive-sim` options override
+/// them).
+struct ServiceOptions {
+  SimMode mode = SimMode::kRealTime;
+  double real_time_factor = 1.0;  ///< simulated seconds per wall second in real-time mode
+  Duration control_period = std::chrono::milliseconds(10);
+  Duration command_timeout = std::chrono::milliseconds(500);
+  std::optional<Duration> duration;  ///< stop after this much simulated time
+  /// Lockstep: the controllers that must answer every step (their `step_done` frame ids).
+  std::vector<std::string> controllers;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("mode", mode);
+    a.Optional("real_time_factor", real_time_factor, config::Range{0.01, 1000.0});
+    a.Optional("control_period_s", control_period,
+               config::Range<Duration>{std::chrono::milliseconds(1), std::chrono::seconds(1)});
+    a.Optional("command_timeout_s", command_timeout,
+               config::Range<Duration>{std::chrono::milliseconds(10), std::chrono::hours(1)});
+    a.Optional("duration_s", duration,
+               config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
+    a.Optional("controllers", controllers);
+  }
+  /// Lockstep needs at least one controller; names are unique and not empty.
+  void Validate() const;
+  bool operator==(const ServiceOptions&) const = default;
+};
+
+/// An obstacle that is not on the map (the paper's "unmapped obstacles"): a box standing on
+/// the ground.
+struct UnmappedObstacle {
+  double x_m = 0.0;  ///< centre of its footprint, map frame
+  double y_m = 0.0;
+  double yaw_rad = 0.0;
+  double length_m = 0.1;
+  double width_m = 0.1;
+  double height_m = 0.1;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("x_m", x_m, config::Range{-1e4, 1e4});
+    a.Required("y_m", y_m, config::Range{-1e4, 1e4});
+    a.Optional("yaw_rad", yaw_rad, config::Range{-10.0, 10.0});
+    a.Optional("length_m", length_m, config::Range{0.001, 100.0});
+    a.Optional("width_m", width_m, config::Range{0.001, 100.0});
+    a.Optional("height_m", height_m, config::Range{0.001, 100.0});
+  }
+  bool operator==(const UnmappedObstacle&) const = default;
+};
+
+enum class VariabilityPreset {
+  kNone,   ///< every figure 0 unless given
+  kPaper,  ///< the paper's parking study (NIGEL.md): the figures below
+};
+constexpr auto ConfigEnumNames(VariabilityPreset) {
+  return std::array{std::pair{VariabilityPreset::kNone, std::string_view{"none"}},
+                    std::pair{VariabilityPreset::kPaper, std::string_view{"paper"}}};
+}
+
+/// Variability of the simulated world (`sim.variability`), drawn from the simulation's seed.
+/// A preset gives every figure a value; a figure given here overrides the preset's.
+struct VariabilityConfig {
+  VariabilityPreset preset = VariabilityPreset::kNone;
+  /// Gaussian noise on each drive command, as a speed: σ / top speed in throttle units.
+  /// Paper: 0.013 m/s.
+  std::optional<double> drive_noise_mps;
+  /// Gaussian noise on each steering command's wheel angle. Paper: 0.018 (NIGEL.md writes
+  /// rad/s; the actuator here takes an angle, so it is applied as rad to the angle commanded).
+  std::optional<double> steering_noise_rad;
+  /// Each wall module (map obstacle of kind "wall") moved by N(0, σ) in x and y and turned by
+  /// N(0, σ) about its centre. Paper: 0.01 m and 0.087 rad.
+  std::optional<double> wall_position_noise_m;
+  std::optional<double> wall_heading_noise_rad;
+  /// LIDAR range noise for every car whose own `sensors.lidar.range_noise_m` is 0.
+  /// Paper: 0.025 m.
+  std::optional<double> lidar_range_noise_m;
+  /// Unmapped obstacles added to the world where given.
+  std::vector<UnmappedObstacle> obstacles;
+  /// And this many more at random (0.1 m cubes at a seeded random place and heading on the
+  /// map, outside every mapped obstacle and at least 0.5 m from every car's start). Paper: 3.
+  std::optional<int> random_obstacles;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("preset", preset);
+    a.Optional("drive_noise_mps", drive_noise_mps, config::Range{0.0, 10.0});
+    a.Optional("steering_noise_rad", steering_noise_rad, config::Range{0.0, 1.0});
+    a.Optional("wall_position_noise_m", wall_position_noise_m, config::Range{0.0, 1.0});
+    a.Optional("wall_heading_noise_rad", wall_heading_noise_rad, config::Range{0.0, 3.2});
+    a.Optional("lidar_range_noise_m", lidar_range_noise_m, config::Range{0.0, 10.0});
+    a.Optional("obstacles", obstacles);
+    a.Optional("random_obstacles", random_obstacles, config::Range{0, 1000});
+  }
+  bool operator==(const VariabilityConfig&) const = default;
+
+  /// The figures in effect: given, else the preset's.
+  [[nodiscard]] double DriveNoiseMps() const;
+  [[nodiscard]] double SteeringNoiseRad() const;
+  [[nodiscard]] double WallPositionNoiseM() const;
+  [[nodiscard]] double WallHeadingNoiseRad() const;
+  [[nodiscard]] double LidarRangeNoiseM() const;
+  [[nodiscard]] int RandomObstacles() const;
+};
+
 struct SimConfig {
   std::uint64_t seed = 1;  ///< every random source of the simulation derives from it
   WorldOptions world;
   /// The cars; without the key, one car `nigel_1` on the map's first lane.
   std::vector<SimVehicleConfig> vehicles{SimVehicleConfig{"nigel_1", std::nullopt, {}, {}}};
 
+  VariabilityConfig variability;
+  ServiceOptions service;
+
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Optional("seed", seed);
     a.Optional("world", world);
     a.Optional("vehicles", vehicles);
+    a.Optional("variability", variability);
+    a.Optional("service", service);
   }
   /// Names unique; at least one car.
   void Validate() const;

@@ -7,7 +7,9 @@
 #include <exception>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -22,6 +24,7 @@
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/service.h"
 #include "vehicle_sim/sim_config.h"
+#include "vehicle_sim/variability.h"
 #include "vehicle_sim/world.h"
 
 namespace {
@@ -44,8 +47,11 @@ int Replay(const std::string& city_path, const std::string& vehicle_name,
   }
   AUTODRIVE_THROW_UNLESS(index >= 0, city_path << ": no vehicle '" << vehicle_name
                                                << "' in the sim section (it has " << names << ")");
-  // The replayed car alone in the map's world (the others would only stand in its way).
-  World world(map, city.sim.world);
+  // The replayed car alone in the map's world (the others would only stand in its way), with
+  // the variability of the world (walls, obstacles) but no command noise: a replay is compared
+  // with the car's own log.
+  World world(SimulatedMap(city.sim, map), city.sim.world);
+  AddObstacles(UnmappedObstacles(city.sim, map, spawns), world);
   world.AddVehicle(city.sim.vehicles[static_cast<std::size_t>(index)].params,
                    spawns[static_cast<std::size_t>(index)]);
   std::ofstream out(out_path, std::ios::binary);
@@ -73,9 +79,36 @@ int Replay(const std::string& city_path, const std::string& vehicle_name,
   return 0;
 }
 
-int Serve(const std::string& city_path, const ServiceOptions& options, const std::string& partition,
+// What the command line gives overrides the city file's `sim.service`.
+struct ServiceOverrides {
+  std::optional<std::string> mode;
+  std::optional<double> real_time_factor;
+  std::optional<double> duration_s;
+  std::optional<double> command_timeout_s;
+  std::optional<double> control_period_s;
+  std::vector<std::string> controllers;
+};
+
+int Serve(const std::string& city_path, const ServiceOverrides& overrides,
+          const std::string& log_path, const std::string& partition,
           dds::SecurityOptions security) {
   const SimCity city = LoadSimCity(city_path);
+  ServiceOptions options = city.sim.service;
+  if (overrides.mode) {
+    options.mode = *overrides.mode == "fast"       ? SimMode::kFast
+                   : *overrides.mode == "lockstep" ? SimMode::kLockstep
+                                                   : SimMode::kRealTime;
+  }
+  if (overrides.real_time_factor) options.real_time_factor = *overrides.real_time_factor;
+  if (overrides.duration_s) {
+    options.duration = *overrides.duration_s > 0 ? std::optional(FromSeconds(*overrides.duration_s))
+                                                 : std::nullopt;
+  }
+  if (overrides.command_timeout_s)
+    options.command_timeout = FromSeconds(*overrides.command_timeout_s);
+  if (overrides.control_period_s) options.control_period = FromSeconds(*overrides.control_period_s);
+  if (!overrides.controllers.empty()) options.controllers = overrides.controllers;
+  options.Validate();
   const maps::Map map = maps::LoadMapOrLayout(city.map_path);
   std::atomic<bool> stop{false};
   // Before any other thread starts, so that they all inherit the blocked signals.
@@ -89,17 +122,31 @@ int Serve(const std::string& city_path, const ServiceOptions& options, const std
   participant_options.security = security;
   dds::Participant participant(participant_options);
   SimService service(participant, city, map, options);
+  std::ofstream log;
+  if (!log_path.empty()) {
+    log.open(log_path, std::ios::binary);
+    AUTODRIVE_THROW_UNLESS(log.good(), log_path << ": cannot write the log");
+    service.LogTo(&log);
+  }
   std::string names;
   for (const auto& v : city.sim.vehicles) names += (names.empty() ? "" : ", ") + v.name;
+  const char* mode = options.mode == SimMode::kRealTime ? "real-time"
+                     : options.mode == SimMode::kFast   ? "fast"
+                                                        : "lockstep";
   spdlog::info(
       "sim: city {} on map {}: {} ({}), {} mode{}, partition '{}'", city.name, map.name, names,
       city.sim.vehicles.size() == 1 ? "1 car" : std::to_string(city.sim.vehicles.size()) + " cars",
-      options.mode == SimMode::kRealTime ? "real-time" : "fast",
+      mode,
       options.mode == SimMode::kRealTime && options.real_time_factor != 1.0
           ? " x" + std::to_string(options.real_time_factor)
           : "",
       partition);
   service.Run(stop);
+  service.LogTo(nullptr);
+  if (log.is_open()) {
+    log.close();
+    AUTODRIVE_THROW_UNLESS(!log.fail(), log_path << ": writing the log failed");
+  }
   spdlog::info("sim: stopped after {:.3f} simulated s ({} steps)", ToSeconds(service.time()),
                service.steps());
   return 0;
@@ -114,27 +161,35 @@ int main(int argc, char** argv) {
       "/clock, until SIGINT or SIGTERM. See docs/vehicle_sim.md."};
   app.require_subcommand(0, 1);
   std::string service_city;
-  std::string mode = "realtime";
-  double real_time_factor = 1.0;
-  double duration_s = 0.0;
-  double command_timeout_s = 0.5;
+  ServiceOverrides overrides;
+  std::string log_path;
   std::string partition;
   std::string log_level = "info";
   app.add_option("--city", service_city, "city file (its map and sim section)")
       ->check(CLI::ExistingFile);
-  app.add_option("--mode", mode, "realtime: paced by the wall clock; fast: as fast as it goes")
-      ->check(CLI::IsMember({"realtime", "fast"}))
-      ->capture_default_str();
-  app.add_option("--real-time-factor", real_time_factor,
-                 "simulated seconds per wall second in realtime mode")
-      ->check(CLI::Range(0.01, 1000.0))
-      ->capture_default_str();
-  app.add_option("--duration", duration_s, "stop after this many simulated seconds (0: never)")
+  app.add_option("--mode", overrides.mode,
+                 "realtime: paced by the wall clock; fast: as fast as it goes; lockstep: a "
+                 "control period each time every --controller answered (default: the city's "
+                 "sim.service.mode, else realtime)")
+      ->check(CLI::IsMember({"realtime", "fast", "lockstep"}));
+  app.add_option("--controller", overrides.controllers,
+                 "lockstep: a controller to wait for at every step (repeat for several; "
+                 "default: sim.service.controllers)");
+  app.add_option("--real-time-factor", overrides.real_time_factor,
+                 "simulated seconds per wall second in realtime mode (default 1)")
+      ->check(CLI::Range(0.01, 1000.0));
+  app.add_option("--duration", overrides.duration_s,
+                 "stop after this many simulated seconds (0: never, the default)")
       ->check(CLI::Range(0.0, 1e9));
-  app.add_option("--command-timeout", command_timeout_s,
-                 "seconds without a throttle or steering command after which a car holds still")
-      ->check(CLI::Range(0.01, 3600.0))
-      ->capture_default_str();
+  app.add_option("--control-period", overrides.control_period_s,
+                 "seconds of simulated time between two readings of the commands (default 0.01)")
+      ->check(CLI::Range(0.001, 1.0));
+  app.add_option("--command-timeout", overrides.command_timeout_s,
+                 "seconds without a throttle or steering command after which a car holds still "
+                 "(default 0.5)")
+      ->check(CLI::Range(0.01, 3600.0));
+  app.add_option("--log", log_path,
+                 "write every car's ground truth after each control period to this CSV file");
   app.add_option("--partition", partition,
                  "DDS partition (separates cities or test runs sharing a domain)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
@@ -175,12 +230,7 @@ int main(int argc, char** argv) {
                    "subcommand (--help)\n");
       return 2;
     }
-    ServiceOptions options;
-    options.mode = mode == "fast" ? SimMode::kFast : SimMode::kRealTime;
-    options.real_time_factor = real_time_factor;
-    options.command_timeout = FromSeconds(command_timeout_s);
-    if (duration_s > 0) options.duration = FromSeconds(duration_s);
-    return Serve(service_city, options, partition, security);
+    return Serve(service_city, overrides, log_path, partition, security);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "autodrive-sim: %s\n", e.what());
     return 1;

@@ -291,9 +291,26 @@ void World::SetCommand(int vehicle, const VehicleCommand& command) {
   impl_->vehicles.at(static_cast<std::size_t>(vehicle))->SetCommand(command);
 }
 
+void World::SetVelocity(int vehicle, const Eigen::Vector3d& v_M, const Eigen::Vector3d& w_M) {
+  AUTODRIVE_THROW_UNLESS(v_M.allFinite() && w_M.allFinite(),
+                         "vehicle " << vehicle << ": a velocity must be finite, got "
+                                    << v_M.transpose() << " and " << w_M.transpose());
+  impl_->vehicles.at(static_cast<std::size_t>(vehicle))->SetVelocity(v_M, w_M);
+}
+
 void World::Step() {
   Impl& w = *impl_;
   if (!w.failure.empty()) throw NumericalError(w.failure);
+  for (std::size_t i = 0; i < w.vehicles.size(); ++i) {
+    const std::string bad = w.vehicles[i]->CheckBeforeStep();
+    if (!bad.empty()) {
+      std::ostringstream message;
+      message << "vehicle " << i << ": " << bad << " is beyond any plausible value before step "
+              << w.steps + 1 << " (t = " << ToSeconds(time()) << " s)";
+      w.failure = message.str();
+      throw NumericalError(w.failure);
+    }
+  }
   for (auto& v : w.vehicles) v->PrepareStep();
   dSpaceCollide(w.vehicle_space, &w, &Impl::NearCallback);
   dSpaceCollide2(reinterpret_cast<dGeomID>(w.vehicle_space),

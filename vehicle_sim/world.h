@@ -57,8 +57,10 @@ struct WorldOptions {
   bool operator==(const WorldOptions&) const = default;
 };
 
-/// A step produced a non-finite number. The message names the vehicle, the step and the
-/// quantity; the world is not stepped further (`Step` throws again).
+/// A step produced a non-finite number, or a car's state diverged beyond anything a lab car
+/// reaches (checked before each step, since ODE aborts on a state that overflows inside its
+/// step). The message names the vehicle, the step and the quantity; the world is not stepped
+/// further (`Step` throws again).
 class NumericalError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -94,6 +96,12 @@ class World {
 
   /// The command that holds from the next step on. @throws InputError for a non-finite value.
   void SetCommand(int vehicle, const VehicleCommand& command);
+  /// Sets the car moving rigidly: every body (chassis and wheels) takes the velocity of the
+  /// chassis point it is at, for `v_M` at the chassis' centre of mass and angular velocity
+  /// `w_M` (map frame). The wheels do not spin about their axles, so they skid until the tyres
+  /// take them up: a scenario that starts at speed, a knock. Its state shows it after the next
+  /// step. @throws InputError for a non-finite value.
+  void SetVelocity(int vehicle, const Eigen::Vector3d& v_M, const Eigen::Vector3d& w_M);
   /// One physics step of `options().step`. @throws NumericalError (see the class).
   void Step();
   /// Steps until `time()` reaches `until` (whole steps; none when it already has).

@@ -197,5 +197,11 @@ TopicSpec<msg::OperatorReply> OperatorReplies() {
 }
 
 TopicSpec<msg::Clock> Clock() { return Spec<msg::Clock>("/clock", Qos::BestEffortStream(1)); }
+TopicSpec<msg::Header> SimStep() {
+  return Spec<msg::Header>("/autodrive/sim/step", Qos::Command());
+}
+TopicSpec<msg::Header> SimStepDone() {
+  return Spec<msg::Header>("/autodrive/sim/step_done", Qos::Command());
+}
 
 }  // namespace autodrive::dds::topics

@@ -103,6 +103,14 @@ TopicSpec<msg::DeviceCommand> DeviceCommands();
 /// `/clock` (rosgraph_msgs/Clock), best effort keep last 1 exactly like ROS 2's ClockQoS, so
 /// that our readers also match ROS simulators' /clock.
 TopicSpec<msg::Clock> Clock();
+/// The simulator's lockstep tick (`/autodrive/sim/step`, std_msgs/Header): `stamp` is the
+/// simulated time just reached; every message of that step was delivered before it. Reliable,
+/// keep all. See docs/vehicle_sim.md, "Lockstep".
+TopicSpec<msg::Header> SimStep();
+/// A lockstep controller's answer (`/autodrive/sim/step_done`, std_msgs/Header): `frame_id` is
+/// the controller's name, `stamp` the step it answers (any stamp before the first step
+/// registers it); its commands for that step were delivered before it. Reliable, keep all.
+TopicSpec<msg::Header> SimStepDone();
 
 }  // namespace topics
 }  // namespace autodrive::dds

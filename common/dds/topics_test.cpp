@@ -111,7 +111,9 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
                                  ROW(OperatorRequests("alice")),
                                  ROW(OperatorReplies()),
                                  ROW(DeviceCommands()),
-                                 ROW(Clock())};
+                                 ROW(Clock()),
+                                 ROW(SimStep()),
+                                 ROW(SimStepDone())};
 #undef ROW
   const std::regex type_re("^[a-z][a-z0-9_]*::msg::dds_::[A-Z][A-Za-z0-9]*_$");
   for (const auto& row : rows) {

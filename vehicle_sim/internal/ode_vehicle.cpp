@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 
 #include <Eigen/Geometry>
 
@@ -303,6 +304,43 @@ void OdeVehicle::AttachFeedback(int wheel, dJointID joint, const dReal* normal) 
   Eigen::Vector3d n = ToEigen(normal);
   if (n.z() < 0) n = -n;  // the ground's normal, pointing up out of it
   last_normal_[ui] = n;
+}
+
+std::string OdeVehicle::CheckBeforeStep() const {
+  constexpr double kMaxPosition = 1e6, kMaxSpeed = 1e4, kMaxSpin = 1e5;
+  const auto check = [](const std::string& what, const dReal* v, double limit,
+                        const char* unit) -> std::string {
+    const double norm = ToEigen(v).stableNorm();  // no overflow of the squares
+    if (std::isfinite(norm) && norm <= limit) return {};
+    std::ostringstream out;
+    out << what << " (" << norm << ' ' << unit << ')';
+    return out.str();
+  };
+  std::string bad = check("chassis position", dBodyGetPosition(chassis_), kMaxPosition, "m");
+  if (bad.empty()) bad = check("chassis velocity", dBodyGetLinearVel(chassis_), kMaxSpeed, "m/s");
+  if (bad.empty()) {
+    bad = check("chassis angular velocity", dBodyGetAngularVel(chassis_), kMaxSpin, "rad/s");
+  }
+  for (int i = 0; i < kWheels && bad.empty(); ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    const std::string name(ToString(static_cast<Wheel>(i)));
+    bad = check(name + " wheel velocity", dBodyGetLinearVel(wheels_[ui]), kMaxSpeed, "m/s");
+    if (bad.empty()) {
+      bad = check(name + " wheel spin", dBodyGetAngularVel(wheels_[ui]), kMaxSpin, "rad/s");
+    }
+  }
+  return bad;
+}
+
+void OdeVehicle::SetVelocity(const Eigen::Vector3d& v_M, const Eigen::Vector3d& w_M) {
+  const Eigen::Vector3d c = ToEigen(dBodyGetPosition(chassis_));
+  dBodySetLinearVel(chassis_, v_M.x(), v_M.y(), v_M.z());
+  dBodySetAngularVel(chassis_, w_M.x(), w_M.y(), w_M.z());
+  for (dBodyID wheel : wheels_) {
+    const Eigen::Vector3d v = v_M + w_M.cross(ToEigen(dBodyGetPosition(wheel)) - c);
+    dBodySetLinearVel(wheel, v.x(), v.y(), v.z());
+    dBodySetAngularVel(wheel, w_M.x(), w_M.y(), w_M.z());
+  }
 }
 
 std::string OdeVehicle::FinishStep() {

@@ -55,6 +55,9 @@ class OdeVehicle {
   OdeVehicle& operator=(const OdeVehicle&) = delete;
 
   void SetCommand(const VehicleCommand& command) { command_ = command; }
+  /// Sets every body of the car moving rigidly with the chassis: `v_M` at the chassis' centre
+  /// of mass and `w_M` (map frame).
+  void SetVelocity(const Eigen::Vector3d& v_M, const Eigen::Vector3d& w_M);
   /// Before collision: actuators (steering slew, Ackermann, drive/brake motors), rolling
   /// resistance, and the tyre contacts for this step.
   void PrepareStep();
@@ -64,6 +67,11 @@ class OdeVehicle {
   /// After `joint` (the contact of wheel `wheel`, wheel as body 1) was made: its force is read
   /// back after the step; `normal` is the contact's normal.
   void AttachFeedback(int wheel, dJointID joint, const dReal* normal);
+  /// Before the ODE step: the name and value of the first body quantity beyond anything a lab
+  /// car can reach (position beyond 1e6 m, speed beyond 1e4 m/s, spin beyond 1e5 rad/s, or not
+  /// finite), or empty. ODE aborts the process on a state that overflows inside its step (a
+  /// quaternion it cannot normalise), so a diverging state is stopped here first.
+  std::string CheckBeforeStep() const;
   /// After the ODE step: normal forces, spin integrals, encoder ticks, the state snapshot.
   /// Returns the name of the first non-finite quantity, or empty.
   std::string FinishStep();

@@ -1,0 +1,169 @@
+// The simulator's DDS service in-process, on real DDS: lockstep with a controller on this
+// thread.
+#include "vehicle_sim/service.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <sstream>
+#include <thread>
+
+#include "common/dds/conversions.h"
+#include "common/dds/messages.h"
+#include "common/dds/participant.h"
+#include "common/dds/reader.h"
+#include "common/dds/topics.h"
+#include "common/dds/writer.h"
+#include "common/test_support.h"
+#include "maps/builder.h"
+#include "maps/layout.h"
+
+namespace autodrive::vehicle_sim {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+const maps::Map& SmallTown() {
+  static const maps::Map map = maps::Build(
+      maps::LoadLayout((test::SourceDir() / "config" / "maps" / "small_town.yaml").string()));
+  return map;
+}
+
+Duration ToDuration(const msg::Time& t) { return dds::FromMsg(t) - Time{}; }
+
+// A lockstep simulator of one car (nigel_1 on the southern road) in its own thread, and this
+// test as its controller "ctl".
+class Lockstep {
+ public:
+  explicit Lockstep(const std::string& partition, std::uint64_t seed = 1)
+      : participant_(dds::ParticipantOptions{{}, partition, {}}),
+        steps_(participant_, dds::topics::SimStep()),
+        done_(participant_, dds::topics::SimStepDone()),
+        throttle_(participant_, dds::topics::ThrottleCommand(VehicleId(1))),
+        steering_(participant_, dds::topics::SteeringCommand(VehicleId(1))),
+        truth_(participant_, dds::topics::GroundTruth(VehicleId(1))) {
+    SimCity city;
+    city.name = "lockstep_test";
+    city.sim.seed = seed;
+    city.sim.vehicles[0].spawn = SpawnConfig{"r4c1:W>E:0", 0.2, {}, {}, {}};
+    city.sim.variability.preset = VariabilityPreset::kPaper;  // noise, drawn from the seed
+    ServiceOptions options;
+    options.mode = SimMode::kLockstep;
+    options.controllers = {"ctl"};
+    service_ = std::make_unique<SimService>(participant_, city, SmallTown(), options);
+    service_->LogTo(&log_);
+    thread_ = std::thread([this] { service_->Run(stop_); });
+  }
+  ~Lockstep() {
+    stop_.store(true);
+    thread_.join();
+  }
+  void Register() {
+    ASSERT_TRUE(done_.WaitForReaders(1, seconds(30)));
+    Answer(msg::Time{0, 0});
+  }
+  // The next step's stamp, or nothing within `timeout`.
+  std::optional<Duration> NextStep(std::chrono::steady_clock::duration timeout) {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    do {
+      if (auto m = steps_.TakeOne()) return ToDuration((*m)->stamp);
+    } while (steps_.WaitForData(milliseconds(20)) || std::chrono::steady_clock::now() < end);
+    return std::nullopt;
+  }
+  // Commands for the step at `t`, then the answer.
+  void Command(Duration t, float throttle, float steering) {
+    throttle_.Write(msg::Float32{throttle});
+    steering_.Write(msg::Float32{steering});
+    ASSERT_TRUE(throttle_.WaitForAcks(seconds(10)));
+    ASSERT_TRUE(steering_.WaitForAcks(seconds(10)));
+    Answer(dds::ToMsg(Time{} + t));
+  }
+  // The newest ground truth (x) delivered so far.
+  std::optional<double> TruthX() {
+    std::optional<double> x;
+    while (auto m = truth_.TakeOne()) x = (*m)->pose.pose.position.x;
+    return x;
+  }
+  std::string log() const { return log_.str(); }
+  const SimService& service() const { return *service_; }
+
+ private:
+  void Answer(const msg::Time& stamp) {
+    msg::Header h{};
+    h.stamp = stamp;
+    dds::BorrowString(h.frame_id, "ctl");
+    done_.Write(h);
+  }
+  dds::Participant participant_;
+  dds::Reader<msg::Header> steps_;
+  dds::Writer<msg::Header> done_;
+  dds::Writer<msg::Float32> throttle_, steering_;
+  dds::Reader<msg::TrackedVehicle> truth_;
+  std::ostringstream log_;
+  std::unique_ptr<SimService> service_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+std::string Partition() {
+  return fmt::format("lockstep_{}_{}", ::getpid(),
+                     ::testing::UnitTest::GetInstance()->current_test_info()->name());
+}
+
+TEST(SimLockstep, TheWorldAdvancesOneControlPeriodPerAnswerAndWaitsForIt) {
+  Lockstep sim(Partition());
+  // Nothing happens before the controller registers.
+  EXPECT_FALSE(sim.NextStep(milliseconds(300)).has_value());
+  sim.Register();
+  const auto first = sim.NextStep(seconds(30));
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(*first, Duration{0});
+  Duration t = *first;
+  for (int k = 1; k <= 50; ++k) {
+    sim.Command(t, 1.0F, 0.0F);
+    const auto next = sim.NextStep(seconds(30));
+    ASSERT_TRUE(next.has_value()) << "step " << k;
+    EXPECT_EQ(*next - t, milliseconds(10)) << "one control period per answer";
+    t = *next;
+  }
+  // Unanswered, the simulator waits: no step, no time passes.
+  EXPECT_FALSE(sim.NextStep(milliseconds(300)).has_value());
+  EXPECT_EQ(sim.service().time(), milliseconds(500));
+  // Every step's ground truth arrived before the step was announced.
+  const auto x = sim.TruthX();
+  ASSERT_TRUE(x.has_value());
+  EXPECT_GT(*x, 0.05);
+}
+
+// The same seed and the same controller give the same log, byte for byte (with the paper's
+// noise on, drawn from the seed); the controller's decisions depend on what it was sent.
+TEST(SimLockstep, TwoRunsWithTheSameSeedAndControllerGiveTheSameLog) {
+  const auto run = [](std::uint64_t seed, const std::string& partition) {
+    Lockstep sim(partition, seed);
+    sim.Register();
+    auto t = sim.NextStep(seconds(30));
+    double x = 0;
+    for (int k = 0; k < 150 && t; ++k) {
+      if (auto seen = sim.TruthX()) x = *seen;
+      // Drive to 0.2 m past the start, then brake; steer from what was seen.
+      const float throttle = x < 0.9 ? 1.0F : 0.0F;
+      sim.Command(*t, throttle, static_cast<float>(std::sin(10 * x)) * 0.5F);
+      t = sim.NextStep(seconds(30));
+    }
+    EXPECT_TRUE(t.has_value());
+    return sim.log();
+  };
+  const std::string a = run(3, Partition() + "_a");
+  const std::string b = run(3, Partition() + "_b");
+  const std::string c = run(4, Partition() + "_c");
+  EXPECT_GT(a.size(), 150u * 100);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c) << "another seed, other noise";
+}
+
+}  // namespace
+}  // namespace autodrive::vehicle_sim

@@ -1,0 +1,147 @@
+#include "vehicle_sim/variability.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "common/error.h"
+#include "common/geometry.h"
+
+namespace autodrive::vehicle_sim {
+
+namespace {
+
+// SplitMix64's finaliser.
+std::uint64_t Mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// Streams of the world (vehicle -1).
+constexpr int kWallStream = 1;
+constexpr int kObstacleStream = 2;
+// Streams of a car; 1-3 are its sensors' (sensors.cpp).
+constexpr int kCommandStream = 4;
+
+}  // namespace
+
+double Gaussian(std::mt19937_64& rng, double sigma) {
+  if (sigma == 0.0) return 0.0;
+  return std::normal_distribution<double>(0.0, sigma)(rng);
+}
+
+std::uint64_t StreamSeed(std::uint64_t seed, int vehicle, int stream) {
+  return Mix(Mix(Mix(seed) ^ static_cast<std::uint64_t>(vehicle)) ^
+             static_cast<std::uint64_t>(stream));
+}
+
+maps::Map PerturbWalls(const maps::Map& map, double position_sigma_m, double heading_sigma_rad,
+                       std::uint64_t seed) {
+  maps::Map out = map;
+  if (position_sigma_m == 0.0 && heading_sigma_rad == 0.0) return out;
+  std::mt19937_64 rng(StreamSeed(seed, -1, kWallStream));
+  for (maps::Obstacle& o : out.obstacles) {
+    if (o.kind != "wall" || o.footprint.empty()) continue;
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (const Eigen::Vector2d& p : o.footprint) centre += p;
+    centre /= static_cast<double>(o.footprint.size());
+    const double dx = Gaussian(rng, position_sigma_m);
+    const double dy = Gaussian(rng, position_sigma_m);
+    const double dyaw = Gaussian(rng, heading_sigma_rad);
+    const Eigen::Rotation2Dd turn(dyaw);
+    for (Eigen::Vector2d& p : o.footprint)
+      p = centre + turn * (p - centre) + Eigen::Vector2d(dx, dy);
+  }
+  return out;
+}
+
+maps::Map SimulatedMap(const SimConfig& sim, const maps::Map& map) {
+  return PerturbWalls(map, sim.variability.WallPositionNoiseM(),
+                      sim.variability.WallHeadingNoiseRad(), sim.seed);
+}
+
+namespace {
+// Whether p is inside the polygon (even-odd rule).
+bool Inside(const maps::Polyline& polygon, const Eigen::Vector2d& p) {
+  bool inside = false;
+  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+    const Eigen::Vector2d &a = polygon[i], &b = polygon[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
+      inside = !inside;
+    }
+  }
+  return inside;
+}
+}  // namespace
+
+std::vector<UnmappedObstacle> UnmappedObstacles(const SimConfig& sim, const maps::Map& map,
+                                                std::span<const RigidTransform2> spawns) {
+  std::vector<UnmappedObstacle> out = sim.variability.obstacles;
+  const int n = sim.variability.RandomObstacles();
+  if (n == 0) return out;
+  constexpr double kSize = 0.1, kClearOfCars = 0.5;
+  std::mt19937_64 rng(StreamSeed(sim.seed, -1, kObstacleStream));
+  std::uniform_real_distribution<double> x(0.0, map.cols * map.tile_size_m);
+  std::uniform_real_distribution<double> y(0.0, map.rows * map.tile_size_m);
+  std::uniform_real_distribution<double> yaw(-std::numbers::pi, std::numbers::pi);
+  for (int k = 0; k < n; ++k) {
+    bool placed = false;
+    for (int attempt = 0; attempt < 10'000 && !placed; ++attempt) {
+      const Eigen::Vector2d p(x(rng), y(rng));
+      const double heading = yaw(rng);
+      bool clear = true;
+      for (const RigidTransform2& s : spawns)
+        clear = clear && (s.translation() - p).norm() >= kClearOfCars;
+      // The cube's corners and centre outside every mapped obstacle.
+      const Eigen::Rotation2Dd R(heading);
+      for (const maps::Obstacle& o : map.obstacles) {
+        if (!clear) break;
+        clear = !Inside(o.footprint, p);
+        for (int c = 0; c < 4 && clear; ++c) {
+          const Eigen::Vector2d corner(c % 2 == 0 ? kSize / 2 : -kSize / 2,
+                                       c < 2 ? kSize / 2 : -kSize / 2);
+          clear = !Inside(o.footprint, p + R * corner);
+        }
+      }
+      if (!clear) continue;
+      out.push_back(UnmappedObstacle{p.x(), p.y(), heading, kSize, kSize, kSize});
+      placed = true;
+    }
+    AUTODRIVE_THROW_UNLESS(placed, "variability: found no place for random obstacle "
+                                       << k + 1 << " of " << n << " on map " << map.name);
+  }
+  return out;
+}
+
+void AddObstacles(std::span<const UnmappedObstacle> obstacles, World& world) {
+  for (const UnmappedObstacle& o : obstacles) {
+    world.AddStaticBox(StaticBox{RigidTransform2::FromXyYaw(o.x_m, o.y_m, o.yaw_rad),
+                                 Eigen::Vector3d(o.length_m, o.width_m, o.height_m)});
+  }
+}
+
+SensorConfig EffectiveSensors(const SimConfig& sim, std::size_t vehicle) {
+  SensorConfig s = sim.vehicles.at(vehicle).sensors;
+  if (s.lidar.range_noise_m == 0.0) s.lidar.range_noise_m = sim.variability.LidarRangeNoiseM();
+  return s;
+}
+
+CommandNoise::CommandNoise(const VariabilityConfig& variability, const VehicleParams& params,
+                           std::uint64_t seed, int vehicle)
+    : throttle_sigma_(variability.DriveNoiseMps() / params.top_speed_mps),
+      steering_sigma_(variability.SteeringNoiseRad() / params.steering_limit_rad),
+      rng_(StreamSeed(seed, vehicle, kCommandStream)) {}
+
+VehicleCommand CommandNoise::Apply(const VehicleCommand& command) {
+  VehicleCommand out = command;
+  if (out.throttle != 0.0) {
+    out.throttle = std::clamp(out.throttle + Gaussian(rng_, throttle_sigma_), -1.0, 1.0);
+  }
+  out.steering = std::clamp(out.steering + Gaussian(rng_, steering_sigma_), -1.0, 1.0);
+  return out;
+}
+
+}  // namespace autodrive::vehicle_sim
