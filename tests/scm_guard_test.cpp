@@ -78,13 +78,16 @@ class ScmGuard : public test::ScmProcesses {
   /// long. The SCM schedules SPaT on a fixed grid, so a late message is followed by an early
   /// one and the mean stays the period. How close each message is to its slot is a figure of
   /// the machine's load, not of the SCM: `autodrive-bench-scm` reports it (tick jitter).
-  void ExpectRatesKept(const char* what) {
+  // SPaT kept its 10 Hz, by the SCM's own stamps: no interval above `max_s` and the 99th
+  // percentile at most `p99_s`.
+  void ExpectRatesKept(const char* what, double p99_s, double max_s) {
     std::printf("%s: SPaT intervals mean %.4f p50 %.4f p99 %.4f max %.4f s over %zu\n", what,
                 checker_.MeanInterval(), checker_.IntervalQuantile(0.5),
                 checker_.IntervalQuantile(0.99), checker_.MaxInterval(), checker_.intervals());
     EXPECT_GE(checker_.intervals(), 20u) << what;
     EXPECT_LE(checker_.MeanInterval(), 0.105) << what;
-    EXPECT_LE(checker_.MaxInterval(), 0.3) << what;
+    EXPECT_LE(checker_.IntervalQuantile(0.99), p99_s) << what;
+    EXPECT_LE(checker_.MaxInterval(), max_s) << what;
   }
 };
 
@@ -106,7 +109,10 @@ TEST_F(ScmGuard, ALargeConfigApplyIsRefusedWithNoEffectOnAnyIntersection) {
   // No effect: every intersection keeps running (no flash, no restart), the lights stay
   // supervised, SPaT keeps its rate, and no configuration was applied.
   EXPECT_TRUE(WatchSpat(30, NoneFlashing, seconds(30)));
-  ExpectRatesKept("5 MB config apply");
+  // The 5 MB request is received and refused off the loop, but its 5 MB pass through the
+  // SCM's process (DDS receive, deserialisation): on a loaded machine one interval has reached
+  // 0.26 s; the light hosts' time-out is 0.8 s.
+  ExpectRatesKept("5 MB config apply", 0.3, 0.3);
   const auto status = Scmctl({"status"});
   EXPECT_THAT(status.text, HasSubstr("lights_lost: 0"));
   EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("config_applied")));
@@ -202,7 +208,12 @@ TEST_F(ScmGuard, SpatKeepsEveryMinEndPromiseAndItsRateWhileOperatorsCommand) {
   EXPECT_GT(checker_.changes(), 20u);
   EXPECT_GT(ok, 10);
   for (const auto& v : checker_.violations()) ADD_FAILURE() << v;
-  ExpectRatesKept("operator commands");
+  // The figures are p99 <= 0.11 s and max <= 0.15 s. Measured quiet: p99 0.1002-0.1011,
+  // max 0.1016-0.1058; in CI beside another test: p99 0.1068-0.1079, max 0.1155-0.1163. The max
+  // is held to 0.15 s; the p99 gets 10 ms of room for a loaded machine (its 99th percentile is
+  // the 6th longest of 600 intervals). Before persistence left the loop, `mode` commands made
+  // gaps of 0.18-0.30 s, which fail both.
+  ExpectRatesKept("operator commands", 0.12, 0.15);
 }
 
 TEST_F(ScmGuard, AFloorBelowItsHardMinimumIsRefused) {
@@ -333,7 +344,7 @@ TEST_F(ScmGuard, HostileRequestsAreRefusedCountedAndTheRatesKept) {
   EXPECT_THAT(status.text, Not(HasSubstr("refused_not_allowed: 0\n")));
   EXPECT_THAT(Scmctl({"show", "driving_school_crossing"}).text, HasSubstr("mode=fixed"));
   EXPECT_TRUE(WatchSpat(50, NoneFlashing, seconds(30)));
-  ExpectRatesKept("hostile requests");
+  ExpectRatesKept("hostile requests", 0.15, 0.3);
 }
 
 // Every scmctl run gets its answer: 10,000 commands (AUTODRIVE_SCMCTL_COMMANDS to change it)

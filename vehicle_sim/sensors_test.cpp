@@ -6,6 +6,8 @@
 #include <numbers>
 #include <vector>
 
+#include "vehicle_sim/sim_config.h"
+#include "vehicle_sim/variability.h"
 #include "vehicle_sim/world.h"
 
 namespace autodrive::vehicle_sim {
@@ -100,8 +102,11 @@ TEST(Lidar, SeesAnotherCarAndAConstructionBoxAtTheirBearingAndRange) {
 }
 
 TEST(Lidar, ThePaperPresetsRangeNoiseHasAStandardDeviationOf25MillimetresWithinTenPercent) {
-  SensorConfig config;
-  config.lidar.range_noise_m = 0.025;
+  // The car's sensors as a city with `variability: {preset: paper}` gives them.
+  SimConfig sim;
+  sim.variability.preset = VariabilityPreset::kPaper;
+  const SensorConfig config = EffectiveSensors(sim, 0);
+  ASSERT_EQ(config.lidar.range_noise_m, 0.025);
   Bench noisy(config, 7);
   Bench exact;
   for (Bench* b : {&noisy, &exact}) {
