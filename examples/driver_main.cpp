@@ -99,8 +99,13 @@ int Lockstep(const dds::Participant& participant, const std::string& name,
       decide(dds::FromMsg(t) - Time{});
       // The commands are in the simulator's readers before the answer is sent.
       for (const auto& car : cars) {
-        (void)car->throttle.WaitForAcks(std::chrono::seconds(2));
-        (void)car->steering.WaitForAcks(std::chrono::seconds(2));
+        if (!car->throttle.WaitForAcks(std::chrono::seconds(2)) ||
+            !car->steering.WaitForAcks(std::chrono::seconds(2))) {
+          spdlog::warn(
+              "lockstep: {}'s commands were not acknowledged in 2 s: this step may "
+              "not be reproducible",
+              car->name);
+        }
       }
       answer(t);
       ++answered;

@@ -98,19 +98,6 @@ inline bool TestPole(const internal::GridPole& p, const RayData& r, double& best
   return hit;
 }
 
-// Even-odd test of (x, y) against the polygon v[0..n).
-inline bool InsidePolygon(const Eigen::Vector2d* v, std::uint32_t n, double x, double y) {
-  bool inside = false;
-  for (std::uint32_t i = 0, j = n - 1; i < n; j = i++) {
-    const Eigen::Vector2d& a = v[i];
-    const Eigen::Vector2d& b = v[j];
-    if ((a.y() > y) != (b.y() > y) && x < (b.x() - a.x()) * (y - a.y()) / (b.y() - a.y()) + a.x()) {
-      inside = !inside;
-    }
-  }
-  return inside;
-}
-
 // A prism's top and bottom faces.
 inline bool TestCap(const internal::GridCap& c, const Eigen::Vector2d* vertices, const RayData& r,
                     double& best) {

@@ -284,6 +284,20 @@ void CastScan(const StaticScene& scene, std::span<const DynamicBox> boxes,
               std::span<const Ray> rays, double max_range_m, std::optional<BoxId> exclude,
               std::span<Hit> hits);
 
+/// Even-odd test of (x, y) against the polygon v[0..n) (n >= 1): inside or not, for a point
+/// on no edge.
+inline bool InsidePolygon(const Eigen::Vector2d* v, std::uint32_t n, double x, double y) {
+  bool inside = false;
+  for (std::uint32_t i = 0, j = n - 1; i < n; j = i++) {
+    const Eigen::Vector2d& a = v[i];
+    const Eigen::Vector2d& b = v[j];
+    if ((a.y() > y) != (b.y() > y) && x < (b.x() - a.x()) * (y - a.y()) / (b.y() - a.y()) + a.x()) {
+      inside = !inside;
+    }
+  }
+  return inside;
+}
+
 /// The same answer as `Cast` (to rounding) without the grid: every face, pole, tile and box is
 /// tested. For tests and benchmarks; its cost grows with the size of the scene.
 [[nodiscard]] Hit CastBruteForce(const StaticScene& scene, std::span<const DynamicBox> boxes,

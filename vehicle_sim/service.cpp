@@ -3,6 +3,7 @@
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 #include <ostream>
@@ -301,8 +302,7 @@ struct SimService::Impl {
         const std::string who(dds::View((*m)->frame_id));
         if (missing.erase(who) > 0) {
           spdlog::info("lockstep: controller {} is here", who);
-        } else if (!options.controllers.empty() &&
-                   std::find(options.controllers.begin(), options.controllers.end(), who) ==
+        } else if (std::find(options.controllers.begin(), options.controllers.end(), who) ==
                        options.controllers.end() &&
                    strangers.insert(who).second) {
           spdlog::warn("lockstep: '{}' answers but is not a configured controller: ignored", who);

@@ -3,6 +3,7 @@
 #include "vehicle_sim/service.h"
 
 #include <fmt/format.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -11,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "common/config.h"
 #include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
@@ -112,6 +114,22 @@ class Lockstep {
 std::string Partition() {
   return fmt::format("lockstep_{}_{}", ::getpid(),
                      ::testing::UnitTest::GetInstance()->current_test_info()->name());
+}
+
+TEST(SimLockstep, ACitysServiceSectionIsCheckedWithTheKeyNamed) {
+  const auto load = [](const std::string& service) {
+    return test::ErrorMessage<ConfigError>(
+        [&] { (void)config::LoadString<SimConfig>("service: " + service + "\n", "city.yaml"); });
+  };
+  EXPECT_THAT(load("{mode: lockstep}"), testing::HasSubstr("lockstep needs at least one"));
+  EXPECT_THAT(load("{mode: lockstep, controllers: [a, a]}"),
+              testing::HasSubstr("a is listed twice"));
+  EXPECT_THAT(load("{mode: lockstepp, controllers: [a]}"), testing::HasSubstr("mode"));
+  EXPECT_THAT(load("{control_period_s: 0}"), testing::HasSubstr("control_period_s"));
+  const auto ok = config::LoadString<SimConfig>(
+      "service: {mode: lockstep, controllers: [driver], duration_s: 12}\n", "city.yaml");
+  EXPECT_EQ(ok.service.mode, SimMode::kLockstep);
+  EXPECT_EQ(ok.service.duration, std::optional<Duration>(seconds(12)));
 }
 
 TEST(SimLockstep, TheWorldAdvancesOneControlPeriodPerAnswerAndWaitsForIt) {

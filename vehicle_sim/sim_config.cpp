@@ -24,7 +24,8 @@ void SimVehicleConfig::Validate() const { (void)ParseVehicleName(name); }
 
 void ServiceOptions::Validate() const {
   AUTODRIVE_THROW_UNLESS(mode != SimMode::kLockstep || !controllers.empty(),
-                         "controllers: lockstep needs at least one controller to wait for");
+                         "controllers: lockstep needs at least one controller to wait for "
+                         "(sim.service.controllers, or --controller NAME)");
   std::set<std::string> names;
   for (const std::string& c : controllers) {
     AUTODRIVE_THROW_UNLESS(!c.empty(), "controllers: a controller's name cannot be empty");

@@ -9,6 +9,7 @@
 #include <iostream>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -94,10 +95,12 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
           dds::SecurityOptions security) {
   const SimCity city = LoadSimCity(city_path);
   ServiceOptions options = city.sim.service;
-  if (overrides.mode) {
-    options.mode = *overrides.mode == "fast"       ? SimMode::kFast
-                   : *overrides.mode == "lockstep" ? SimMode::kLockstep
-                                                   : SimMode::kRealTime;
+  std::string_view mode_name;
+  for (const auto& [mode, name] : ConfigEnumNames(SimMode{})) {
+    if (overrides.mode && name == *overrides.mode) options.mode = mode;
+  }
+  for (const auto& [mode, name] : ConfigEnumNames(SimMode{})) {
+    if (mode == options.mode) mode_name = name;
   }
   if (overrides.real_time_factor) options.real_time_factor = *overrides.real_time_factor;
   if (overrides.duration_s) {
@@ -130,13 +133,10 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
   }
   std::string names;
   for (const auto& v : city.sim.vehicles) names += (names.empty() ? "" : ", ") + v.name;
-  const char* mode = options.mode == SimMode::kRealTime ? "real-time"
-                     : options.mode == SimMode::kFast   ? "fast"
-                                                        : "lockstep";
   spdlog::info(
       "sim: city {} on map {}: {} ({}), {} mode{}, partition '{}'", city.name, map.name, names,
       city.sim.vehicles.size() == 1 ? "1 car" : std::to_string(city.sim.vehicles.size()) + " cars",
-      mode,
+      mode_name,
       options.mode == SimMode::kRealTime && options.real_time_factor != 1.0
           ? " x" + std::to_string(options.real_time_factor)
           : "",

@@ -6,6 +6,7 @@
 
 #include "common/error.h"
 #include "common/geometry.h"
+#include "vehicle_sim/raycast.h"
 
 namespace autodrive::vehicle_sim {
 
@@ -63,17 +64,9 @@ maps::Map SimulatedMap(const SimConfig& sim, const maps::Map& map) {
 }
 
 namespace {
-// Whether p is inside the polygon (even-odd rule).
 bool Inside(const maps::Polyline& polygon, const Eigen::Vector2d& p) {
-  bool inside = false;
-  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
-    const Eigen::Vector2d &a = polygon[i], &b = polygon[j];
-    if ((a.y() > p.y()) != (b.y() > p.y()) &&
-        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
-      inside = !inside;
-    }
-  }
-  return inside;
+  return !polygon.empty() &&
+         InsidePolygon(polygon.data(), static_cast<std::uint32_t>(polygon.size()), p.x(), p.y());
 }
 }  // namespace
 
