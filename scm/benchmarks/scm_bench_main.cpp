@@ -7,12 +7,16 @@
 //     and is measured once more with the client's own process subscribed to SPaT as well (its
 //     DDS receive thread then also takes the 200 kB SPaT samples, ten a second).
 //  3. Command to lamp: `advance` in manual mode to the light's `signal_<i>/state` showing yellow,
-//     through autodrive-scm and autodrive-infra, p50 and p99.
+//     through autodrive-scm and autodrive-infra, p50 and p99; with the processes placed by the
+//     kernel, then all on one CPU, beside this machine's own wake-up lateness after idle (the
+//     floor under each hop of the chain).
 //  4. A flood: 10 clients sending 200 operator requests per second each (2,000/s) while the
 //     grid city runs: SPaT's rate and jitter meanwhile, and how many requests were answered,
 //     refused or left unanswered.
 //  5. The DDS round trip of the same run (autodrive-bench-dds-latency), for reference.
+#include <fmt/format.h>
 #include <poll.h>
+#include <sched.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -23,8 +27,10 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <system_error>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -264,9 +270,91 @@ void SpatAndFloodBenchmark(int n, double seconds, int requests, int clients, dou
   subscriber.Stop();
 }
 
-void LampLatencyBenchmark(int samples, const std::string& partition, const fs::path& dir) {
-  std::printf("== command to lamp feedback: advance -> signal_<i>/state, %d samples\n", samples);
+// The calling thread runs on `cpu` only, with every thread and process it starts from then on,
+// until destroyed.
+class OnOneCpu {
+ public:
+  explicit OnOneCpu(std::optional<std::size_t> cpu) {
+    if (!cpu) return;
+    if (::sched_getaffinity(0, sizeof(saved_), &saved_) != 0) {
+      throw std::system_error(errno, std::generic_category(), "sched_getaffinity");
+    }
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(*cpu, &one);
+    if (::sched_setaffinity(0, sizeof(one), &one) != 0) {
+      throw std::system_error(errno, std::generic_category(), "sched_setaffinity");
+    }
+    pinned_ = true;
+  }
+  OnOneCpu(const OnOneCpu&) = delete;
+  OnOneCpu& operator=(const OnOneCpu&) = delete;
+  ~OnOneCpu() {
+    if (pinned_) (void)::sched_setaffinity(0, sizeof(saved_), &saved_);
+  }
+
+ private:
+  cpu_set_t saved_{};
+  bool pinned_ = false;
+};
+
+// How long this machine takes to wake a thread blocked on a pipe, on another CPU and on the
+// same CPU, when the system has been idle: the floor under every hop of a chain of processes
+// that wait for each other. On bare metal either takes tens of microseconds; a virtual CPU
+// that halts when idle can take milliseconds to come back.
+void WakeUpFloor(int samples, Duration idle) {
+  const unsigned cpus = std::thread::hardware_concurrency();
+  for (const std::size_t target : {std::size_t{1}, std::size_t{0}}) {
+    if (target >= cpus) continue;
+    std::printf(
+        "== this machine: waking a thread on CPU %zu from CPU 0 after %lld ms idle, %d samples\n",
+        target, static_cast<long long>(std::chrono::duration_cast<milliseconds>(idle).count()),
+        samples);
+    std::fflush(stdout);
+    int to[2], back[2];
+    if (::pipe(to) != 0 || ::pipe(back) != 0) {
+      throw std::system_error(errno, std::generic_category(), "pipe");
+    }
+    std::thread woken([&] {
+      const OnOneCpu pinned(target);
+      std::int64_t sent = 0;
+      for (int i = 0; i < samples; ++i) {
+        if (::read(to[0], &sent, sizeof sent) != sizeof sent) break;
+        const std::int64_t took = Steady::now().time_since_epoch().count() - sent;
+        if (::write(back[1], &took, sizeof took) != sizeof took) break;
+      }
+    });
+    std::vector<double> wake_ms;
+    {
+      const OnOneCpu pinned(std::size_t{0});
+      for (int i = 0; i < samples; ++i) {
+        std::this_thread::sleep_for(idle);
+        const std::int64_t now = Steady::now().time_since_epoch().count();
+        std::int64_t took = 0;
+        if (::write(to[1], &now, sizeof now) != sizeof now) break;
+        if (::read(back[0], &took, sizeof took) != sizeof took) break;
+        wake_ms.push_back(
+            std::chrono::duration<double, std::milli>(Steady::duration(took)).count());
+      }
+    }
+    ::close(to[1]);  // ends the woken thread's loop if this one ended early
+    woken.join();
+    for (const int fd : {to[0], back[0], back[1]}) ::close(fd);
+    std::printf("   woken after: p50 %.2f ms, p99 %.2f ms, max %.2f ms\n", Percentile(wake_ms, 0.5),
+                Percentile(wake_ms, 0.99), Percentile(wake_ms, 1.0));
+  }
+}
+
+// `cpu`: run the SCM, the light host and this client on that CPU alone (their DDS threads
+// too), so that no hop of the chain waits for another CPU to wake; otherwise the kernel places
+// them.
+void LampLatencyBenchmark(int samples, const std::string& partition, const fs::path& dir,
+                          std::optional<std::size_t> cpu) {
+  std::printf("== command to lamp feedback: advance -> signal_<i>/state, %d samples, %s\n", samples,
+              cpu ? fmt::format("every process on CPU {}", *cpu).c_str()
+                  : "the processes placed by the kernel");
   std::fflush(stdout);
+  const OnOneCpu pinned(cpu);
   // The Driving School with short (but legal) timings, so that a phase turns over quickly.
   const fs::path src = Source();
   std::string city = config::internal::ReadFile(src / "config/cities/driving_school.yaml");
@@ -298,27 +386,36 @@ void LampLatencyBenchmark(int samples, const std::string& partition, const fs::p
     std::printf("   no SCM\n");
     return;
   }
-  std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> states;
+  std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> states, commands;
   for (std::uint32_t h = 1; h <= 4; ++h) {
     states.push_back(std::make_unique<dds::Reader<msg::Int32>>(
         participant, dds::topics::SignalState(SignalHeadId(h))));
+    commands.push_back(std::make_unique<dds::Reader<msg::Int32>>(
+        participant, dds::topics::SignalCommand(SignalHeadId(h))));
   }
   std::this_thread::sleep_for(std::chrono::seconds(4));  // through the start-up
   (void)client.Call("mode", {{"intersection", "driving_school_crossing"}, {"mode", "manual"}},
                     std::chrono::seconds(5));
-  std::vector<double> lamp_ms, reply_ms;
+  std::vector<double> lamp_ms, reply_ms, command_ms;
   int tries = 0;
   while (static_cast<int>(lamp_ms.size()) < samples && tries++ < samples * 10) {
     // Wait for a green that has served its min green (1 s) after the last clearance (1.5 s).
     std::this_thread::sleep_for(milliseconds(2700));
     for (auto& s : states) (void)s->TakeAll();
+    for (auto& s : commands) (void)s->TakeAll();
     const auto t0 = Steady::now();
     const auto answer = client.Call("advance", {{"intersection", "driving_school_crossing"}},
                                     std::chrono::seconds(5));
     const auto t_reply = Steady::now();
     if (!answer || answer->code != scm::ReplyCode::kOk || answer->message != "advancing") continue;
     bool seen = false;
+    std::optional<Steady::time_point> t_command;
     while (!seen && Steady::now() - t0 < std::chrono::seconds(2)) {
+      for (auto& s : commands) {
+        for (auto& m : s->TakeAll()) {
+          if (m->data == 2 && !t_command) t_command = Steady::now();
+        }
+      }
       for (auto& s : states) {
         for (auto& m : s->TakeAll()) {
           if (m->data == 2) seen = true;  // yellow
@@ -329,9 +426,14 @@ void LampLatencyBenchmark(int samples, const std::string& partition, const fs::p
     if (!seen) continue;
     lamp_ms.push_back(std::chrono::duration<double, std::milli>(Steady::now() - t0).count());
     reply_ms.push_back(std::chrono::duration<double, std::milli>(t_reply - t0).count());
+    if (t_command) {
+      command_ms.push_back(std::chrono::duration<double, std::milli>(*t_command - t0).count());
+    }
   }
   std::printf("   request -> reply: p50 %.2f ms, p99 %.2f ms\n", Percentile(reply_ms, 0.5),
               Percentile(reply_ms, 0.99));
+  std::printf("   request -> the SCM's light command seen here: p50 %.2f ms, p99 %.2f ms\n",
+              Percentile(command_ms, 0.5), Percentile(command_ms, 0.99));
   std::printf("   request -> lamp state: p50 %.2f ms, p99 %.2f ms (%zu samples)\n",
               Percentile(lamp_ms, 0.5), Percentile(lamp_ms, 0.99), lamp_ms.size());
   scm.Stop();
@@ -353,6 +455,7 @@ int main(int argc, char** argv) {
   int clients = 10;
   double rate = 200.0;
   bool skip_lamp = false;
+  bool only_lamp = false;
   std::string spat_subscriber;
   app.add_option("--grid", n, "grid city size N (N x N intersections)")->capture_default_str();
   app.add_option("--seconds", seconds, "how long to measure SPaT and the flood")
@@ -363,6 +466,8 @@ int main(int argc, char** argv) {
   app.add_option("--clients", clients, "flood clients")->capture_default_str();
   app.add_option("--rate", rate, "requests per second per flood client")->capture_default_str();
   app.add_flag("--skip-lamp", skip_lamp, "skip the command-to-lamp measurement");
+  app.add_flag("--only-lamp", only_lamp, "run only the command-to-lamp measurement")
+      ->excludes("--skip-lamp");
   app.add_option("--spat-subscriber", spat_subscriber,
                  "internal: take SPaT on this partition until stdin closes")
       ->group("");
@@ -372,13 +477,21 @@ int main(int argc, char** argv) {
   const fs::path dir = fs::temp_directory_path() / partition;
   fs::create_directories(dir);
   try {
-    SpatAndFloodBenchmark(n, seconds, requests, clients, rate, partition + "_spat", dir);
-    if (!skip_lamp) LampLatencyBenchmark(samples, partition + "_lamp", dir);
-    std::printf("== DDS round trip in the same run (autodrive-bench-dds-latency)\n");
-    std::fflush(stdout);
-    ChildProcess dds({Bin("autodrive-bench-dds-latency"), "--samples", "4000", "--rounds", "4"});
-    while (auto line = dds.ReadLine(milliseconds(60000))) std::printf("   %s\n", line->c_str());
-    dds.Wait(milliseconds(10000));
+    if (!only_lamp) {
+      SpatAndFloodBenchmark(n, seconds, requests, clients, rate, partition + "_spat", dir);
+    }
+    if (!skip_lamp) {
+      WakeUpFloor(50, milliseconds(300));
+      LampLatencyBenchmark(samples, partition + "_lamp", dir, std::nullopt);
+      LampLatencyBenchmark(samples, partition + "_lamp1", dir, std::size_t{0});
+    }
+    if (!only_lamp) {
+      std::printf("== DDS round trip in the same run (autodrive-bench-dds-latency)\n");
+      std::fflush(stdout);
+      ChildProcess dds({Bin("autodrive-bench-dds-latency"), "--samples", "4000", "--rounds", "4"});
+      while (auto line = dds.ReadLine(milliseconds(60000))) std::printf("   %s\n", line->c_str());
+      dds.Wait(milliseconds(10000));
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "autodrive-bench-scm: %s\n", e.what());
     fs::remove_all(dir);
