@@ -294,5 +294,20 @@ TEST_F(SimProcess, ABadCityFileIsRefusedWithTheFileAndKeyNamed) {
   EXPECT_EQ(*code, 1);
 }
 
+// A controller named on the command line for a mode that waits for none is refused, not
+// silently ignored.
+TEST_F(SimProcess, AControllerOutsideLockstepIsRefused) {
+  ChildProcess p(
+      {"/bin/sh", "-c", "exec \"$0\" --city \"$1\" --partition \"$2\" --controller driver 2>&1",
+       Bin("autodrive-sim"), WriteCity(), partition_},
+      {});
+  std::string text;
+  while (auto line = p.ReadLine(std::chrono::milliseconds(60000))) text += *line + "\n";
+  const auto code = p.Wait(std::chrono::milliseconds(60000));
+  ASSERT_TRUE(code.has_value());
+  EXPECT_EQ(*code, 1) << text;
+  EXPECT_NE(text.find("only lockstep waits for controllers"), std::string::npos) << text;
+}
+
 }  // namespace
 }  // namespace autodrive::test

@@ -110,7 +110,13 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
   if (overrides.command_timeout_s)
     options.command_timeout = FromSeconds(*overrides.command_timeout_s);
   if (overrides.control_period_s) options.control_period = FromSeconds(*overrides.control_period_s);
-  if (!overrides.controllers.empty()) options.controllers = overrides.controllers;
+  if (!overrides.controllers.empty()) {
+    // A controller named for a mode that waits for none would be silently ignored.
+    AUTODRIVE_THROW_UNLESS(options.mode == SimMode::kLockstep,
+                           "--controller: only lockstep waits for controllers; this run's mode is "
+                               << mode_name << " (add --mode lockstep)");
+    options.controllers = overrides.controllers;
+  }
   options.Validate();
   const maps::Map map = maps::LoadMapOrLayout(city.map_path);
   std::atomic<bool> stop{false};
