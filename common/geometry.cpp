@@ -6,6 +6,7 @@
 #include <string>
 #include <string_view>
 
+#include "common/eigen_text.h"
 #include "common/error.h"
 
 namespace autodrive {
@@ -26,17 +27,6 @@ const Eigen::IOFormat kMatrixFormat(Eigen::StreamPrecision, Eigen::DontAlignCols
 std::string QuaternionText(const Eigen::Quaterniond& q) {
   std::ostringstream os;
   os << "(w=" << q.w() << ", x=" << q.x() << ", y=" << q.y() << ", z=" << q.z() << ")";
-  return os.str();
-}
-
-template <typename Vector>
-std::string VectorText(const Vector& v) {
-  std::ostringstream os;
-  os << "(";
-  for (Eigen::Index i = 0; i < v.size(); ++i) {
-    os << (i > 0 ? ", " : "") << v[i];
-  }
-  os << ")";
   return os.str();
 }
 
