@@ -12,7 +12,9 @@
 /// Image coordinates: the map's [0, cols T] x [0, rows T] is drawn `RenderOptions::margin_px`
 /// from each edge of the image, north up (image rows grow southwards); see `MapToPixel`.
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -30,6 +32,16 @@ struct RenderOptions {
   bool show_tile_grid = true;    ///< faint lines along the tile edges
   bool show_movements = true;    ///< the movement paths through intersections
   bool show_lane_arrows = true;  ///< an arrow at the middle of every lane
+  /// Only what is painted on the ground, as a camera sees it: the ground, road surface, parking
+  /// bays, lane markings and stop lines. No tile grid, movements, arrows, obstacles, signal
+  /// heads, signs or legend (the simulator's cameras draw those as solid objects); the margin
+  /// is the ground's colour.
+  bool ground_only = false;
+  /// Anti-aliased edges (PNG and in-memory pictures; SVG leaves it to the viewer). Without,
+  /// every shape covers the pixels whose centres it covers plus its outline, so regions that
+  /// share an edge overlap there with no seam: for a caller that draws at a multiple of the
+  /// resolution it needs and averages down.
+  bool antialias = true;
 
   /// Throws `InputError` naming the option and the value seen when one is out of range.
   void Validate() const;
@@ -52,6 +64,17 @@ struct RenderOptions {
 /// @throws InputError if the options are invalid, the picture too big, or the file cannot be
 /// written (naming the path and the reason).
 void RenderPng(const Map& map, const std::string& path, const RenderOptions& options = {});
+
+/// A picture in memory: `height_px` rows of `width_px` pixels, 3 bytes each in R, G, B order.
+struct Picture {
+  int width_px = 0;
+  int height_px = 0;
+  std::vector<std::uint8_t> rgb;
+};
+
+/// The picture `RenderPng` writes, in memory.
+/// @throws InputError if the options are invalid or the picture too big.
+[[nodiscard]] Picture RenderPicture(const Map& map, const RenderOptions& options = {});
 
 /// Draws the same picture as `RenderPng` as an SVG text file at `path`, in the same pixel
 /// coordinates: one `<path class="road">` per road-surface region (holes by the even-odd rule),

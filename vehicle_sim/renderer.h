@@ -1,0 +1,266 @@
+#pragma once
+/// @file
+/// The simulated cameras' renderer: what a camera (common/camera) sees of the simulated world,
+/// drawn in software on one CPU core, with no GPU and no window. See docs/camera.md.
+///
+/// Method: every pixel's ray (through the lens model, distortion included, computed once per
+/// camera) is followed into the world, so straight edges bend exactly as the lens bends them
+/// and nothing is approximated by resampling:
+/// - the ground is the map's own picture (maps/render.h, `ground_only`) at `ground_texel_m`,
+///   sampled bilinearly from a mip pyramid at the level of the pixel's footprint; the ground is
+///   the plane z = 0 (ramps and raised tiles: see `RenderWorld`); off the map, the lab's floor;
+///   above the horizon, the lab's walls;
+/// - solid objects are boxes and vertical cylinders, each tested only inside its own bounding
+///   rectangle in the image, nearest first by a depth buffer: the map's walls and boxes and any
+///   unmapped obstacle (as the world has them), the poles of lights and signs, each light's head
+///   with its red, yellow and green lamps lit as `signal_<i>/state` says, each sign's plate, and
+///   every vehicle (body, wheels, LIDAR, headlights, indicators and tail lights, and its roof
+///   AprilTag on a white plate);
+/// - AprilTags are drawn from the AprilTag library's own family bitmaps, on the ground (fixed
+///   reference tags) and on roofs; every pixel that sees a tag is supersampled (4 x 4 rays), so
+///   the tag's edges fall where they are to a small fraction of a pixel;
+/// - film effects, in order: a Lambertian light (ambient plus one directional light; lit lamps
+///   and headlights emit), exposure, motion blur (the frame averaged over sub-frames spread over
+///   the exposure time, the vehicles moved by their velocities), Gaussian blur, Gaussian noise.
+///
+/// Frames and units: the map frame M (x east, y north, z up; metres), the camera's optical frame
+/// C as common/camera says. Images are rgb8, row-major, top row first.
+///
+/// Thread safety: a `RenderWorld` is immutable once built and may be shared by any number of
+/// `CameraRenderer`s on any threads; one `CameraRenderer` renders on one thread at a time.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "common/camera/camera_model.h"
+#include "common/config.h"
+#include "common/ids.h"
+#include "vehicle_sim/raycast.h"
+#include "vehicle_sim/vehicle_params.h"
+
+namespace autodrive::maps {
+struct Map;
+}
+
+namespace autodrive::vehicle_sim {
+
+/// A colour, 8 bits per channel.
+struct Rgb {
+  std::uint8_t r = 0;
+  std::uint8_t g = 0;
+  std::uint8_t b = 0;
+  bool operator==(const Rgb&) const = default;
+};
+
+/// An image in memory: `height_px` rows of `width_px` pixels, R, G, B bytes each, top row first
+/// (sensor_msgs/Image's rgb8 with step = 3 width).
+struct Image {
+  int width_px = 0;
+  int height_px = 0;
+  std::vector<std::uint8_t> rgb;
+};
+
+/// An AprilTag as printed: family, id and the edge of its black square (the size AprilTag's
+/// pose estimation takes), metres. The tag is printed with its white border (one bit wide for
+/// tag36h11) on a white plate exactly as big as the family's whole bitmap
+/// (`total_width` bits: 10 for tag36h11, so a 76.2 mm tag sits on a 95.25 mm plate).
+struct TagSpec {
+  std::string family = "tag36h11";  ///< tag36h11, tag25h9, tag16h5, tagStandard41h12, ...
+  int id = 0;
+  double size_m = 0.0762;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("family", family);
+    a.Required("id", id, config::Range{0, 100000});
+    a.Optional("size_m", size_m, config::Range{0.001, 10.0});
+  }
+  bool operator==(const TagSpec&) const = default;
+};
+
+/// A tag fixed on the ground: a reference tag for the Eye's registration. Pose of its centre
+/// and its yaw in the map frame: the tag's frame T has x towards the bitmap's right edge and y
+/// towards its top edge (as the tag is seen from above, read upright), z up; yaw is the angle
+/// from the map's x to T's x (so yaw 0 reads upright with its top to the north).
+struct GroundTag {
+  TagSpec tag;
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double yaw_rad = 0.0;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("tag", tag);
+    a.Required("x_m", x_m, config::Range{-1e4, 1e4});
+    a.Required("y_m", y_m, config::Range{-1e4, 1e4});
+    a.Optional("yaw_rad", yaw_rad, config::Range{-10.0, 10.0});
+  }
+  bool operator==(const GroundTag&) const = default;
+};
+
+/// How a vehicle looks: its colour and its roof tag. The tag lies flat on the roof plate at
+/// `tag_height_m` above the ground (the top of the car), centred over the vehicle's body,
+/// upright seen from above with its top towards the vehicle's front: the tag frame's y is the
+/// vehicle's x (forward) and its x the vehicle's -y (right), so the vehicle's yaw is the tag's
+/// yaw plus 90°.
+struct VehicleLook {
+  Rgb colour{200, 30, 30};
+  std::optional<TagSpec> tag;
+  double tag_height_m = 0.257;
+
+  bool operator==(const VehicleLook&) const = default;
+};
+
+/// A vehicle as the cameras see it, now.
+struct RenderVehicle {
+  int index = 0;  ///< the world's vehicle index (a camera on it excludes it)
+  /// The vehicle frame V (middle of the rear axle on the ground; x forward, y left, z up).
+  Eigen::Isometry3d X_MV = Eigen::Isometry3d::Identity();
+  /// Velocity of V's origin and angular velocity, map frame: for motion blur.
+  Eigen::Vector3d v_M_mps = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w_M_radps = Eigen::Vector3d::Zero();
+  const VehicleParams* params = nullptr;  ///< its dimensions; not null
+  VehicleLook look;
+  bool headlights = false;
+  bool left_indicator = false;   ///< blinking at 1.5 Hz while on
+  bool right_indicator = false;  ///< (both on: hazard lights)
+};
+
+/// Which lamps of a signal head are lit.
+struct HeadLamps {
+  SignalHeadId head{1};
+  bool red = false;
+  bool yellow = false;
+  bool green = false;
+};
+
+/// The world's moving parts at one instant.
+struct FrameState {
+  double time_s = 0.0;  ///< simulated time: the indicators blink on it
+  std::span<const RenderVehicle> vehicles;
+  std::span<const HeadLamps> lamps;  ///< heads not listed are dark
+};
+
+/// The light and the film: per camera.
+struct FilmOptions {
+  double exposure = 1.0;  ///< gain on everything the camera sees, in (0, 20]
+  /// Light: ambient share and one directional light (the lab's ceiling lights, as one sun),
+  /// from `light_azimuth_rad` (counter-clockwise from east) and `light_elevation_rad` above the
+  /// horizon. The ground in the default light shows its colours as the map's picture has them.
+  double ambient = 0.6;
+  double light_intensity = 0.4;
+  double light_azimuth_rad = 0.8;
+  double light_elevation_rad = 1.1;
+  /// Motion blur: the frame integrates the light over this time, centred on the frame's
+  /// instant (0: an instantaneous frame); vehicles move by their velocities, the camera by its
+  /// own.
+  double exposure_time_s = 0.0;
+  int motion_blur_samples = 4;  ///< sub-frames averaged when exposure_time_s > 0, in [2, 32]
+  double blur_sigma_px = 0.0;   ///< Gaussian blur (lens focus), pixels; 0: none
+  double noise_sigma = 0.0;     ///< Gaussian noise, standard deviation in 8-bit levels; 0: none
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("exposure", exposure, config::Range{0.001, 20.0});
+    a.Optional("ambient", ambient, config::Range{0.0, 10.0});
+    a.Optional("light_intensity", light_intensity, config::Range{0.0, 10.0});
+    a.Optional("light_azimuth_rad", light_azimuth_rad, config::Range{-10.0, 10.0});
+    a.Optional("light_elevation_rad", light_elevation_rad, config::Range{0.0, 1.5708});
+    a.Optional("exposure_time_s", exposure_time_s, config::Range{0.0, 1.0});
+    a.Optional("motion_blur_samples", motion_blur_samples, config::Range{2, 32});
+    a.Optional("blur_sigma_px", blur_sigma_px, config::Range{0.0, 50.0});
+    a.Optional("noise_sigma", noise_sigma, config::Range{0.0, 128.0});
+  }
+  /// True when any effect beyond the light is on (motion blur, blur, noise) or the exposure is
+  /// not 1.
+  [[nodiscard]] bool AnyEffect() const;
+  bool operator==(const FilmOptions&) const = default;
+};
+
+/// How the static world is drawn.
+struct RenderWorldOptions {
+  /// Size of a texel of the ground's picture (m): 2 mm, so a 5 m map is a 2500 px texture.
+  double ground_texel_m = 0.002;
+  /// The poles, heads and signs: as the sensors see them (the same poles).
+  StaticSceneOptions scene;
+  /// Reference tags on the ground.
+  std::vector<GroundTag> ground_tags;
+};
+
+namespace internal {
+struct RenderPart;
+struct GroundPyramid;
+struct TagBitmap;
+}  // namespace internal
+
+/// What does not move, prepared once: the ground's picture and its mip pyramid, the solid
+/// static objects, the tag bitmaps. Immutable; share it between cameras.
+class RenderWorld {
+ public:
+  /// From the map and the world's static geometry (`World::Scene().geometry()`: the map's
+  /// obstacles as the world placed them, then unmapped ones; the poles). @throws InputError for
+  /// a ground tag of an unknown family or an id the family does not have, or a prism that is
+  /// not a rectangle.
+  RenderWorld(const maps::Map& map, const StaticGeometry& geometry,
+              const RenderWorldOptions& options = {});
+  ~RenderWorld();
+  RenderWorld(const RenderWorld&) = delete;
+  RenderWorld& operator=(const RenderWorld&) = delete;
+
+  [[nodiscard]] const RenderWorldOptions& options() const;
+  /// The bitmap of a tag: `total_width` x `total_width` cells, row-major from the top-left,
+  /// true for a white cell. @throws InputError for an unknown family or id.
+  [[nodiscard]] const internal::TagBitmap& Tag(const TagSpec& tag) const;
+
+ private:
+  friend class CameraRenderer;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// A tag's four outer corners of its black square in the tag's own frame (m, z = 0): the
+/// corner order of the AprilTag library's detections (counter-clockwise seen in the image, the
+/// first at the bitmap's bottom-left), for tag frame x right and y up as `GroundTag` defines:
+/// (-s/2, -s/2), (s/2, -s/2), (s/2, s/2), (-s/2, s/2).
+[[nodiscard]] std::array<Eigen::Vector3d, 4> TagCorners(double size_m);
+
+/// The pose of a vehicle's roof tag frame T in the map frame (see `VehicleLook`).
+[[nodiscard]] Eigen::Isometry3d VehicleTagPose(const RenderVehicle& vehicle);
+
+/// Renders one camera. Holds the camera's rays (12 bytes a pixel) and its buffers.
+class CameraRenderer {
+ public:
+  /// @throws InputError when the intrinsics are invalid.
+  CameraRenderer(std::shared_ptr<const RenderWorld> world, const camera::Intrinsics& intrinsics,
+                 const FilmOptions& film = {});
+  ~CameraRenderer();
+  CameraRenderer(const CameraRenderer&) = delete;
+  CameraRenderer& operator=(const CameraRenderer&) = delete;
+
+  [[nodiscard]] const camera::CameraModel& model() const;
+  [[nodiscard]] const FilmOptions& film() const;
+
+  /// Renders what the camera with optical frame pose `X_MC` (in the map frame) sees of
+  /// `frame` into `out` (resized to the camera's image). `exclude` names the vehicle carrying
+  /// the camera (not drawn). `v_M_mps` and `w_M_radps`: the camera's own motion, for motion
+  /// blur. `noise_seed`: the noise of this frame (reproducible).
+  void Render(const Eigen::Isometry3d& X_MC, const FrameState& frame, Image& out,
+              std::optional<int> exclude = std::nullopt,
+              const Eigen::Vector3d& v_M_mps = Eigen::Vector3d::Zero(),
+              const Eigen::Vector3d& w_M_radps = Eigen::Vector3d::Zero(),
+              std::uint64_t noise_seed = 0);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace autodrive::vehicle_sim
