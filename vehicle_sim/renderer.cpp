@@ -10,9 +10,11 @@
 #include <apriltag/tagCustom48h12.h>
 #include <apriltag/tagStandard41h12.h>
 #include <apriltag/tagStandard52h13.h>
+#include <sys/mman.h>
 
 #include <algorithm>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <map>
@@ -38,17 +40,25 @@ struct TagBitmap {
   std::vector<std::uint8_t> white;
 };
 
-/// The ground's picture and its mip pyramid, RGBX texels (R in the low byte). Level k's texel
-/// (i, j) covers level 0's texels [2^k i, 2^k (i + 1)) x [2^k j, 2^k (j + 1)).
+/// The ground's picture and its mip pyramid in one RGB atlas image, so that one `cv::remap`
+/// samples every pixel at its own level: level 0 at the atlas' left, levels 1, 2, ... stacked
+/// down a column to its right. Level k's texel (i, j) covers level 0's texels
+/// [2^k i, 2^k (i + 1)) x [2^k j, 2^k (j + 1)); every level has a border of the lab's floor at
+/// least a texel wide, and a patch of the lab's walls sits below the last level.
 struct GroundPyramid {
   double texel_m = 0.002;
   double x0_m = 0.0;  ///< map x of level 0's left edge
   double y1_m = 0.0;  ///< map y of level 0's top edge
   struct Level {
-    int w = 0, h = 0;
-    std::vector<std::uint32_t> texels;
+    int w = 0, h = 0;  ///< texels
+    int x = 0, y = 0;  ///< where it is in the atlas
   };
   std::vector<Level> levels;
+  cv::Mat atlas;  ///< CV_8UC3, R G B; its pixels in `atlas_memory`
+  /// Aligned to 2 MiB and advised to the kernel as huge pages: a camera's rows walk the atlas
+  /// in any direction, and with 4 KiB pages nearly every texel read would miss the TLB.
+  std::unique_ptr<std::uint8_t, decltype(&std::free)> atlas_memory{nullptr, &std::free};
+  Eigen::Vector2f walls{0, 0};  ///< atlas coordinates of a texel of the walls' colour
 };
 
 /// What is drawn on a face.
@@ -98,11 +108,6 @@ constexpr Rgb kWheelColour{20, 20, 20};
 constexpr Rgb kLidarColour{40, 40, 45};
 constexpr Rgb kPlateColour{255, 255, 255};
 constexpr Rgb kTagBlack{0, 0, 0};
-
-std::uint32_t Pack(Rgb c) {
-  return static_cast<std::uint32_t>(c.r) | (static_cast<std::uint32_t>(c.g) << 8) |
-         (static_cast<std::uint32_t>(c.b) << 16);
-}
 
 struct Family {
   apriltag_family_t* (*create)();
@@ -189,57 +194,48 @@ GroundPyramid MakeGround(const maps::Map& map, double texel_m) {
   const int h = (picture.height_px + 2 * kBorder + kAlign - 1) / kAlign * kAlign;
   g.x0_m = -kBorder * g.texel_m;
   g.y1_m = map.rows * map.tile_size_m + kBorder * g.texel_m;
-  cv::Mat level0(h, w, CV_8UC4, cv::Scalar(kFloor.r, kFloor.g, kFloor.b, 0));
-  for (int y = 0; y < picture.height_px; ++y) {
-    for (int x = 0; x < picture.width_px; ++x) {
-      const std::size_t k =
-          (static_cast<std::size_t>(y) * static_cast<std::size_t>(picture.width_px) +
-           static_cast<std::size_t>(x)) *
-          3;
-      level0.at<cv::Vec4b>(y + kBorder, x + kBorder) =
-          cv::Vec4b(picture.rgb[k], picture.rgb[k + 1], picture.rgb[k + 2], 0);
-    }
-  }
-  cv::Mat level = level0;
-  for (int k = 0; k < kLevels; ++k) {
-    GroundPyramid::Level& l = g.levels.emplace_back();
-    l.w = level.cols;
-    l.h = level.rows;
-    l.texels.resize(static_cast<std::size_t>(l.w) * static_cast<std::size_t>(l.h));
-    std::memcpy(l.texels.data(), level.data, l.texels.size() * 4);
-    if (l.w < 2 || l.h < 2) break;
+  cv::Mat level0(h, w, CV_8UC3, cv::Scalar(kFloor.r, kFloor.g, kFloor.b));
+  cv::Mat(picture.height_px, picture.width_px, CV_8UC3,
+          const_cast<std::uint8_t*>(picture.rgb.data()))
+      .copyTo(level0(cv::Rect(kBorder, kBorder, picture.width_px, picture.height_px)));
+  std::vector<cv::Mat> levels{level0};
+  while (static_cast<int>(levels.size()) < kLevels && levels.back().cols >= 2 &&
+         levels.back().rows >= 2) {
     cv::Mat next;
-    cv::resize(level, next, cv::Size(level.cols / 2, level.rows / 2), 0, 0, cv::INTER_AREA);
-    level = next;
+    cv::resize(levels.back(), next, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0,
+               cv::INTER_AREA);
+    levels.push_back(next);
   }
+  // Level 0, then the others down a column to its right, then the walls' patch.
+  int y = 0;
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    GroundPyramid::Level l{levels[k].cols, levels[k].rows, k == 0 ? 0 : w, k == 0 ? 0 : y};
+    if (k > 0) y += l.h;
+    g.levels.push_back(l);
+  }
+  const int atlas_w = w + levels[1].cols;
+  const int atlas_h = std::max(h, y) + 2;  // the bottom two rows: the walls' patch
+  AUTODRIVE_THROW_UNLESS(atlas_w < 32000 && atlas_h < 32000,
+                         "the ground's picture at " << texel_m << " m a texel is too big ("
+                                                    << atlas_w << " x " << atlas_h
+                                                    << " px); raise ground_texel_m");
+  {
+    constexpr std::size_t kHuge = std::size_t{2} << 20;
+    const std::size_t bytes =
+        static_cast<std::size_t>(atlas_w) * static_cast<std::size_t>(atlas_h) * 3;
+    const std::size_t rounded = (bytes + kHuge - 1) / kHuge * kHuge;
+    g.atlas_memory.reset(static_cast<std::uint8_t*>(std::aligned_alloc(kHuge, rounded)));
+    AUTODRIVE_CHECK(g.atlas_memory != nullptr, "out of memory for the ground's picture");
+    ::madvise(g.atlas_memory.get(), rounded, MADV_HUGEPAGE);  // advice only: may fail
+    g.atlas = cv::Mat(atlas_h, atlas_w, CV_8UC3, g.atlas_memory.get());
+  }
+  g.atlas.setTo(cv::Scalar(kLabWalls.r, kLabWalls.g, kLabWalls.b));
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    const auto& l = g.levels[k];
+    levels[k].copyTo(g.atlas(cv::Rect(l.x, l.y, l.w, l.h)));
+  }
+  g.walls = {static_cast<float>(atlas_w - 1), static_cast<float>(atlas_h - 1)};
   return g;
-}
-
-// Bilinear sample of an RGBX texture at continuous texel-centre coordinates (u, v): texel
-// (i, j)'s centre is at (i, j). Coordinates outside the texture clamp to its edge, which is
-// the lab's floor.
-inline std::uint32_t Bilinear(const GroundPyramid::Level& l, float u, float v) {
-  u = std::clamp(u, 0.0f, static_cast<float>(l.w - 1) - 1e-3f);
-  v = std::clamp(v, 0.0f, static_cast<float>(l.h - 1) - 1e-3f);
-  const int i = static_cast<int>(u);
-  const int j = static_cast<int>(v);
-  const auto fx = static_cast<std::uint32_t>((u - static_cast<float>(i)) * 256.0f);
-  const auto fy = static_cast<std::uint32_t>((v - static_cast<float>(j)) * 256.0f);
-  const std::uint32_t* p = l.texels.data() +
-                           static_cast<std::size_t>(j) * static_cast<std::size_t>(l.w) +
-                           static_cast<std::size_t>(i);
-  const std::uint32_t c00 = p[0], c01 = p[1], c10 = p[l.w], c11 = p[l.w + 1];
-  const std::uint32_t w11 = (fx * fy) >> 8;
-  const std::uint32_t w01 = fx - w11;
-  const std::uint32_t w10 = fy - w11;
-  const std::uint32_t w00 = 256 - fx - fy + w11;
-  const std::uint32_t rb = ((c00 & 0xff00ffu) * w00 + (c01 & 0xff00ffu) * w01 +
-                            (c10 & 0xff00ffu) * w10 + (c11 & 0xff00ffu) * w11) >>
-                           8;
-  const std::uint32_t g = ((c00 & 0xff00u) * w00 + (c01 & 0xff00u) * w01 + (c10 & 0xff00u) * w10 +
-                           (c11 & 0xff00u) * w11) >>
-                          8;
-  return (rb & 0xff00ffu) | (g & 0xff00u);
 }
 
 Rgb SignColour(const std::string& type) {
@@ -427,6 +423,7 @@ struct FramePart {
 };
 
 constexpr int kTile = 16;
+constexpr int kStrip = 16;  ///< rows of the ground drawn at a time (their remap stays in cache)
 
 }  // namespace
 
@@ -439,7 +436,23 @@ struct CameraRenderer::Impl {
   [[nodiscard]] std::size_t Index(int u, int v) const {
     return static_cast<std::size_t>(v) * W() + static_cast<std::size_t>(u);
   }
-  std::vector<float> rx, ry, rz;  ///< unit rays in C, per pixel
+  // Each pixel's ray in C is (x, y, 1), x and y its undistorted normalised coordinates: for a
+  // camera without distortion x = (u - cx) / fx and y = (v - cy) / fy, computed as needed;
+  // with distortion, from a table (NaN beyond the lens model's fold). Ranges along rays are in
+  // units of this ray, the same for the ground and every part.
+  bool distorted = false;
+  float fx = 1, fy = 1, cx = 0, cy = 0;
+  std::vector<float> table_x, table_y;
+  std::vector<float> column_x;  ///< without distortion: x of each column
+  std::vector<float> row_y;     ///< a row's y, repeated
+  std::vector<int> row_ax, row_ay;
+  [[nodiscard]] Eigen::Vector3f Ray(int u, int v) const {
+    if (!distorted) {
+      return {(static_cast<float>(u) - cx) / fx, (static_cast<float>(v) - cy) / fy, 1.0f};
+    }
+    const std::size_t i = Index(u, v);
+    return {table_x[i], table_y[i], 1.0f};
+  }
   float f_px = 1.0f;
   // Tiles of kTile x kTile pixels: the inward normals of the four planes through the camera's
   // centre and the tile's corner rays.
@@ -447,18 +460,22 @@ struct CameraRenderer::Impl {
   std::vector<std::array<Eigen::Vector3f, 4>> tile_planes;
 
   // Buffers.
-  std::vector<float> depth;
+  std::vector<float> depth;  ///< range of the nearest part, valid inside the parts' rectangles
   std::vector<std::uint8_t> colour;  ///< rgb
   std::vector<RenderPart> dynamic_parts;
   std::vector<FramePart> frame_parts;
   std::vector<std::uint8_t> lamp_state;  ///< per head: bits red, yellow, green
   std::vector<std::uint16_t> accumulator;
-  cv::Mat noise;  ///< a block of Gaussian noise, offset at random per frame
-  // The ground as last drawn: reused while the camera does not move.
-  Eigen::Isometry3d cached_pose;
-  bool have_cache = false;
-  std::vector<float> cached_depth;
+  std::vector<RenderVehicle> moved;
+  RenderStats stats;
+  cv::Mat noise;  ///< a block of Gaussian noise (CV_8S), offset at random per frame
+  // The ground of a camera that does not move is drawn once: when a frame's pose is the last
+  // frame's, the ground is kept and reused while the pose stays.
+  Eigen::Matrix4d last_pose = Eigen::Matrix4d::Zero();
+  bool cache_valid = false;
   std::vector<std::uint8_t> cached_colour;
+  cv::Mat map_xy, map_frac;        ///< a strip of the ground's remap, CV_16SC2 and CV_16UC1
+  std::uint8_t* target = nullptr;  ///< where this pass draws: rgb, w x h
 
   Impl(std::shared_ptr<const RenderWorld> w_, const camera::Intrinsics& intrinsics,
        const FilmOptions& f)
@@ -468,18 +485,22 @@ struct CameraRenderer::Impl {
     h = intrinsics.height_px;
     f_px = static_cast<float>(std::sqrt(intrinsics.fx_px * intrinsics.fy_px));
     const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
-    rx.resize(n);
-    ry.resize(n);
-    rz.resize(n);
-    for (int v = 0; v < h; ++v) {
-      for (int u = 0; u < w; ++u) {
-        const auto ray = model.Unproject({u, v});
-        const std::size_t i = Index(u, v);
-        // A pixel beyond the lens model's fold sees nothing: a ray straight back.
-        const Eigen::Vector3d d = ray ? *ray : Eigen::Vector3d(0, 0, -1);
-        rx[i] = static_cast<float>(d.x());
-        ry[i] = static_cast<float>(d.y());
-        rz[i] = static_cast<float>(d.z());
+    fx = static_cast<float>(intrinsics.fx_px);
+    fy = static_cast<float>(intrinsics.fy_px);
+    cx = static_cast<float>(intrinsics.cx_px);
+    cy = static_cast<float>(intrinsics.cy_px);
+    distorted = std::any_of(intrinsics.distortion.begin(), intrinsics.distortion.end(),
+                            [](double k) { return k != 0.0; });
+    if (distorted) {
+      table_x.resize(n);
+      table_y.resize(n);
+      for (int v = 0; v < h; ++v) {
+        for (int u = 0; u < w; ++u) {
+          const auto xy = model.UndistortToNormalized({u, v});
+          const std::size_t i = Index(u, v);
+          table_x[i] = xy ? static_cast<float>(xy->x()) : std::numeric_limits<float>::quiet_NaN();
+          table_y[i] = xy ? static_cast<float>(xy->y()) : std::numeric_limits<float>::quiet_NaN();
+        }
       }
     }
     tw = (w + kTile - 1) / kTile;
@@ -518,13 +539,21 @@ struct CameraRenderer::Impl {
     }
     depth.resize(n);
     colour.resize(n * 3);
+    column_x.resize(W());
+    row_y.resize(W());
+    row_ax.resize(W());
+    row_ay.resize(W());
+    map_xy.create(kStrip, w, CV_16SC2);
+    map_frac.create(kStrip, w, CV_16UC1);
     frame_parts.reserve(256);
     dynamic_parts.reserve(256);
     lamp_state.resize(static_cast<std::size_t>(world->impl_->heads));
     if (film.noise_sigma > 0) {
-      noise.create(h + 64, (w + 64) * 3, CV_16S);
+      // Clipped at +-127 levels: beyond 3.9 sigma for the largest sigma allowed (32).
+      cv::Mat normal(h + 64, (w + 64) * 3, CV_32F);
       cv::RNG rng(0x5eed);
-      rng.fill(noise, cv::RNG::NORMAL, 0.0, film.noise_sigma);
+      rng.fill(normal, cv::RNG::NORMAL, 0.0, film.noise_sigma);
+      normal.convertTo(noise, CV_8S);
     }
   }
 
@@ -539,54 +568,99 @@ struct CameraRenderer::Impl {
 };
 
 void CameraRenderer::Impl::DrawGround(const Eigen::Isometry3d& X_MC) {
-  const std::size_t n = depth.size();
-  if (have_cache && X_MC.isApprox(cached_pose, 0.0)) {
-    std::memcpy(depth.data(), cached_depth.data(), n * sizeof(float));
-    std::memcpy(colour.data(), cached_colour.data(), n * 3);
+  const std::size_t n = W() * static_cast<std::size_t>(h);
+  const bool same_pose = X_MC.matrix() == last_pose;
+  last_pose = X_MC.matrix();
+  if (same_pose && cache_valid) {
+    std::memcpy(target, cached_colour.data(), n * 3);
     return;
   }
+  // Each pixel's point on the ground as a position in the atlas at the level of its footprint,
+  // in OpenCV's fixed-point map format (1/32 texel), then one bilinear remap; a strip of rows at
+  // a time, so that the map never leaves the cache (this is bound by memory bandwidth).
   const GroundPyramid& g = world->impl_->ground;
   const Eigen::Matrix3f R = X_MC.linear().cast<float>();
   const Eigen::Vector3f c = X_MC.translation().cast<float>();
   const float height = c.z();
-  const std::uint32_t walls = Pack(kLabWalls);
   const float inv_texel = static_cast<float>(1.0 / g.texel_m);
-  // The footprint's edge in level-0 texels is sqrt(A) with A = h^2 / (f^2 texel^2 |d_z|^3).
-  const float a_num = height * height * inv_texel * inv_texel / (f_px * f_px);
-  const int top_level = static_cast<int>(g.levels.size()) - 1;
-  std::array<float, 32> level_scale{};
-  for (int k = 0; k <= top_level; ++k)
-    level_scale[static_cast<std::size_t>(k)] = std::ldexp(1.0f, -k);
-  std::uint8_t* out = colour.data();
-  for (std::size_t i = 0; i < n; ++i) {
-    const float x = rx[i], y = ry[i], z = rz[i];
-    const float dz = R(2, 0) * x + R(2, 1) * y + R(2, 2) * z;
-    std::uint32_t texel = walls;
-    float t = std::numeric_limits<float>::infinity();
-    if (height > 0 && dz < -1e-6f) {
-      t = height / -dz;
-      const float dx = R(0, 0) * x + R(0, 1) * y + R(0, 2) * z;
-      const float dy = R(1, 0) * x + R(1, 1) * y + R(1, 2) * z;
-      const float gx = c.x() + t * dx;
-      const float gy = c.y() + t * dy;
-      const float area = a_num / (-dz * dz * dz);
-      // Level round(log2(sqrt(area))) from the float's exponent.
-      const int e = static_cast<int>((std::bit_cast<std::uint32_t>(area) >> 23) & 0xff) - 127;
-      const int level = std::clamp((e + 1) / 2, 0, top_level);
-      const float s = level_scale[static_cast<std::size_t>(level)];
-      const float u = (gx - static_cast<float>(g.x0_m)) * inv_texel * s - 0.5f;
-      const float v = (static_cast<float>(g.y1_m) - gy) * inv_texel * s - 0.5f;
-      texel = Bilinear(g.levels[static_cast<std::size_t>(level)], u, v);
-    }
-    depth[i] = t;
-    out[3 * i] = static_cast<std::uint8_t>(texel);
-    out[3 * i + 1] = static_cast<std::uint8_t>(texel >> 8);
-    out[3 * i + 2] = static_cast<std::uint8_t>(texel >> 16);
+  // The footprint's area in level-0 texels (for a ray (x, y, 1) of solid angle 1 / (fx fy |r|^3)
+  // per pixel, meeting the ground at range t = h / -d_z along it) is
+  // A = h^2 / (fx fy texel^2 (-d_z)^3): level k from A >= 4^k / 2 (the nearest power of two).
+  const float a_num = height * height * inv_texel * inv_texel / (fx * fy);
+  const int top_level = std::min(7, static_cast<int>(g.levels.size()) - 1);
+  std::array<float, 8> thresholds;
+  thresholds.fill(std::numeric_limits<float>::infinity());
+  for (int k = 1; k <= top_level; ++k) {
+    thresholds[static_cast<std::size_t>(k)] = std::ldexp(0.5f, 2 * k);
   }
-  cached_pose = X_MC;
-  have_cache = true;
-  cached_depth = depth;
-  cached_colour = colour;
+  const float x0 = static_cast<float>(g.x0_m), y1 = static_cast<float>(g.y1_m);
+  // Level k's place in the atlas from s = 2^-k alone (no table, so that the loop vectorises):
+  // level 0 at (0, 0) of W x H texels; level k >= 1 at (W, H - 2 H s), W s x H s.
+  const float W0 = static_cast<float>(g.levels[0].w), H0 = static_cast<float>(g.levels[0].h);
+  constexpr float kTab = static_cast<float>(static_cast<int>(cv::INTER_TAB_SIZE));
+  const float walls_x = g.walls.x() * kTab + 0.5f, walls_y = g.walls.y() * kTab + 0.5f;
+  constexpr int kMask = cv::INTER_TAB_SIZE - 1;
+  const float r00 = R(0, 0), r01 = R(0, 1), r02 = R(0, 2);
+  const float r10 = R(1, 0), r11 = R(1, 1), r12 = R(1, 2);
+  const float r20 = R(2, 0), r21 = R(2, 1), r22 = R(2, 2);
+  const float ccx = c.x(), ccy = c.y();
+  const int width = w;
+  const float min_dz = height > 0 ? -1e-6f : -std::numeric_limits<float>::infinity();
+  const float t1 = thresholds[1], t2 = thresholds[2], t3 = thresholds[3], t4 = thresholds[4];
+  const float t5 = thresholds[5], t6 = thresholds[6], t7 = thresholds[7];
+  for (int k = 0; k < w && !distorted; ++k) {
+    column_x[static_cast<std::size_t>(k)] = (static_cast<float>(k) - cx) / fx;
+  }
+  for (int v0 = 0; v0 < h; v0 += kStrip) {
+    const int rows = std::min(kStrip, h - v0);
+    auto* m1 = reinterpret_cast<std::int16_t*>(map_xy.data);
+    auto* m2 = reinterpret_cast<std::uint16_t*>(map_frac.data);
+    for (int v = v0; v < v0 + rows; ++v) {
+      const float yn_row = (static_cast<float>(v) - cy) / fy;
+      const float* xs = distorted ? table_x.data() + Index(0, v) : column_x.data();
+      if (!distorted) std::fill(row_y.begin(), row_y.end(), yn_row);
+      const float* ys = distorted ? table_y.data() + Index(0, v) : row_y.data();
+      std::int16_t* o1 = m1 + 2 * static_cast<std::size_t>(v - v0) * W();
+      std::uint16_t* o2 = m2 + static_cast<std::size_t>(v - v0) * W();
+      int* pax = row_ax.data();
+      int* pay = row_ay.data();
+      // Branch-free, so that the compiler vectorises it: rays that miss the ground (or NaN
+      // rays beyond a lens' fold) select the walls' texel. (`width`, a local: the int stores
+      // could otherwise change the member `w`.)
+      for (int u = 0; u < width; ++u) {
+        const float x = xs[u];
+        const float y = ys[u];
+        const float dz = r20 * x + r21 * y + r22;
+        const bool hit = dz < min_dz;
+        const float inv = -1.0f / (hit ? dz : -1.0f);
+        const float t = height * inv;
+        const float gx = ccx + t * (r00 * x + r01 * y + r02);
+        const float gy = ccy + t * (r10 * x + r11 * y + r12);
+        const float area = a_num * inv * inv * inv;
+        const int level = (area >= t1) + (area >= t2) + (area >= t3) + (area >= t4) + (area >= t5) +
+                          (area >= t6) + (area >= t7);
+        const float scale = std::bit_cast<float>((127 - level) << 23);  // 2^-level
+        const float lw = W0 * scale, lh = H0 * scale;
+        const float ox = level > 0 ? W0 - 0.5f : -0.5f;
+        const float oy = level > 0 ? H0 - 2.0f * H0 * scale - 0.5f : -0.5f;
+        const float uu = std::min(std::max((gx - x0) * inv_texel * scale, 0.5f), lw - 0.5f);
+        const float vv = std::min(std::max((y1 - gy) * inv_texel * scale, 0.5f), lh - 0.5f);
+        pax[u] = static_cast<int>(hit ? (ox + uu) * kTab + 0.5f : walls_x);
+        pay[u] = static_cast<int>(hit ? (oy + vv) * kTab + 0.5f : walls_y);
+      }
+      for (int u = 0; u < width; ++u) {
+        const int ax = pax[u], ay = pay[u];
+        o1[2 * u] = static_cast<std::int16_t>(ax >> cv::INTER_BITS);
+        o1[2 * u + 1] = static_cast<std::int16_t>(ay >> cv::INTER_BITS);
+        o2[u] = static_cast<std::uint16_t>((ay & kMask) * cv::INTER_TAB_SIZE + (ax & kMask));
+      }
+    }
+    cv::Mat out(rows, w, CV_8UC3, target + Index(0, v0) * 3);
+    cv::remap(g.atlas, out, map_xy.rowRange(0, rows), map_frac.rowRange(0, rows), cv::INTER_LINEAR,
+              cv::BORDER_REPLICATE);
+  }
+  cache_valid = same_pose;
+  if (cache_valid) cached_colour.assign(target, target + n * 3);
 }
 
 namespace {
@@ -612,12 +686,12 @@ void CameraRenderer::Impl::BuildParts(const Eigen::Isometry3d& X_MC, const Frame
     AUTODRIVE_CHECK(car.params != nullptr, "RenderVehicle without params");
     const VehicleParams& p = *car.params;
     const Eigen::Isometry3d& X = car.X_MV;
-    const double cx = p.body_centre_ahead_of_rear_axle_m;
+    const double bx = p.body_centre_ahead_of_rear_axle_m;
     const double top = std::min(p.body_height_m, car.look.tag_height_m);
     const double deck = p.body_clearance_m + (top - p.body_clearance_m) * 0.55;
     // Body (the chassis and its deck).
     const std::size_t body = dynamic_parts.size();
-    AddBox(dynamic_parts, X, {cx, 0, (p.body_clearance_m + deck) / 2},
+    AddBox(dynamic_parts, X, {bx, 0, (p.body_clearance_m + deck) / 2},
            {p.body_length_m / 2, p.body_width_m / 2 - p.wheel_width_m,
             (deck - p.body_clearance_m) / 2},
            car.look.colour, Decal::kVehicleFront);
@@ -627,14 +701,14 @@ void CameraRenderer::Impl::BuildParts(const Eigen::Isometry3d& X_MC, const Frame
     if (car.left_indicator && blink) lights |= 2;
     if (car.right_indicator && blink) lights |= 4;
     dynamic_parts[body].lights = lights;
-    AddBox(dynamic_parts, X, {cx - p.body_length_m / 2 - 0.001, 0, (p.body_clearance_m + deck) / 2},
+    AddBox(dynamic_parts, X, {bx - p.body_length_m / 2 - 0.001, 0, (p.body_clearance_m + deck) / 2},
            {0.001, p.body_width_m / 2 - p.wheel_width_m, (deck - p.body_clearance_m) / 2},
            car.look.colour, Decal::kVehicleRear);
     dynamic_parts.back().lights = lights;
     // The LIDAR and its mast up to the plate.
     const double plate_bottom = car.look.tag_height_m - 0.003;
     if (plate_bottom > deck) {
-      AddBox(dynamic_parts, X, {cx, 0, (deck + plate_bottom) / 2},
+      AddBox(dynamic_parts, X, {bx, 0, (deck + plate_bottom) / 2},
              {0.035, 0.035, (plate_bottom - deck) / 2}, kLidarColour);
     }
     // Wheels.
@@ -863,12 +937,13 @@ inline bool InDisc(float y, float z, float cy, float cz, float r) {
 void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const FrameState&) {
   const std::size_t i = Index(u, v);
   const RenderPart& part = *fp.part;
-  const Eigen::Vector3f r(rx[i], ry[i], rz[i]);
+  const Eigen::Vector3f r = Ray(u, v);
+  if (std::isnan(r.x())) return;  // beyond the lens' fold
   const Eigen::Vector3f d = fp.Q * r;
   const PartHit hit = Intersect(part, fp.o, d, depth[i]);
   if (!(hit.t < depth[i])) return;
   depth[i] = hit.t;
-  std::uint8_t* px = colour.data() + 3 * i;
+  std::uint8_t* px = target + 3 * i;
   float shade = fp.shade[static_cast<std::size_t>(hit.face)];
   if (part.cylinder && hit.face == 0) {
     // The side's normal: radial, in the part's frame (vertical axis, so the map's light
@@ -885,16 +960,19 @@ void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const Fr
       break;
     case Decal::kTag:
       if (hit.face == 4) {
-        // Supersampled 4 x 4 over the pixel: the sub-pixel rays interpolated between the
-        // pixel's ray and its neighbours', each met with the face's plane.
+        // Supersampled 4 x 4 over the pixel: the sub-pixel rays (exact without distortion,
+        // else interpolated between the pixel's ray and its neighbours'), each met with the
+        // face's plane.
         const TagBitmap& tag = *part.tag;
         const float half = static_cast<float>(part.half.x());
         const float cell = 2 * half / static_cast<float>(tag.total);
-        const std::size_t iu = u + 1 < w ? i + 1 : i - 1;
-        const std::size_t iv = v + 1 < h ? i + W() : i - W();
-        const float su = u + 1 < w ? 1.0f : -1.0f, sv = v + 1 < h ? 1.0f : -1.0f;
-        const Eigen::Vector3f du = (Eigen::Vector3f(rx[iu], ry[iu], rz[iu]) - r) * su;
-        const Eigen::Vector3f dv = (Eigen::Vector3f(rx[iv], ry[iv], rz[iv]) - r) * sv;
+        Eigen::Vector3f du(1.0f / fx, 0, 0), dv(0, 1.0f / fy, 0);
+        if (distorted) {
+          const int un = u + 1 < w ? u + 1 : u - 1, vn = v + 1 < h ? v + 1 : v - 1;
+          du = (Ray(un, v) - r) * static_cast<float>(un - u);
+          dv = (Ray(u, vn) - r) * static_cast<float>(vn - v);
+          if (std::isnan(du.x()) || std::isnan(dv.x())) du = dv = Eigen::Vector3f::Zero();
+        }
         const float top = static_cast<float>(part.half.z());
         int white = 0;
         constexpr int kS = 4;
@@ -945,8 +1023,8 @@ void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const Fr
       const float lamp = std::min(hy, hz) * 0.35f;
       // Indicators at the outer corners, lights inboard of them.
       for (int side = -1; side <= 1; side += 2) {
-        const float cy = static_cast<float>(side) * (hy - lamp * 1.2f);
-        if (std::abs(y - cy) < lamp && std::abs(z - hz * 0.3f) < lamp * 0.8f) {
+        const float iy = static_cast<float>(side) * (hy - lamp * 1.2f);
+        if (std::abs(y - iy) < lamp && std::abs(z - hz * 0.3f) < lamp * 0.8f) {
           const bool on = (part.lights >> (side > 0 ? 1 : 2)) & 1;
           c = on ? Rgb{255, 170, 0} : Rgb{120, 80, 20};
           if (on) shade = 1.0f;
@@ -982,9 +1060,26 @@ void CameraRenderer::Impl::DrawPart(const FramePart& fp, const FrameState& frame
 
 void CameraRenderer::Impl::RenderOnce(const Eigen::Isometry3d& X_MC, const FrameState& frame,
                                       std::optional<int> exclude) {
+  const auto t0 = std::chrono::steady_clock::now();
   DrawGround(X_MC);
+  const auto t1 = std::chrono::steady_clock::now();
   BuildParts(X_MC, frame, exclude);
-  for (const FramePart& fp : frame_parts) DrawPart(fp, frame);
+  // The ground lies under every part (flat ground, camera above it), so only parts compete
+  // for a pixel: the depth buffer is needed inside their rectangles only.
+  for (const FramePart& fp : frame_parts) {
+    for (int v = fp.y0; v < fp.y1; ++v) {
+      std::fill_n(depth.begin() + static_cast<std::ptrdiff_t>(Index(fp.x0, v)), fp.x1 - fp.x0,
+                  std::numeric_limits<float>::infinity());
+    }
+  }
+  for (const FramePart& fp : frame_parts) {
+    DrawPart(fp, frame);
+    stats.pixels_tested += static_cast<std::int64_t>(fp.x1 - fp.x0) * (fp.y1 - fp.y0);
+  }
+  stats.parts_drawn += static_cast<int>(frame_parts.size());
+  const auto t2 = std::chrono::steady_clock::now();
+  stats.ground_ms += std::chrono::duration<double, std::milli>(t1 - t0).count();
+  stats.objects_ms += std::chrono::duration<double, std::milli>(t2 - t1).count();
 }
 
 CameraRenderer::CameraRenderer(std::shared_ptr<const RenderWorld> world,
@@ -995,12 +1090,14 @@ CameraRenderer::~CameraRenderer() = default;
 
 const camera::CameraModel& CameraRenderer::model() const { return impl_->model; }
 const FilmOptions& CameraRenderer::film() const { return impl_->film; }
+const RenderStats& CameraRenderer::stats() const { return impl_->stats; }
 
 void CameraRenderer::Render(const Eigen::Isometry3d& X_MC, const FrameState& frame, Image& out,
                             std::optional<int> exclude, const Eigen::Vector3d& v_M_mps,
                             const Eigen::Vector3d& w_M_radps, std::uint64_t noise_seed) {
   Impl& m = *impl_;
   const FilmOptions& film = m.film;
+  m.stats = {};
   out.width_px = m.w;
   out.height_px = m.h;
   const std::size_t bytes = m.colour.size();
@@ -1010,50 +1107,70 @@ void CameraRenderer::Render(const Eigen::Isometry3d& X_MC, const FrameState& fra
     // moved rigidly by their velocities.
     m.accumulator.assign(bytes, 0);
     const int n = film.motion_blur_samples;
-    std::vector<RenderVehicle> moved(frame.vehicles.begin(), frame.vehicles.end());
+    m.moved.assign(frame.vehicles.begin(), frame.vehicles.end());
     for (int s = 0; s < n; ++s) {
       const double dt = film.exposure_time_s * ((s + 0.5) / n - 0.5);
       const auto shift = [dt](const Eigen::Isometry3d& X, const Eigen::Vector3d& v,
                               const Eigen::Vector3d& w_) {
         Eigen::Isometry3d Y = X;
         Y.translation() += v * dt;
-        if (w_.norm() > 0)
+        if (w_.norm() > 0) {
           Y.linear() = Eigen::AngleAxisd(w_.norm() * dt, w_.normalized()) * X.linear();
+        }
         return Y;
       };
-      for (std::size_t k = 0; k < moved.size(); ++k) {
-        moved[k].X_MV =
+      for (std::size_t k = 0; k < m.moved.size(); ++k) {
+        m.moved[k].X_MV =
             shift(frame.vehicles[k].X_MV, frame.vehicles[k].v_M_mps, frame.vehicles[k].w_M_radps);
       }
       FrameState sub = frame;
-      sub.vehicles = moved;
+      sub.vehicles = m.moved;
       sub.time_s = frame.time_s + dt;
+      m.target = m.colour.data();
       m.RenderOnce(shift(X_MC, v_M_mps, w_M_radps), sub, exclude);
       for (std::size_t k = 0; k < bytes; ++k) m.accumulator[k] += m.colour[k];
     }
+    const auto half = static_cast<std::uint16_t>(n / 2);
+    const auto count = static_cast<std::uint16_t>(n);
     for (std::size_t k = 0; k < bytes; ++k) {
-      m.colour[k] = static_cast<std::uint8_t>((m.accumulator[k] + n / 2) / n);
+      out.rgb[k] = static_cast<std::uint8_t>((m.accumulator[k] + half) / count);
     }
   } else {
+    m.target = out.rgb.data();
     m.RenderOnce(X_MC, frame, exclude);
   }
-  cv::Mat image(m.h, m.w, CV_8UC3, m.colour.data());
-  cv::Mat dst(m.h, m.w, CV_8UC3, out.rgb.data());
-  if (film.exposure != 1.0) {
-    image.convertTo(dst, CV_8UC3, film.exposure);
-  } else {
-    image.copyTo(dst);
+  const auto film0 = std::chrono::steady_clock::now();
+  cv::Mat image(m.h, m.w, CV_8UC3, out.rgb.data());
+  if (film.blur_sigma_px > 0) {
+    // A kernel of +-2 sigma (95% of the Gaussian's weight): OpenCV's default of +-3 sigma costs
+    // a third more for weights under 1%.
+    const int radius = std::max(1, static_cast<int>(std::ceil(2.0 * film.blur_sigma_px)));
+    cv::GaussianBlur(image, image, cv::Size(2 * radius + 1, 2 * radius + 1), film.blur_sigma_px);
   }
-  if (film.blur_sigma_px > 0) cv::GaussianBlur(dst, dst, cv::Size(0, 0), film.blur_sigma_px);
-  if (film.noise_sigma > 0) {
+  if (film.exposure != 1.0 || film.noise_sigma > 0) {
+    // Exposure through a table, and a window of the camera's block of noise at an offset drawn
+    // from the frame's seed, in one pass.
+    std::array<std::int16_t, 256> lut{};
+    for (int k = 0; k < 256; ++k) {
+      lut[static_cast<std::size_t>(k)] =
+          static_cast<std::int16_t>(std::min(255L, std::lround(k * film.exposure)));
+    }
     std::mt19937_64 rng(noise_seed);
-    const int ox = static_cast<int>(rng() % 64), oy = static_cast<int>(rng() % 64);
-    const cv::Mat block = m.noise(cv::Rect(ox * 3, oy, m.w * 3, m.h));
-    cv::Mat wide;
-    dst.reshape(1).convertTo(wide, CV_16S);
-    wide += block;
-    wide.convertTo(dst.reshape(1), CV_8U);
+    const auto ox = static_cast<std::size_t>(rng() % 64), oy = static_cast<std::size_t>(rng() % 64);
+    const std::size_t row = m.W() * 3;
+    for (std::size_t v = 0; v < static_cast<std::size_t>(m.h); ++v) {
+      const std::int8_t* noise = film.noise_sigma > 0
+                                     ? m.noise.ptr<std::int8_t>(static_cast<int>(v + oy)) + ox * 3
+                                     : nullptr;
+      std::uint8_t* px = out.rgb.data() + v * row;
+      for (std::size_t k = 0; k < row; ++k) {
+        const int value = lut[px[k]] + (noise != nullptr ? noise[k] : 0);
+        px[k] = static_cast<std::uint8_t>(std::clamp(value, 0, 255));
+      }
+    }
   }
+  m.stats.film_ms +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - film0).count();
 }
 
 }  // namespace autodrive::vehicle_sim

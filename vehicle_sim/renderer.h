@@ -177,7 +177,7 @@ struct FilmOptions {
     a.Optional("exposure_time_s", exposure_time_s, config::Range{0.0, 1.0});
     a.Optional("motion_blur_samples", motion_blur_samples, config::Range{2, 32});
     a.Optional("blur_sigma_px", blur_sigma_px, config::Range{0.0, 50.0});
-    a.Optional("noise_sigma", noise_sigma, config::Range{0.0, 128.0});
+    a.Optional("noise_sigma", noise_sigma, config::Range{0.0, 32.0});
   }
   /// True when any effect beyond the light is on (motion blur, blur, noise) or the exposure is
   /// not 1.
@@ -235,6 +235,15 @@ class RenderWorld {
 /// The pose of a vehicle's roof tag frame T in the map frame (see `VehicleLook`).
 [[nodiscard]] Eigen::Isometry3d VehicleTagPose(const RenderVehicle& vehicle);
 
+/// Where the last frame's time went (wall time of the rendering thread).
+struct RenderStats {
+  double ground_ms = 0;            ///< the ground (0.0x when a fixed camera's ground was reused)
+  double objects_ms = 0;           ///< solid parts: placing and drawing them
+  double film_ms = 0;              ///< exposure, blur, noise and motion blur's averaging
+  int parts_drawn = 0;             ///< parts whose image rectangle was not empty (per sub-frame)
+  std::int64_t pixels_tested = 0;  ///< pixel-part ray tests
+};
+
 /// Renders one camera. Holds the camera's rays (12 bytes a pixel) and its buffers.
 class CameraRenderer {
  public:
@@ -247,6 +256,8 @@ class CameraRenderer {
 
   [[nodiscard]] const camera::CameraModel& model() const;
   [[nodiscard]] const FilmOptions& film() const;
+  /// Of the last `Render`.
+  [[nodiscard]] const RenderStats& stats() const;
 
   /// Renders what the camera with optical frame pose `X_MC` (in the map frame) sees of
   /// `frame` into `out` (resized to the camera's image). `exclude` names the vehicle carrying
