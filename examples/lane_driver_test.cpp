@@ -54,7 +54,7 @@ struct Town {
 
   void AddCar(const std::string& lane, double along, std::uint64_t seed = 1) {
     vehicle_sim::SimConfig sim;
-    sim.vehicles = {{"nigel_1", vehicle_sim::SpawnConfig{lane, along, {}, {}, {}}, {}, {}}};
+    sim.vehicles = {{"nigel_1", vehicle_sim::SpawnConfig{lane, along, {}, {}, {}}, {}, {}, {}}};
     const int i = world.AddVehicle({}, vehicle_sim::SpawnPoses(sim, SmallTown())[0]);
     DriverOptions options;
     options.seed = seed;

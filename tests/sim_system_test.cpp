@@ -1,8 +1,11 @@
 // autodrive-sim as a process: a car driven over DDS with the devkit command topics from this
 // (separate) process, its devkit sensor topics read back, and the command time-out.
+#include <apriltag/apriltag.h>
+#include <apriltag/tag36h11.h>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <array>
@@ -11,11 +14,15 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/camera/camera_model.h"
 #include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
@@ -307,6 +314,112 @@ TEST_F(SimProcess, AControllerOutsideLockstepIsRefused) {
   ASSERT_TRUE(code.has_value());
   EXPECT_EQ(*code, 1) << text;
   EXPECT_NE(text.find("only lockstep waits for controllers"), std::string::npos) << text;
+}
+
+// Runs `argv` through the shell with stderr folded into stdout; its exit code and output.
+std::pair<int, std::string> RunCaptured(const std::vector<std::string>& argv) {
+  std::vector<std::string> sh{"/bin/sh", "-c", "exec \"$@\" 2>&1", "sh"};
+  sh.insert(sh.end(), argv.begin(), argv.end());
+  ChildProcess p(sh, {});
+  std::string text;
+  while (auto line = p.ReadLine(std::chrono::milliseconds(300000))) text += *line + "\n";
+  const auto code = p.Wait(std::chrono::milliseconds(60000));
+  return {code.value_or(-1), text};
+}
+
+// The AprilTag library's detections (corners and centre moved to OpenCV's pixel convention:
+// the library puts a pixel's centre at +0.5) by id.
+std::map<int, Eigen::Vector2d> DetectTagCentres(const std::filesystem::path& png) {
+  const cv::Mat gray = cv::imread(png.string(), cv::IMREAD_GRAYSCALE);
+  std::map<int, Eigen::Vector2d> out;
+  if (gray.empty()) return out;
+  apriltag_family_t* family = tag36h11_create();
+  apriltag_detector_t* detector = apriltag_detector_create();
+  apriltag_detector_add_family(detector, family);
+  detector->quad_decimate = 1.0f;
+  image_u8_t im{gray.cols, gray.rows, static_cast<int32_t>(gray.step), gray.data};
+  zarray_t* detections = apriltag_detector_detect(detector, &im);
+  for (int i = 0; i < zarray_size(detections); ++i) {
+    apriltag_detection_t* det = nullptr;
+    zarray_get(detections, i, &det);
+    out[det->id] = {det->c[0] - 0.5, det->c[1] - 0.5};
+  }
+  apriltag_detections_destroy(detections);
+  apriltag_detector_destroy(detector);
+  tag36h11_destroy(family);
+  return out;
+}
+
+TEST_F(SimProcess, RenderWritesFramesWhoseTagsAreWhereTheirGroundTruthAndCalibrationSay) {
+  // Two cars on the Driving School and a camera 2 m over its north-west loop.
+  const std::string city = (dir_ / "city.yaml").string();
+  std::ofstream(city) << "name: render_test\nmap: " << Config("config/maps/driving_school.yaml")
+                      << "\nsim:\n  vehicles: [{name: nigel_1}, {name: nigel_2}]\n"
+                         "  cameras:\n    - {name: top, rate_hz: 10, lens: {focal_length_mm: "
+                         "1.6, width_px: 1920, height_px: 1080}, mount: {x_m: 1.5, y_m: 3.6, "
+                         "z_m: 2.0, pitch_rad: 1.5708, yaw_rad: 1.5708}}\n";
+  const auto out = dir_ / "set";
+  const auto [code, text] = RunCaptured({Bin("autodrive-sim"), "render", "--city", city, "--camera",
+                                         "top", "--duration", "1", "--out", out.string()});
+  ASSERT_EQ(code, 0) << text;
+  // 0, 0.1, ... 1.0 s: eleven frames.
+  for (int k = 0; k <= 10; ++k) {
+    EXPECT_TRUE(std::filesystem::exists(out / fmt::format("frame_{:06d}.png", k))) << k;
+  }
+  EXPECT_FALSE(std::filesystem::exists(out / "frame_000011.png"));
+  // What an outside user has: the calibration, the pose and the ground truth, as files.
+  const camera::Intrinsics k = camera::LoadOpenCvCalibration(out / "camera.yaml");
+  EXPECT_EQ(k.width_px, 1920);
+  EXPECT_NEAR(k.fx_px, 1.6 * 1920 / 3.68, 1e-9);
+  const YAML::Node pose = YAML::LoadFile((out / "camera_pose.yaml").string());
+  EXPECT_EQ(pose["parent_frame"].as<std::string>(), "map");
+  Eigen::Matrix4d X = Eigen::Matrix4d::Zero();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) X(r, c) = pose["X_parent_optical"][r][c].as<double>();
+  }
+  camera::Camera cam{"top", "top", "map", camera::CameraModel(k), Eigen::Isometry3d(X)};
+  std::ifstream csv(out / "ground_truth.csv");
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "frame,stamp_s,vehicle,tag_id,x_m,y_m,yaw_rad");
+  int rows = 0, checked = 0;
+  std::map<int, std::map<int, Eigen::Vector2d>> detections;
+  while (std::getline(csv, line)) {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    ASSERT_EQ(f.size(), 7u) << line;
+    const int frame = std::stoi(f[0]);
+    EXPECT_NEAR(std::stod(f[1]), 0.1 * frame, 0.0021) << line;
+    const int id = std::stoi(f[3]);
+    EXPECT_EQ(f[2], "nigel_" + std::to_string(id));  // tag id n for nigel_<n> by default
+    if (frame != 0 && frame != 10) continue;
+    if (!detections.contains(frame)) {
+      detections[frame] = DetectTagCentres(out / fmt::format("frame_{:06d}.png", frame));
+    }
+    // The tag's centre at the car's roof (0.257 m, Nigel's height) lands on the detection.
+    const auto px = cam.ProjectFromParent({std::stod(f[4]), std::stod(f[5]), 0.257});
+    ASSERT_TRUE(px && cam.model.IsInImage(*px)) << line;
+    ASSERT_TRUE(detections[frame].contains(id)) << "tag " << id << " not found in frame " << frame;
+    EXPECT_LT((detections[frame][id] - *px).norm(), 0.5) << line;
+    ++checked;
+  }
+  EXPECT_EQ(rows, 22);
+  EXPECT_EQ(checked, 4);
+  // The cars drove.
+  EXPECT_NE(detections[0][1], detections[10][1]);
+}
+
+TEST_F(SimProcess, RenderNamesTheCamerasThereAreForAnUnknownOne) {
+  const auto [code, text] = RunCaptured({Bin("autodrive-sim"), "render", "--city",
+                                         Config("config/cities/driving_school.yaml"), "--camera",
+                                         "attic", "--out", (dir_ / "x").string()});
+  EXPECT_EQ(code, 1) << text;
+  EXPECT_NE(text.find("no camera \"attic\" in the city (it has nigel_1/front_camera, "
+                      "nigel_1/rear_camera, nigel_2/front_camera, nigel_2/rear_camera, overhead)"),
+            std::string::npos)
+      << text;
 }
 
 }  // namespace

@@ -249,10 +249,6 @@ Rgb SignColour(const std::string& type) {
 
 // ---- RenderWorld ----------------------------------------------------------------------------
 
-bool FilmOptions::AnyEffect() const {
-  return exposure != 1.0 || exposure_time_s > 0.0 || blur_sigma_px > 0.0 || noise_sigma > 0.0;
-}
-
 struct RenderWorld::Impl {
   RenderWorldOptions options;
   GroundPyramid ground;

@@ -41,8 +41,8 @@
 #include <Eigen/Geometry>
 
 #include "common/camera/camera_model.h"
-#include "common/config.h"
 #include "common/ids.h"
+#include "vehicle_sim/camera_config.h"
 #include "vehicle_sim/raycast.h"
 #include "vehicle_sim/vehicle_params.h"
 
@@ -52,71 +52,12 @@ struct Map;
 
 namespace autodrive::vehicle_sim {
 
-/// A colour, 8 bits per channel.
-struct Rgb {
-  std::uint8_t r = 0;
-  std::uint8_t g = 0;
-  std::uint8_t b = 0;
-  bool operator==(const Rgb&) const = default;
-};
-
 /// An image in memory: `height_px` rows of `width_px` pixels, R, G, B bytes each, top row first
 /// (sensor_msgs/Image's rgb8 with step = 3 width).
 struct Image {
   int width_px = 0;
   int height_px = 0;
   std::vector<std::uint8_t> rgb;
-};
-
-/// An AprilTag as printed: family, id and the edge of its black square (the size AprilTag's
-/// pose estimation takes), metres. The tag is printed with its white border (one bit wide for
-/// tag36h11) on a white plate exactly as big as the family's whole bitmap
-/// (`total_width` bits: 10 for tag36h11, so a 76.2 mm tag sits on a 95.25 mm plate).
-struct TagSpec {
-  std::string family = "tag36h11";  ///< tag36h11, tag25h9, tag16h5, tagStandard41h12, ...
-  int id = 0;
-  double size_m = 0.0762;
-
-  template <typename Archive>
-  void Serialize(Archive& a) {
-    a.Optional("family", family);
-    a.Required("id", id, config::Range{0, 100000});
-    a.Optional("size_m", size_m, config::Range{0.001, 10.0});
-  }
-  bool operator==(const TagSpec&) const = default;
-};
-
-/// A tag fixed on the ground: a reference tag for the Eye's registration. Pose of its centre
-/// and its yaw in the map frame: the tag's frame T has x towards the bitmap's right edge and y
-/// towards its top edge (as the tag is seen from above, read upright), z up; yaw is the angle
-/// from the map's x to T's x (so yaw 0 reads upright with its top to the north).
-struct GroundTag {
-  TagSpec tag;
-  double x_m = 0.0;
-  double y_m = 0.0;
-  double yaw_rad = 0.0;
-
-  template <typename Archive>
-  void Serialize(Archive& a) {
-    a.Required("tag", tag);
-    a.Required("x_m", x_m, config::Range{-1e4, 1e4});
-    a.Required("y_m", y_m, config::Range{-1e4, 1e4});
-    a.Optional("yaw_rad", yaw_rad, config::Range{-10.0, 10.0});
-  }
-  bool operator==(const GroundTag&) const = default;
-};
-
-/// How a vehicle looks: its colour and its roof tag. The tag lies flat on the roof plate at
-/// `tag_height_m` above the ground (the top of the car), centred over the vehicle's body,
-/// upright seen from above with its top towards the vehicle's front: the tag frame's y is the
-/// vehicle's x (forward) and its x the vehicle's -y (right), so the vehicle's yaw is the tag's
-/// yaw plus 90°.
-struct VehicleLook {
-  Rgb colour{200, 30, 30};
-  std::optional<TagSpec> tag;
-  double tag_height_m = 0.257;
-
-  bool operator==(const VehicleLook&) const = default;
 };
 
 /// A vehicle as the cameras see it, now.
@@ -147,42 +88,6 @@ struct FrameState {
   double time_s = 0.0;  ///< simulated time: the indicators blink on it
   std::span<const RenderVehicle> vehicles;
   std::span<const HeadLamps> lamps;  ///< heads not listed are dark
-};
-
-/// The light and the film: per camera.
-struct FilmOptions {
-  double exposure = 1.0;  ///< gain on everything the camera sees, in (0, 20]
-  /// Light: ambient share and one directional light (the lab's ceiling lights, as one sun),
-  /// from `light_azimuth_rad` (counter-clockwise from east) and `light_elevation_rad` above the
-  /// horizon. The ground in the default light shows its colours as the map's picture has them.
-  double ambient = 0.6;
-  double light_intensity = 0.4;
-  double light_azimuth_rad = 0.8;
-  double light_elevation_rad = 1.1;
-  /// Motion blur: the frame integrates the light over this time, centred on the frame's
-  /// instant (0: an instantaneous frame); vehicles move by their velocities, the camera by its
-  /// own.
-  double exposure_time_s = 0.0;
-  int motion_blur_samples = 4;  ///< sub-frames averaged when exposure_time_s > 0, in [2, 32]
-  double blur_sigma_px = 0.0;   ///< Gaussian blur (lens focus), pixels; 0: none
-  double noise_sigma = 0.0;     ///< Gaussian noise, standard deviation in 8-bit levels; 0: none
-
-  template <typename Archive>
-  void Serialize(Archive& a) {
-    a.Optional("exposure", exposure, config::Range{0.001, 20.0});
-    a.Optional("ambient", ambient, config::Range{0.0, 10.0});
-    a.Optional("light_intensity", light_intensity, config::Range{0.0, 10.0});
-    a.Optional("light_azimuth_rad", light_azimuth_rad, config::Range{-10.0, 10.0});
-    a.Optional("light_elevation_rad", light_elevation_rad, config::Range{0.0, 1.5708});
-    a.Optional("exposure_time_s", exposure_time_s, config::Range{0.0, 1.0});
-    a.Optional("motion_blur_samples", motion_blur_samples, config::Range{2, 32});
-    a.Optional("blur_sigma_px", blur_sigma_px, config::Range{0.0, 50.0});
-    a.Optional("noise_sigma", noise_sigma, config::Range{0.0, 32.0});
-  }
-  /// True when any effect beyond the light is on (motion blur, blur, noise) or the exposure is
-  /// not 1.
-  [[nodiscard]] bool AnyEffect() const;
-  bool operator==(const FilmOptions&) const = default;
 };
 
 /// How the static world is drawn.

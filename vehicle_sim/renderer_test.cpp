@@ -59,7 +59,8 @@ const VehicleParams& Nigel() {
 std::vector<RenderVehicle> Cars() {
   SimConfig sim;
   sim.vehicles.clear();
-  for (int i = 1; i <= 4; ++i) sim.vehicles.push_back({"nigel_" + std::to_string(i), {}, {}, {}});
+  for (int i = 1; i <= 4; ++i)
+    sim.vehicles.push_back({"nigel_" + std::to_string(i), {}, {}, {}, {}});
   const std::vector<RigidTransform2> poses = SpawnPoses(sim, DrivingSchool());
   std::vector<RenderVehicle> cars;
   const std::array<Rgb, 4> colours{Rgb{200, 30, 30}, Rgb{30, 90, 200}, Rgb{240, 200, 30},

@@ -89,9 +89,9 @@ TEST(SimConfig, CarsWithoutASpawnStartOnLanesOfTheirOwnFacingAlongThem) {
   const maps::Map map =
       maps::Build(maps::LoadLayout((test::SourceDir() / "config/maps/small_town.yaml").string()));
   SimConfig sim;
-  sim.vehicles = {{"nigel_1", std::nullopt, {}, {}},
-                  {"nigel_2", std::nullopt, {}, {}},
-                  {"nigel_3", SpawnConfig{map.lanes[5].name, 0.1, {}, {}, {}}, {}, {}}};
+  sim.vehicles = {{"nigel_1", std::nullopt, {}, {}, {}},
+                  {"nigel_2", std::nullopt, {}, {}, {}},
+                  {"nigel_3", SpawnConfig{map.lanes[5].name, 0.1, {}, {}, {}}, {}, {}, {}}};
   const auto poses = SpawnPoses(sim, map);
   ASSERT_EQ(poses.size(), 3u);
   EXPECT_GT((poses[0].translation() - poses[1].translation()).norm(), 0.3);

@@ -3,8 +3,9 @@
 /// Nigel's sensors, each at its own rate and with its mounting (../shared/NIGEL.md): actuator
 /// feedback, rear-wheel encoders, IPS, IMU and the 2-D LIDAR. A `SensorSuite` per car samples
 /// them from the world after each physics step and hands out readings as plain values; the DDS
-/// service (and anything else: the benchmark, tests) turns them into messages. Cameras will
-/// join as another sensor of the suite (the next issue).
+/// service (and anything else: the benchmark, tests) turns them into messages. The cameras
+/// are configured here (`front_camera`, `rear_camera`) but rendered by `SimCameras`
+/// (cameras.h), which costs milliseconds a frame and so runs apart from the suite.
 ///
 /// Frames: the vehicle frame V (vehicle.h); readings carry their sensor's own frame as the
 /// devkit names it (`imu`, `lidar`, `left_encoder`, ...). Times are simulated time since the
@@ -25,6 +26,7 @@
 
 #include "common/config.h"
 #include "common/time.h"
+#include "vehicle_sim/camera_config.h"
 #include "vehicle_sim/raycast.h"
 #include "vehicle_sim/vehicle.h"
 
@@ -125,6 +127,9 @@ struct SensorConfig {
   IpsConfig ips;
   ImuConfig imu;
   LidarConfig lidar;
+  /// Rendered by the simulator's cameras (cameras.h), not by the suite.
+  OnboardCameraConfig front_camera = DefaultFrontCamera();
+  OnboardCameraConfig rear_camera = DefaultRearCamera();
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Optional("feedback", feedback);
@@ -132,6 +137,8 @@ struct SensorConfig {
     a.Optional("ips", ips);
     a.Optional("imu", imu);
     a.Optional("lidar", lidar);
+    a.Optional("front_camera", front_camera);
+    a.Optional("rear_camera", rear_camera);
   }
   bool operator==(const SensorConfig&) const = default;
 };

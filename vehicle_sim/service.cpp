@@ -18,6 +18,7 @@
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
 #include "common/error.h"
+#include "vehicle_sim/cameras.h"
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/sensors.h"
 #include "vehicle_sim/variability.h"
@@ -97,6 +98,15 @@ struct SimService::Impl {
   std::vector<DynamicBox> boxes;
   SensorReadings readings;
   std::ostream* log = nullptr;
+  // Cameras: one writer per camera, in `cameras`' order.
+  std::unique_ptr<SimCameras> cameras;
+  std::vector<std::unique_ptr<dds::Writer<msg::Image>>> camera_writers;
+  std::vector<std::size_t> due;
+  std::vector<CarLights> lights;
+  std::vector<HeadLamps> head_lamps;
+  Image image;
+  std::uint64_t seed = 1;
+  std::int64_t frames = 0;
   // Lockstep only.
   std::unique_ptr<dds::Writer<msg::Header>> step_writer;
   std::unique_ptr<dds::Reader<msg::Header>> done_reader;
@@ -129,6 +139,16 @@ struct SimService::Impl {
       cars.push_back(std::make_unique<CarEndpoints>(
           participant, ParseVehicleName(c.name),
           CommandNoise(city.sim.variability, c.params, city.sim.seed, index)));
+    }
+    seed = city.sim.seed;
+    cameras = std::make_unique<SimCameras>(city.sim, map, world);
+    for (const SimCamera& cam : cameras->cameras()) {
+      camera_writers.push_back(std::make_unique<dds::Writer<msg::Image>>(
+          participant, !cam.vehicle_id ? topics::OverheadCamera(cam.name)
+                       : cam.front     ? topics::FrontCamera(*cam.vehicle_id)
+                                       : topics::RearCamera(*cam.vehicle_id)));
+      spdlog::info("camera {}: {} x {} at {:.3g} Hz", cam.name, cam.intrinsics.width_px,
+                   cam.intrinsics.height_px, 1.0 / ToSeconds(cam.period));
     }
     for (const maps::SignalHead& head : map.signal_heads) {
       lamp_readers.emplace_back(head.id, std::make_unique<dds::Reader<msg::Int32>>(
@@ -258,7 +278,45 @@ struct SimService::Impl {
     cars[i]->ground_truth.Write(m);
   }
 
-  // One control period: commands, physics steps with their sensors, /clock, ground truth.
+  // The frames of the cameras due now: rendered from the world as it is, in this thread (so
+  // that lockstep and fast runs are reproducible), and published.
+  void PublishCameras() {
+    if (cameras->empty()) return;
+    cameras->Due(world.time(), due);
+    if (due.empty()) return;
+    lights.resize(cars.size());
+    for (std::size_t i = 0; i < cars.size(); ++i) {
+      lights[i] = {cars[i]->headlights, cars[i]->indicators};
+    }
+    head_lamps.clear();
+    {
+      std::lock_guard lock(lamps_mutex);
+      for (const auto& [id, state] : lamps) {
+        head_lamps.push_back({id, state == 1, state == 2, state == 3});
+      }
+    }
+    cameras->Snapshot(world, lights, head_lamps);
+    for (const std::size_t k : due) {
+      // Each frame's noise from the seed, the camera and the frame's time.
+      const auto stamp_ns = static_cast<std::uint64_t>(world.time().count());
+      cameras->Render(k, image,
+                      seed * 0x9e3779b97f4a7c15ULL ^ (k + 1) * 0xbf58476d1ce4e5b9ULL ^ stamp_ns);
+      const SimCamera& cam = cameras->cameras()[k];
+      msg::Image m{};
+      SetHeader(m.header, Stamp(world.time()), cam.frame_id.c_str());
+      m.width = static_cast<std::uint32_t>(image.width_px);
+      m.height = static_cast<std::uint32_t>(image.height_px);
+      dds::BorrowString(m.encoding, "rgb8");
+      m.is_bigendian = 0;
+      m.step = 3 * m.width;
+      dds::BorrowSequence(m.data, std::span<std::uint8_t>(image.rgb));
+      camera_writers[k]->Write(m);
+      ++frames;
+    }
+  }
+
+  // One control period: commands, physics steps with their sensors and cameras, /clock,
+  // ground truth.
   void Period() {
     TakeCommands();
     TakeLamps();
@@ -269,6 +327,7 @@ struct SimService::Impl {
         suites[i].Sample(world, world.Scene(), boxes, readings);
         Publish(i);
       }
+      PublishCameras();
     }
     PublishState();
   }
@@ -325,6 +384,12 @@ struct SimService::Impl {
   void Tick(bool last = false) {
     constexpr auto kAckTimeout = std::chrono::seconds(2);
     for (const auto& car : cars) car->WaitForAcks(kAckTimeout);
+    for (std::size_t k = 0; k < camera_writers.size(); ++k) {
+      if (!camera_writers[k]->WaitForAcks(kAckTimeout)) {
+        spdlog::warn("camera {}: a reader did not acknowledge its frame in time",
+                     cameras->cameras()[k].name);
+      }
+    }
     msg::Header h{};
     h.stamp = dds::ToMsg(Stamp(world.time()));
     dds::BorrowString(h.frame_id, last ? "end" : "");

@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
+#include <map>
 #include <set>
 #include <utility>
 
@@ -66,6 +67,40 @@ void SimConfig::Validate() const {
   for (const SimVehicleConfig& v : vehicles) {
     AUTODRIVE_THROW_UNLESS(names.insert(v.name).second, "vehicle " << v.name << " is listed twice");
   }
+  std::set<std::string> camera_names;
+  for (const OverheadCameraConfig& c : cameras) {
+    AUTODRIVE_THROW_UNLESS(camera_names.insert(c.name).second,
+                           "cameras: " << c.name << " is listed twice");
+  }
+  // A tag id seen twice would make the Eye see one car (or reference) in two places.
+  std::map<std::pair<std::string, int>, std::string> tags;
+  const auto add = [&](const TagSpec& tag, const std::string& owner) {
+    const auto [it, fresh] = tags.try_emplace({tag.family, tag.id}, owner);
+    AUTODRIVE_THROW_UNLESS(fresh, "tag " << tag.family << " id " << tag.id << " is on both "
+                                         << it->second << " and " << owner);
+  };
+  for (std::size_t i = 0; i < vehicles.size(); ++i) {
+    const VehicleLook look = EffectiveLook(*this, i);
+    if (look.tag) add(*look.tag, vehicles[i].name + "'s roof");
+  }
+  for (std::size_t i = 0; i < ground_tags.size(); ++i) {
+    add(ground_tags[i].tag, "ground_tags[" + std::to_string(i) + "]");
+  }
+}
+
+VehicleLook EffectiveLook(const SimConfig& sim, std::size_t i) {
+  static constexpr std::array<Rgb, 8> kPalette{
+      Rgb{200, 30, 30},  Rgb{30, 90, 200},  Rgb{240, 200, 30}, Rgb{30, 160, 60},
+      Rgb{150, 60, 190}, Rgb{240, 130, 20}, Rgb{20, 170, 180}, Rgb{230, 230, 230}};
+  const SimVehicleConfig& v = sim.vehicles.at(i);
+  VehicleLook look;
+  look.colour = v.look.colour.value_or(kPalette[i % kPalette.size()]);
+  if (v.look.roof_tag) {
+    TagSpec tag{"tag36h11", static_cast<int>(ParseVehicleName(v.name).value()), 0.0762};
+    look.tag = v.look.tag.value_or(tag);
+  }
+  look.tag_height_m = v.look.tag_height_m.value_or(v.params.body_height_m);
+  return look;
 }
 
 SimCity LoadSimCity(const std::string& path) {
@@ -92,6 +127,17 @@ SimCity LoadSimCity(const std::string& path) {
   if (map.is_relative()) map = std::filesystem::path(path).parent_path() / map;
   city.map_path = map.lexically_normal().string();
   if (root["sim"]) city.sim = config::LoadFile<SimConfig>(path, "sim");
+  const auto resolve = [&](LensConfig& lens) {
+    if (!lens.calibration) return;
+    std::filesystem::path file = *lens.calibration;
+    if (file.is_relative()) file = std::filesystem::path(path).parent_path() / file;
+    lens.calibration = file.lexically_normal().string();
+  };
+  for (auto& v : city.sim.vehicles) {
+    resolve(v.sensors.front_camera.lens);
+    resolve(v.sensors.rear_camera.lens);
+  }
+  for (auto& c : city.sim.cameras) resolve(c.lens);
   return city;
 }
 

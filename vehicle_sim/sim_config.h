@@ -61,6 +61,7 @@ struct SimVehicleConfig {
   std::optional<SpawnConfig> spawn;  ///< default: see `SpawnPoses`
   VehicleParams params;
   SensorConfig sensors;
+  VehicleLookConfig look;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -68,6 +69,7 @@ struct SimVehicleConfig {
     a.Optional("spawn", spawn);
     a.Optional("params", params);
     a.Optional("sensors", sensors);
+    a.Optional("look", look);
   }
   /// The name must be `nigel_<n>`.
   void Validate() const;
@@ -194,10 +196,15 @@ struct SimConfig {
   std::uint64_t seed = 1;  ///< every random source of the simulation derives from it
   WorldOptions world;
   /// The cars; without the key, one car `nigel_1` on the map's first lane.
-  std::vector<SimVehicleConfig> vehicles{SimVehicleConfig{"nigel_1", std::nullopt, {}, {}}};
+  std::vector<SimVehicleConfig> vehicles{SimVehicleConfig{"nigel_1", std::nullopt, {}, {}, {}}};
 
   VariabilityConfig variability;
   ServiceOptions service;
+  /// Overhead cameras (`/autodrive/cameras/<name>/image`).
+  std::vector<OverheadCameraConfig> cameras;
+  /// Reference tags fixed on the ground (what the Eye registers its cameras with).
+  std::vector<GroundTag> ground_tags;
+  RenderConfig render;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -206,8 +213,12 @@ struct SimConfig {
     a.Optional("vehicles", vehicles);
     a.Optional("variability", variability);
     a.Optional("service", service);
+    a.Optional("cameras", cameras);
+    a.Optional("ground_tags", ground_tags);
+    a.Optional("render", render);
   }
-  /// Names unique; at least one car.
+  /// Names unique (cars, cameras); at least one car; tag ids unique within a family (roof and
+  /// ground tags).
   void Validate() const;
   bool operator==(const SimConfig&) const = default;
 };
@@ -220,7 +231,8 @@ struct SimCity {
   SimConfig sim;
 };
 /// Reads `name`, `map` and `sim` of the city file at `path`; other sections belong to other
-/// programs and are not read. @throws ConfigError naming the file, line and key.
+/// programs and are not read. Relative paths (the map, lens calibration files) are resolved
+/// against the city file's folder. @throws ConfigError naming the file, line and key.
 [[nodiscard]] SimCity LoadSimCity(const std::string& path);
 
 /// Every car's starting pose on `map`: its spawn, or when it has none, the middle of a lane no
@@ -229,5 +241,9 @@ struct SimCity {
 /// order). @throws InputError naming the car for a lane the map does not have, a distance
 /// beyond the lane's end, or a map with too few lanes.
 [[nodiscard]] std::vector<RigidTransform2> SpawnPoses(const SimConfig& sim, const maps::Map& map);
+
+/// The look of car `i` of `sim` with its defaults filled in: colour from the palette, tag
+/// tag36h11 id n for `nigel_<n>` (none with `roof_tag: false`), tag height the body's height.
+[[nodiscard]] VehicleLook EffectiveLook(const SimConfig& sim, std::size_t i);
 
 }  // namespace autodrive::vehicle_sim

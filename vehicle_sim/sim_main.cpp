@@ -1,5 +1,6 @@
 // autodrive-sim: the simulator of Nigel. With --city it runs the city's cars as a DDS service
-// (the devkit topics, /clock); `replay` runs one car headless from a command file.
+// (the devkit topics, /clock, the cameras); `replay` runs one car headless from a command file;
+// `render` writes one camera's frames and the ground truth as an offline data set.
 #include <unistd.h>
 
 #include <atomic>
@@ -20,8 +21,10 @@
 #include "common/ids.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "examples/lane_driver.h"
 #include "maps/map.h"
 #include "maps/map_io.h"
+#include "vehicle_sim/dataset.h"
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/service.h"
 #include "vehicle_sim/sim_config.h"
@@ -76,6 +79,72 @@ int Replay(const std::string& city_path, const std::string& vehicle_name,
                  tty ? "\r" : "", commands.size(), ToSeconds(commands.back().time),
                  static_cast<long long>(world.steps()), ToSeconds(world.options().step),
                  out_path.c_str());
+  }
+  return 0;
+}
+
+int Render(const std::string& city_path, const DatasetOptions& options,
+           const std::string& commands_path, const std::string& commanded_vehicle, bool quiet) {
+  const SimCity city = LoadSimCity(city_path);
+  const maps::Map map = maps::LoadMapOrLayout(city.map_path);
+  // The built-in driver for every car (the example lane driver, on the car's ground truth and
+  // LIDAR, with the fixed-time lamps), or the command file for one of them.
+  std::vector<examples::LaneDriver> drivers;
+  for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
+    examples::DriverOptions o;
+    const VehicleParams& p = city.sim.vehicles[i].params;
+    o.seed = city.sim.seed + i;
+    o.wheelbase_m = p.wheelbase_m;
+    o.steering_limit_rad = p.steering_limit_rad;
+    o.front_overhang_m = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
+    drivers.emplace_back(map, o);
+  }
+  std::vector<TimedCommand> commands;
+  std::optional<std::size_t> commanded;
+  if (!commands_path.empty()) {
+    commands = ReadCommandCsv(commands_path);
+    for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
+      if (city.sim.vehicles[i].name == commanded_vehicle) commanded = i;
+    }
+    AUTODRIVE_THROW_UNLESS(
+        commanded, city_path << ": no vehicle '" << commanded_vehicle << "' in the sim section");
+  }
+  std::size_t next_command = 0;
+  VehicleCommand held;
+  const DatasetDriver driver = [&](std::size_t car, const World& world,
+                                   std::span<const float> lidar, std::span<const HeadLamps> lamps,
+                                   Duration now) -> VehicleCommand {
+    if (commanded && car == *commanded) {
+      while (next_command < commands.size() && commands[next_command].time <= now) {
+        held = commands[next_command++].command;
+      }
+      return held;
+    }
+    const VehicleState& s = world.State(static_cast<int>(car));
+    const auto decision = drivers[car].Step(
+        RigidTransform2::FromXyYaw(s.X_MV.translation().x(), s.X_MV.translation().y(),
+                                   YawFromQuaternion(s.X_MV.rotation())),
+        [&](SignalHeadId h) -> std::optional<std::int32_t> {
+          for (const HeadLamps& l : lamps) {
+            if (l.head == h) return l.green ? 3 : l.yellow ? 2 : 1;
+          }
+          return std::nullopt;
+        },
+        lidar, now);
+    return {decision.throttle, decision.steering};
+  };
+  const bool tty = isatty(fileno(stderr)) != 0;
+  const auto progress = [&](int done, int total) {
+    if (quiet || (!tty && done % 100 != 0)) return;
+    std::fprintf(stderr, "%srender: %d / %d frames%s", tty ? "\r" : "", done, total,
+                 tty ? "" : "\n");
+  };
+  const DatasetSummary summary = RenderDataset(city, map, options, driver, progress);
+  if (!quiet) {
+    std::fprintf(stderr,
+                 "%srender: %d frames of %s (%.1f ms each) and %zu ground-truth rows in %s\n",
+                 tty ? "\r" : "", summary.frames, options.camera.c_str(), summary.render_ms_mean,
+                 summary.rows, options.out_dir.string().c_str());
   }
   return 0;
 }
@@ -226,10 +295,48 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   replay->add_flag("-q,--quiet", quiet, "no progress on stderr");
 
+  auto* render = app.add_subcommand(
+      "render",
+      "drive the city's cars headless (the built-in lane driver, or --commands for one car) and "
+      "write one camera's frames as PNG, ground_truth.csv, camera.yaml and camera_pose.yaml "
+      "(docs/camera.md)");
+  std::string render_city;
+  DatasetOptions render_options;
+  double render_duration_s = 10.0;
+  std::string render_out;
+  std::string render_commands;
+  std::string render_vehicle = "nigel_1";
+  bool render_quiet = false;
+  render->add_option("--city", render_city, "city file (its map and sim section)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  render
+      ->add_option("--camera", render_options.camera,
+                   "an overhead camera's name (sim.cameras), or nigel_<n>/front_camera or "
+                   "nigel_<n>/rear_camera")
+      ->required();
+  render->add_option("--duration", render_duration_s, "simulated seconds")
+      ->check(CLI::Range(0.0, 86400.0))
+      ->capture_default_str();
+  render->add_option("--out", render_out, "directory to write (created)")->required();
+  render
+      ->add_option("--commands", render_commands,
+                   "CSV time_s,throttle,steering driving --vehicle instead of the built-in "
+                   "driver")
+      ->check(CLI::ExistingFile);
+  render->add_option("--vehicle", render_vehicle, "the car --commands drives")
+      ->capture_default_str();
+  render->add_flag("-q,--quiet", render_quiet, "no progress on stderr");
+
   CLI11_PARSE(app, argc, argv);
   try {
     InitLogging("autodrive-sim", ParseLogLevel(log_level));
     if (replay->parsed()) return Replay(city, vehicle, commands, out, log_rate_hz, quiet);
+    if (render->parsed()) {
+      render_options.duration = FromSeconds(render_duration_s);
+      render_options.out_dir = render_out;
+      return Render(render_city, render_options, render_commands, render_vehicle, render_quiet);
+    }
     if (service_city.empty()) {
       std::fprintf(stderr,
                    "autodrive-sim: give --city CONFIG to run the simulator, or a "

@@ -134,7 +134,7 @@ TEST(Variability, CommandNoiseHasThePapersFiguresInTheDevkitsUnitsAndLeavesAZero
 TEST(Variability, TheLidarTakesThePresetsNoiseUnlessTheCarSetsItsOwn) {
   SimConfig sim;
   sim.variability.preset = VariabilityPreset::kPaper;
-  sim.vehicles.push_back(SimVehicleConfig{"nigel_2", std::nullopt, {}, {}});
+  sim.vehicles.push_back(SimVehicleConfig{"nigel_2", std::nullopt, {}, {}, {}});
   sim.vehicles[1].sensors.lidar.range_noise_m = 0.05;
   EXPECT_EQ(EffectiveSensors(sim, 0).lidar.range_noise_m, 0.025);
   EXPECT_EQ(EffectiveSensors(sim, 1).lidar.range_noise_m, 0.05);

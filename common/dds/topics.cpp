@@ -197,6 +197,10 @@ TopicSpec<msg::OperatorReply> OperatorReplies() {
 }
 
 TopicSpec<msg::Clock> Clock() { return Spec<msg::Clock>("/clock", Qos::BestEffortStream(1)); }
+TopicSpec<msg::Image> OverheadCamera(std::string_view name) {
+  return Spec<msg::Image>("/autodrive/cameras/" + std::string(name) + "/image", Qos::Stream());
+}
+
 TopicSpec<msg::Header> SimStep() {
   return Spec<msg::Header>("/autodrive/sim/step", Qos::Command());
 }

@@ -99,6 +99,11 @@ TopicSpec<msg::OperatorReply> OperatorReplies();  ///< command
 /// SCM -> device hosts (reset a conflict monitor); command. Only the SCM writes it.
 TopicSpec<msg::DeviceCommand> DeviceCommands();
 
+/// An overhead camera's images (`/autodrive/cameras/<name>/image`, sensor_msgs/Image rgb8,
+/// stamped with the middle of the exposure, frame id the camera's name): what the Eye reads,
+/// from the simulator or a real camera's driver. `name`: [a-z][a-z0-9_]*. Stream.
+TopicSpec<msg::Image> OverheadCamera(std::string_view name);
+
 // --- Simulation -------------------------------------------------------------------------------
 /// `/clock` (rosgraph_msgs/Clock), best effort keep last 1 exactly like ROS 2's ClockQoS, so
 /// that our readers also match ROS simulators' /clock.

@@ -58,7 +58,7 @@ Run RunCity(const maps::Map& map, const SimConfig& sim, int cars, double seconds
   SimConfig config = sim;
   config.vehicles.clear();
   for (int i = 0; i < cars; ++i) {
-    config.vehicles.push_back({"nigel_" + std::to_string(i + 1), std::nullopt, {}, {}});
+    config.vehicles.push_back({"nigel_" + std::to_string(i + 1), std::nullopt, {}, {}, {}});
   }
   const std::vector<RigidTransform2> poses = SpawnPoses(config, map);
   std::vector<SensorSuite> suites;
@@ -107,7 +107,7 @@ CameraRun RunCamera(const maps::Map& map, const camera::Intrinsics& intrinsics,
   SimConfig config;
   config.vehicles.clear();
   for (int i = 0; i < 4; ++i) {
-    config.vehicles.push_back({"nigel_" + std::to_string(i + 1), std::nullopt, {}, {}});
+    config.vehicles.push_back({"nigel_" + std::to_string(i + 1), std::nullopt, {}, {}, {}});
   }
   const std::vector<RigidTransform2> poses = SpawnPoses(config, map);
   for (int i = 0; i < 4; ++i) world.AddVehicle(VehicleParams{}, poses[static_cast<std::size_t>(i)]);

@@ -1,0 +1,101 @@
+#pragma once
+/// @file
+/// The simulator's cameras: every enabled on-board camera (`front_camera`, `rear_camera` per
+/// car) and every overhead camera of a city's `sim` section, rendered from one world state by
+/// one shared `RenderWorld`, each at its own rate. Used by the DDS service (which publishes the
+/// frames) and by `autodrive-sim render` (which writes them to files).
+///
+/// Timing: camera k's frames fall due at t = j / rate_k of simulated time (j = 0, 1, ...), like
+/// the other sensors'; `Due` lists the cameras whose time has come, and a frame rendered at the
+/// world's time `t` is stamped `t` (the middle of its exposure).
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "common/camera/camera_model.h"
+#include "common/ids.h"
+#include "common/time.h"
+#include "vehicle_sim/renderer.h"
+#include "vehicle_sim/sim_config.h"
+
+namespace autodrive::maps {
+struct Map;
+}
+
+namespace autodrive::vehicle_sim {
+
+class World;
+
+/// What a car's lights do, as its `headlights_command` and `indicators_command` last said
+/// (the devkit's values: headlights 0 off, else on; indicators 0 off, 1 left, 2 right,
+/// 3 both).
+struct CarLights {
+  std::int32_t headlights = 0;
+  std::int32_t indicators = 0;
+};
+
+/// One camera of the simulation.
+struct SimCamera {
+  std::string name;            ///< "nigel_1/front_camera", or an overhead camera's name
+  std::string frame_id;        ///< the images' frame id: "front_camera", "rear_camera", or the name
+  std::optional<int> vehicle;  ///< the car carrying it (its world index), or none (overhead)
+  std::optional<VehicleId> vehicle_id;
+  bool front = true;  ///< on-board: front or rear
+  /// The optical frame's pose in the car's frame V (on-board) or in the map frame (overhead).
+  Eigen::Isometry3d X_PC = Eigen::Isometry3d::Identity();
+  camera::Intrinsics intrinsics;
+  FilmOptions film;
+  Duration period{};
+  Duration next_due{0};
+};
+
+class SimCameras {
+ public:
+  /// The cameras of `sim` for the cars already in `world` (car i of `sim.vehicles` is the
+  /// world's vehicle i), drawing `world`'s static geometry on `map`. Builds the ground's
+  /// picture once (about a second for a 5 m map). With no camera enabled it holds nothing and
+  /// costs nothing. @throws InputError or ConfigError (naming the camera) for a bad lens or tag.
+  SimCameras(const SimConfig& sim, const maps::Map& map, const World& world);
+  ~SimCameras();
+  SimCameras(const SimCameras&) = delete;
+  SimCameras& operator=(const SimCameras&) = delete;
+
+  [[nodiscard]] bool empty() const { return cameras_.empty(); }
+  [[nodiscard]] const std::vector<SimCamera>& cameras() const { return cameras_; }
+  /// The index of the camera named `name` ("nigel_1/front_camera" or an overhead camera's name),
+  /// or none.
+  [[nodiscard]] std::optional<std::size_t> Find(const std::string& name) const;
+
+  /// The cameras whose frame is due at `now` (their due time passed), each moved to its next
+  /// due time; `due` is cleared first.
+  void Due(Duration now, std::vector<std::size_t>& due);
+
+  /// The world's moving parts now, for `Render`: every car with its look, velocity and lights
+  /// (`lights[i]` for car i; missing ones are off), and the lamps (`lamps(head)`: 0 off,
+  /// 1 red, 2 yellow, 3 green; heads not in the map are ignored).
+  void Snapshot(const World& world, std::span<const CarLights> lights,
+                std::span<const HeadLamps> lamps);
+
+  /// Renders camera `k` from the last `Snapshot` into `out`. `noise_seed`: this frame's noise.
+  void Render(std::size_t k, Image& out, std::uint64_t noise_seed);
+  /// The optical frame's pose in the map frame at the last `Snapshot`.
+  [[nodiscard]] Eigen::Isometry3d CameraPose(std::size_t k) const;
+  /// The last `Snapshot`'s cars (for ground truth).
+  [[nodiscard]] std::span<const RenderVehicle> vehicles() const { return vehicles_; }
+  /// The renderer of camera k (its statistics).
+  [[nodiscard]] const CameraRenderer& renderer(std::size_t k) const { return *renderers_[k]; }
+
+ private:
+  std::shared_ptr<const RenderWorld> world_;
+  std::vector<SimCamera> cameras_;
+  std::vector<std::unique_ptr<CameraRenderer>> renderers_;
+  std::vector<VehicleLook> looks_;
+  std::vector<RenderVehicle> vehicles_;
+  std::vector<HeadLamps> lamps_;
+  double time_s_ = 0.0;
+};
+
+}  // namespace autodrive::vehicle_sim
