@@ -86,6 +86,10 @@ struct RenderPart {
   std::uint8_t lights = 0;  ///< vehicles: bit 0 headlights, 1 left, 2 right indicator lit now
   std::array<double, 3> lamp_z{};  ///< kLamps: heights of red, yellow, green in B
   double lamp_radius = 0.0;
+  /// A tile of raised or sloping ground: the plane z' = a x' + b y' + c in B (axes along the
+  /// map's), over the square |x'|, |y'| <= half.x(), textured with the ground's picture.
+  bool terrain = false;
+  float a = 0, b = 0, c = 0;
 };
 
 }  // namespace internal
@@ -108,6 +112,7 @@ constexpr Rgb kWheelColour{20, 20, 20};
 constexpr Rgb kLidarColour{40, 40, 45};
 constexpr Rgb kPlateColour{255, 255, 255};
 constexpr Rgb kTagBlack{0, 0, 0};
+constexpr Rgb kTerrainSide{150, 160, 140};
 
 struct Family {
   apriltag_family_t* (*create)();
@@ -252,7 +257,8 @@ Rgb SignColour(const std::string& type) {
 struct RenderWorld::Impl {
   RenderWorldOptions options;
   GroundPyramid ground;
-  std::vector<RenderPart> parts;  ///< static
+  std::vector<RenderPart> parts;    ///< static
+  std::vector<RenderPart> terrain;  ///< raised and sloping tiles and the sides under them
   int heads = 0;
   mutable std::mutex tags_mutex;
   mutable std::map<std::pair<std::string, int>, std::unique_ptr<TagBitmap>> tags;
@@ -317,6 +323,38 @@ RenderWorld::RenderWorld(const maps::Map& map, const StaticGeometry& geometry,
     parts.push_back(part);
   }
   const TerrainModel& terrain = geometry.terrain;
+  // The tiles that are not at z = 0: each its plane, and under a raised one a block of the
+  // ground's side colour up to its lowest corner (the step a camera sees from beside it).
+  const double T = terrain.tile_size_m();
+  for (int iy = 0; iy < terrain.tiles_y(); ++iy) {
+    for (int ix = 0; ix < terrain.tiles_x(); ++ix) {
+      const TerrainModel::Plane& plane = terrain.plane(ix, iy);
+      if (plane.dz_dx == 0 && plane.dz_dy == 0 && plane.z0_m == 0) continue;
+      const double x0 = ix * T, y0 = iy * T;
+      double lo = 1e30, hi = -1e30;
+      for (const double x : {x0, x0 + T}) {
+        for (const double y : {y0, y0 + T}) {
+          lo = std::min(lo, plane.HeightAt(x, y));
+          hi = std::max(hi, plane.HeightAt(x, y));
+        }
+      }
+      RenderPart tile;
+      tile.terrain = true;
+      tile.p_MB = {x0 + T / 2, y0 + T / 2, (lo + hi) / 2};
+      tile.half = {T / 2, T / 2, (hi - lo) / 2 + 1e-4};
+      tile.a = static_cast<float>(plane.dz_dx);
+      tile.b = static_cast<float>(plane.dz_dy);
+      tile.c = static_cast<float>(plane.HeightAt(tile.p_MB.x(), tile.p_MB.y()) - tile.p_MB.z());
+      impl_->terrain.push_back(tile);
+      if (lo > 1e-3) {
+        RenderPart block;
+        block.p_MB = {x0 + T / 2, y0 + T / 2, (lo - 5e-4) / 2};
+        block.half = {T / 2, T / 2, (lo - 5e-4) / 2};
+        block.colour = kTerrainSide;
+        impl_->terrain.push_back(block);
+      }
+    }
+  }
   const double pole_r = options.scene.pole_radius_m;
   // Each head: a dark housing in front of its pole (towards the traffic it faces), with its
   // lamps on the face the traffic sees.
@@ -457,7 +495,11 @@ struct CameraRenderer::Impl {
 
   // Buffers.
   std::vector<float> depth;  ///< range of the nearest part, valid inside the parts' rectangles
-  std::vector<std::uint8_t> colour;  ///< rgb
+  /// The range of the raised and sloping ground, infinity where there is none (drawn with the
+  /// ground, and kept with it while a camera does not move); parts start from it.
+  std::vector<float> ground_depth;
+  std::vector<std::array<int, 4>> terrain_rects;  ///< where ground_depth is not infinite
+  std::vector<std::uint8_t> colour;               ///< rgb
   std::vector<RenderPart> dynamic_parts;
   std::vector<FramePart> frame_parts;
   std::vector<std::uint8_t> lamp_state;  ///< per head: bits red, yellow, green
@@ -534,6 +576,7 @@ struct CameraRenderer::Impl {
       }
     }
     depth.resize(n);
+    ground_depth.assign(n, std::numeric_limits<float>::infinity());
     colour.resize(n * 3);
     column_x.resize(W());
     row_y.resize(W());
@@ -557,8 +600,11 @@ struct CameraRenderer::Impl {
   void BuildParts(const Eigen::Isometry3d& X_MC, const FrameState& frame,
                   std::optional<int> exclude);
   void Place(FramePart& fp, const Eigen::Isometry3d& X_MC);
-  void DrawPart(const FramePart& fp, const FrameState& frame);
-  void DrawPixel(const FramePart& fp, int u, int v, const FrameState& frame);
+  void DrawPart(const FramePart& fp, float* depth_buffer);
+  void DrawPixel(const FramePart& fp, int u, int v, float* depth_buffer);
+  void DrawTerrain(const Eigen::Isometry3d& X_MC);
+  void Shade(FramePart& fp) const;
+  [[nodiscard]] Rgb SampleGround(float x, float y, float area_texels) const;
   void RenderOnce(const Eigen::Isometry3d& X_MC, const FrameState& frame,
                   std::optional<int> exclude);
 };
@@ -655,6 +701,7 @@ void CameraRenderer::Impl::DrawGround(const Eigen::Isometry3d& X_MC) {
     cv::remap(g.atlas, out, map_xy.rowRange(0, rows), map_frac.rowRange(0, rows), cv::INTER_LINEAR,
               cv::BORDER_REPLICATE);
   }
+  DrawTerrain(X_MC);
   cache_valid = same_pose;
   if (cache_valid) cached_colour.assign(target, target + n * 3);
 }
@@ -737,25 +784,29 @@ void CameraRenderer::Impl::BuildParts(const Eigen::Isometry3d& X_MC, const Frame
     }
   }
   frame_parts.clear();
-  // Light: shades of each face relative to the ground's (which the map's picture shows as is).
-  const Eigen::Vector3d light(std::cos(film.light_elevation_rad) * std::cos(film.light_azimuth_rad),
-                              std::cos(film.light_elevation_rad) * std::sin(film.light_azimuth_rad),
-                              std::sin(film.light_elevation_rad));
-  const double ground_shade = film.ambient + film.light_intensity * std::max(0.0, light.z());
   const auto add = [&](const RenderPart& part) {
     FramePart& fp = frame_parts.emplace_back();
     fp.part = &part;
-    for (int k = 0; k < 6; ++k) {
-      const Eigen::Vector3d n = part.R_MB.col(k / 2) * (k % 2 == 0 ? 1.0 : -1.0);
-      fp.shade[static_cast<std::size_t>(k)] =
-          static_cast<float>((film.ambient + film.light_intensity * std::max(0.0, n.dot(light))) /
-                             std::max(1e-6, ground_shade));
-    }
+    Shade(fp);
     Place(fp, X_MC);
     if (fp.x1 <= fp.x0 || fp.y1 <= fp.y0) frame_parts.pop_back();
   };
   for (const RenderPart& part : world->impl_->parts) add(part);
   for (const RenderPart& part : dynamic_parts) add(part);
+}
+
+// Light: the shade of each face relative to the ground's (which the map's picture shows as is).
+void CameraRenderer::Impl::Shade(FramePart& fp) const {
+  const Eigen::Vector3d light(std::cos(film.light_elevation_rad) * std::cos(film.light_azimuth_rad),
+                              std::cos(film.light_elevation_rad) * std::sin(film.light_azimuth_rad),
+                              std::sin(film.light_elevation_rad));
+  const double ground_shade = film.ambient + film.light_intensity * std::max(0.0, light.z());
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Vector3d n = fp.part->R_MB.col(k / 2) * (k % 2 == 0 ? 1.0 : -1.0);
+    fp.shade[static_cast<std::size_t>(k)] =
+        static_cast<float>((film.ambient + film.light_intensity * std::max(0.0, n.dot(light))) /
+                           std::max(1e-6, ground_shade));
+  }
 }
 
 void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
@@ -851,6 +902,18 @@ inline PartHit Intersect(const RenderPart& part, const Eigen::Vector3f& o, const
   const Eigen::Vector3f half = part.half.cast<float>();
   float t_near = 0.0f, t_far = t_max;
   int face = -1;
+  if (part.terrain) {
+    const float den = d.z() - part.a * d.x() - part.b * d.y();
+    if (std::abs(den) < 1e-12f) return hit;
+    const float t = (part.a * o.x() + part.b * o.y() + part.c - o.z()) / den;
+    if (!(t > 0 && t < t_max)) return hit;
+    const Eigen::Vector3f p = o + t * d;
+    if (std::abs(p.x()) > half.x() || std::abs(p.y()) > half.y()) return hit;
+    hit.t = t;
+    hit.face = 4;
+    hit.p = p;
+    return hit;
+  }
   if (!part.cylinder) {
     for (int k = 0; k < 3; ++k) {
       if (std::abs(d[k]) < 1e-12f) {
@@ -930,15 +993,15 @@ inline bool InDisc(float y, float z, float cy, float cz, float r) {
 
 }  // namespace
 
-void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const FrameState&) {
+void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, float* depth_buffer) {
   const std::size_t i = Index(u, v);
   const RenderPart& part = *fp.part;
   const Eigen::Vector3f r = Ray(u, v);
   if (std::isnan(r.x())) return;  // beyond the lens' fold
   const Eigen::Vector3f d = fp.Q * r;
-  const PartHit hit = Intersect(part, fp.o, d, depth[i]);
-  if (!(hit.t < depth[i])) return;
-  depth[i] = hit.t;
+  const PartHit hit = Intersect(part, fp.o, d, depth_buffer[i]);
+  if (!(hit.t < depth_buffer[i])) return;
+  depth_buffer[i] = hit.t;
   std::uint8_t* px = target + 3 * i;
   float shade = fp.shade[static_cast<std::size_t>(hit.face)];
   if (part.cylinder && hit.face == 0) {
@@ -951,6 +1014,19 @@ void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const Fr
             std::max(ny, 0.0f) * fp.shade[2] + std::max(-ny, 0.0f) * fp.shade[3];
   }
   Rgb c = part.colour;
+  if (part.terrain) {
+    // The ground's picture at the hit, at the level of the pixel's footprint: area
+    // t^2 / (fx fy |r| cos) for the ray r = (x, y, 1) meeting the plane at cosine cos.
+    const GroundPyramid& g = world->impl_->ground;
+    const float cos_incidence = std::abs(d.z() - part.a * d.x() - part.b * d.y()) /
+                                (d.norm() * std::sqrt(1.0f + part.a * part.a + part.b * part.b));
+    const float texel = static_cast<float>(g.texel_m);
+    const float area =
+        hit.t * hit.t / (fx * fy * r.norm() * std::max(cos_incidence, 1e-3f) * texel * texel);
+    c = SampleGround(static_cast<float>(part.p_MB.x()) + hit.p.x(),
+                     static_cast<float>(part.p_MB.y()) + hit.p.y(), area);
+    shade = 1.0f;
+  }
   switch (part.decal) {
     case Decal::kNone:
       break;
@@ -1048,10 +1124,56 @@ void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const Fr
   Put(px, c, shade);
 }
 
-void CameraRenderer::Impl::DrawPart(const FramePart& fp, const FrameState& frame) {
+void CameraRenderer::Impl::DrawPart(const FramePart& fp, float* depth_buffer) {
   for (int v = fp.y0; v < fp.y1; ++v) {
-    for (int u = fp.x0; u < fp.x1; ++u) DrawPixel(fp, u, v, frame);
+    for (int u = fp.x0; u < fp.x1; ++u) DrawPixel(fp, u, v, depth_buffer);
   }
+}
+
+void CameraRenderer::Impl::DrawTerrain(const Eigen::Isometry3d& X_MC) {
+  const auto& terrain = world->impl_->terrain;
+  for (const auto& [x0, y0, x1, y1] : terrain_rects) {
+    for (int v = y0; v < y1; ++v) {
+      std::fill_n(ground_depth.begin() + static_cast<std::ptrdiff_t>(Index(x0, v)), x1 - x0,
+                  std::numeric_limits<float>::infinity());
+    }
+  }
+  terrain_rects.clear();
+  for (const RenderPart& part : terrain) {
+    FramePart fp;
+    fp.part = &part;
+    Shade(fp);
+    Place(fp, X_MC);
+    if (fp.x1 <= fp.x0 || fp.y1 <= fp.y0) continue;
+    DrawPart(fp, ground_depth.data());
+    terrain_rects.push_back({fp.x0, fp.y0, fp.x1, fp.y1});
+  }
+}
+
+Rgb CameraRenderer::Impl::SampleGround(float x, float y, float area_texels) const {
+  const GroundPyramid& g = world->impl_->ground;
+  int level = 0;
+  while (level + 1 < static_cast<int>(g.levels.size()) &&
+         area_texels >= std::ldexp(0.5f, 2 * (level + 1))) {
+    ++level;
+  }
+  const auto& l = g.levels[static_cast<std::size_t>(level)];
+  const float inv = static_cast<float>(std::ldexp(1.0 / g.texel_m, -level));
+  const float u = std::clamp((x - static_cast<float>(g.x0_m)) * inv - 0.5f, 0.0f,
+                             static_cast<float>(l.w) - 1.001f);
+  const float v = std::clamp((static_cast<float>(g.y1_m) - y) * inv - 0.5f, 0.0f,
+                             static_cast<float>(l.h) - 1.001f);
+  const int i = static_cast<int>(u), j = static_cast<int>(v);
+  const float wu = u - static_cast<float>(i), wv = v - static_cast<float>(j);
+  const auto* p00 = g.atlas.ptr<std::uint8_t>(l.y + j) + 3 * (l.x + i);
+  const auto* p10 = g.atlas.ptr<std::uint8_t>(l.y + j + 1) + 3 * (l.x + i);
+  std::array<std::uint8_t, 3> c{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const float top = p00[k] + wu * static_cast<float>(p00[k + 3] - p00[k]);
+    const float bottom = p10[k] + wu * static_cast<float>(p10[k + 3] - p10[k]);
+    c[k] = static_cast<std::uint8_t>(top + wv * (bottom - top) + 0.5f);
+  }
+  return {c[0], c[1], c[2]};
 }
 
 void CameraRenderer::Impl::RenderOnce(const Eigen::Isometry3d& X_MC, const FrameState& frame,
@@ -1060,16 +1182,16 @@ void CameraRenderer::Impl::RenderOnce(const Eigen::Isometry3d& X_MC, const Frame
   DrawGround(X_MC);
   const auto t1 = std::chrono::steady_clock::now();
   BuildParts(X_MC, frame, exclude);
-  // The ground lies under every part (flat ground, camera above it), so only parts compete
-  // for a pixel: the depth buffer is needed inside their rectangles only.
+  // The flat ground lies under every part (the camera above it), so only parts and the raised
+  // ground compete for a pixel: the depth buffer is needed inside the parts' rectangles only.
   for (const FramePart& fp : frame_parts) {
     for (int v = fp.y0; v < fp.y1; ++v) {
-      std::fill_n(depth.begin() + static_cast<std::ptrdiff_t>(Index(fp.x0, v)), fp.x1 - fp.x0,
-                  std::numeric_limits<float>::infinity());
+      const auto at = static_cast<std::ptrdiff_t>(Index(fp.x0, v));
+      std::copy_n(ground_depth.begin() + at, fp.x1 - fp.x0, depth.begin() + at);
     }
   }
   for (const FramePart& fp : frame_parts) {
-    DrawPart(fp, frame);
+    DrawPart(fp, depth.data());
     stats.pixels_tested += static_cast<std::int64_t>(fp.x1 - fp.x0) * (fp.y1 - fp.y0);
   }
   stats.parts_drawn += static_cast<int>(frame_parts.size());

@@ -21,6 +21,7 @@
 #include "maps/builder.h"
 #include "maps/layout.h"
 #include "maps/map.h"
+#include "vehicle_sim/raycast.h"
 #include "vehicle_sim/sim_config.h"
 
 namespace autodrive::vehicle_sim {
@@ -428,6 +429,43 @@ TEST(Renderer, TheFrontCameraSeesTheLaneMarkingsWhereTheMapHasThemAndTheLitLamp)
   frame.vehicles = cars;
   renderer.Render(RearCamera(a.car.X_MV), frame, rear, 0);
   Save(rear, "rear.png");
+}
+
+TEST(Renderer, RaisedAndSlopingGroundIsDrawnAtItsHeight) {
+  // The small town's northern row is a terrace 5 cm up, reached by ramps. Seen from a camera low
+  // in the south-west looking north-east, the kerb lines on the terrace and on a ramp must be
+  // where their 3-D points project, not where the same map point at z = 0 would.
+  static const maps::Map town = maps::Build(
+      maps::LoadLayout((test::SourceDir() / "config" / "maps" / "small_town.yaml").string()));
+  const StaticGeometry geometry = GeometryFromMap(town);
+  const auto world = std::make_shared<const RenderWorld>(town, geometry);
+  const camera::CameraModel model(camera::IntrinsicsFromSensor(3.04, 3.68, 1280, 720));
+  CameraRenderer renderer(world, model.intrinsics(), {});
+  const double size_y = town.size_m().y();
+  const Eigen::Isometry3d X_MC =
+      camera::CameraPoseFromMount({town.size_m().x() / 2, size_y - 3.2, 0.6}, {0, 0.35, kPi / 2});
+  Image image;
+  renderer.Render(X_MC, {}, image);
+  Save(image, "small_town_terrace.png");
+  const Eigen::Isometry3d X_CM = X_MC.inverse();
+  int checked = 0, off = 0;
+  for (const auto& lane : town.lanes) {
+    for (std::size_t k = 0; k < lane.right_boundary.size(); k += 10) {
+      const Eigen::Vector2d q = lane.right_boundary[k];
+      const double z = geometry.terrain.HeightAt(q.x(), q.y());
+      if (z < 0.01) continue;  // raised or sloping ground only
+      const auto px = model.Project(X_CM * Eigen::Vector3d(q.x(), q.y(), z));
+      if (!px || !model.IsInImage(*px) || px->y() < 40 || px->y() > 680) continue;
+      const auto white = [](int r, int g, int b) { return r > 200 && g > 200 && b > 200; };
+      if (CountNear(image, *px, 1, white) >= 3) {
+        ++checked;
+      } else {
+        ++off;
+      }
+    }
+  }
+  EXPECT_GE(checked, 10);
+  EXPECT_LE(off, checked / 10) << checked << " kerb points found white, " << off << " not";
 }
 
 }  // namespace
