@@ -411,6 +411,45 @@ TEST_F(SimProcess, RenderWritesFramesWhoseTagsAreWhereTheirGroundTruthAndCalibra
   EXPECT_NE(detections[0][1], detections[10][1]);
 }
 
+TEST_F(SimProcess, InRealTimeEveryCameraIsPublishedAtItsRateWithRisingStamps) {
+  const std::string city = (dir_ / "city.yaml").string();
+  std::ofstream(city) << "name: camera_test\nmap: " << Config("config/maps/small_town.yaml")
+                      << "\nsim:\n  vehicles:\n    - {name: nigel_7, sensors: {front_camera: "
+                         "{enabled: true, rate_hz: 10, lens: {width_px: 320, height_px: 180}}}}\n"
+                         "  cameras: [{name: top, rate_hz: 5, lens: {width_px: 640, height_px: "
+                         "360}, mount: {x_m: 2.5, y_m: 2.5, z_m: 3.0, pitch_rad: 1.5708}}]\n";
+  dds::Reader<msg::Image> front(*participant_, dds::topics::FrontCamera(VehicleId(7)));
+  dds::Reader<msg::Image> top(*participant_, dds::topics::OverheadCamera("top"));
+  sim_ = std::make_unique<ChildProcess>(std::vector<std::string>{
+      Bin("autodrive-sim"), "--city", city, "--partition", partition_, "--log-level", "warn"});
+  const auto collect = [&](dds::Reader<msg::Image>& reader, std::size_t n, const char* frame,
+                           std::uint32_t width) {
+    std::vector<Duration> stamps;
+    const auto end = std::chrono::steady_clock::now() + seconds(60);
+    while (stamps.size() < n && std::chrono::steady_clock::now() < end) {
+      reader.WaitForData(milliseconds(50));
+      while (auto m = reader.TakeOne()) {
+        EXPECT_EQ(dds::View((*m)->header.frame_id), frame);
+        EXPECT_EQ((*m)->width, width);
+        EXPECT_EQ((*m)->data._length, 3u * (*m)->width * (*m)->height);
+        stamps.push_back(dds::FromMsg((*m)->header.stamp) - Time{});
+      }
+    }
+    return stamps;
+  };
+  const auto f = collect(front, 8, "front_camera", 320);
+  const auto t = collect(top, 4, "top", 640);
+  ASSERT_GE(f.size(), 8u);
+  ASSERT_GE(t.size(), 4u);
+  for (std::size_t k = 2; k < f.size(); ++k) {
+    // 0.1 s apart (a frame may be dropped on a loaded machine: then 0.2 s). The first is at
+    // the first physics step (2 ms), the others exactly at multiples of 0.1 s.
+    EXPECT_GT(f[k], f[k - 1]);
+    EXPECT_EQ((f[k] - f[k - 1]) % milliseconds(100), Duration{0}) << k;
+  }
+  for (std::size_t k = 1; k < t.size(); ++k) EXPECT_GT(t[k], t[k - 1]);
+}
+
 TEST_F(SimProcess, RenderNamesTheCamerasThereAreForAnUnknownOne) {
   const auto [code, text] = RunCaptured({Bin("autodrive-sim"), "render", "--city",
                                          Config("config/cities/driving_school.yaml"), "--camera",

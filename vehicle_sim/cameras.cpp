@@ -118,20 +118,36 @@ Eigen::Isometry3d SimCameras::CameraPose(std::size_t k) const {
   return vehicles_.at(static_cast<std::size_t>(*cam.vehicle)).X_MV * cam.X_PC;
 }
 
-void SimCameras::Render(std::size_t k, Image& out, std::uint64_t noise_seed) {
+void SimCameras::MakeJob(std::size_t k, std::uint64_t noise_seed, Job& job) const {
   const SimCamera& cam = cameras_.at(k);
-  FrameState frame;
-  frame.time_s = time_s_;
-  frame.vehicles = vehicles_;
-  frame.lamps = lamps_;
-  Eigen::Vector3d v = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+  job.vehicles.assign(vehicles_.begin(), vehicles_.end());
+  job.lamps.assign(lamps_.begin(), lamps_.end());
+  job.time_s = time_s_;
+  job.X_MC = CameraPose(k);
+  job.v_M.setZero();
+  job.w_M.setZero();
   if (cam.vehicle) {
     const RenderVehicle& car = vehicles_.at(static_cast<std::size_t>(*cam.vehicle));
     const Eigen::Vector3d p_VC_M = car.X_MV.linear() * cam.X_PC.translation();
-    w = car.w_M_radps;
-    v = car.v_M_mps + w.cross(p_VC_M);
+    job.w_M = car.w_M_radps;
+    job.v_M = car.v_M_mps + job.w_M.cross(p_VC_M);
   }
-  renderers_.at(k)->Render(CameraPose(k), frame, out, cam.vehicle, v, w, noise_seed);
+  job.noise_seed = noise_seed;
+}
+
+void SimCameras::Render(std::size_t k, const Job& job, Image& out) {
+  FrameState frame;
+  frame.time_s = job.time_s;
+  frame.vehicles = job.vehicles;
+  frame.lamps = job.lamps;
+  renderers_.at(k)->Render(job.X_MC, frame, out, cameras_.at(k).vehicle, job.v_M, job.w_M,
+                           job.noise_seed);
+}
+
+void SimCameras::Render(std::size_t k, Image& out, std::uint64_t noise_seed) {
+  Job& job = scratch_;
+  MakeJob(k, noise_seed, job);
+  Render(k, job, out);
 }
 
 }  // namespace autodrive::vehicle_sim

@@ -81,6 +81,22 @@ class SimCameras {
 
   /// Renders camera `k` from the last `Snapshot` into `out`. `noise_seed`: this frame's noise.
   void Render(std::size_t k, Image& out, std::uint64_t noise_seed);
+
+  /// A frame of camera `k` to render later, maybe on another thread: a copy of the last
+  /// `Snapshot` and the camera's pose and motion in it.
+  struct Job {
+    std::vector<RenderVehicle> vehicles;
+    std::vector<HeadLamps> lamps;
+    double time_s = 0.0;
+    Eigen::Isometry3d X_MC = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d v_M = Eigen::Vector3d::Zero(), w_M = Eigen::Vector3d::Zero();
+    std::uint64_t noise_seed = 0;
+  };
+  /// Fills `job` (reusing its storage) for camera `k` from the last `Snapshot`.
+  void MakeJob(std::size_t k, std::uint64_t noise_seed, Job& job) const;
+  /// Renders `job` with camera `k`'s renderer. Different cameras may render at once on
+  /// different threads; one camera on one thread at a time.
+  void Render(std::size_t k, const Job& job, Image& out);
   /// The optical frame's pose in the map frame at the last `Snapshot`.
   [[nodiscard]] Eigen::Isometry3d CameraPose(std::size_t k) const;
   /// The last `Snapshot`'s cars (for ground truth).
@@ -96,6 +112,7 @@ class SimCameras {
   std::vector<RenderVehicle> vehicles_;
   std::vector<HeadLamps> lamps_;
   double time_s_ = 0.0;
+  Job scratch_;
 };
 
 }  // namespace autodrive::vehicle_sim

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <ostream>
 #include <set>
@@ -81,6 +83,71 @@ struct CarEndpoints {
   bool ever_commanded = false;
 };
 
+// Renders one camera's frames on its own thread (real-time mode), so that the physics loop does
+// not wait for them: a frame that falls due while the last one is still being rendered is
+// dropped and counted.
+class CameraWorker {
+ public:
+  using Publish = std::function<void(const Image&, Time)>;
+  CameraWorker(SimCameras& cameras, std::size_t k, Publish publish)
+      : cameras_(cameras), k_(k), publish_(std::move(publish)), thread_([this] { Loop(); }) {}
+  ~CameraWorker() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+  CameraWorker(const CameraWorker&) = delete;
+  CameraWorker& operator=(const CameraWorker&) = delete;
+
+  // Hands over the camera's frame from the cameras' last snapshot; false (dropped) when busy.
+  bool Offer(std::uint64_t noise_seed, Time stamp) {
+    std::lock_guard lock(mutex_);
+    if (busy_) {
+      ++dropped_;
+      return false;
+    }
+    cameras_.MakeJob(k_, noise_seed, job_);
+    stamp_ = stamp;
+    busy_ = true;
+    wake_.notify_one();
+    return true;
+  }
+  std::int64_t dropped() const {
+    std::lock_guard lock(mutex_);
+    return dropped_;
+  }
+
+ private:
+  void Loop() {
+    std::unique_lock lock(mutex_);
+    while (true) {
+      wake_.wait(lock, [this] { return stop_ || busy_; });
+      if (stop_) return;
+      lock.unlock();
+      cameras_.Render(k_, job_, image_);
+      publish_(image_, stamp_);
+      lock.lock();
+      busy_ = false;
+    }
+  }
+
+  SimCameras& cameras_;
+  std::size_t k_;
+  Publish publish_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  bool busy_ = false;  // a job is waiting or being rendered (job_ and stamp_ are the worker's)
+  bool stop_ = false;
+  std::int64_t dropped_ = 0;
+  SimCameras::Job job_;
+  Time stamp_;
+  Image image_;
+  std::thread thread_;  // last: started when everything above is ready
+};
+
 }  // namespace
 
 struct SimService::Impl {
@@ -106,7 +173,7 @@ struct SimService::Impl {
   std::vector<HeadLamps> head_lamps;
   Image image;
   std::uint64_t seed = 1;
-  std::int64_t frames = 0;
+  std::vector<std::unique_ptr<CameraWorker>> workers;  ///< real-time mode: one per camera
   // Lockstep only.
   std::unique_ptr<dds::Writer<msg::Header>> step_writer;
   std::unique_ptr<dds::Reader<msg::Header>> done_reader;
@@ -149,6 +216,12 @@ struct SimService::Impl {
                                        : topics::RearCamera(*cam.vehicle_id)));
       spdlog::info("camera {}: {} x {} at {:.3g} Hz", cam.name, cam.intrinsics.width_px,
                    cam.intrinsics.height_px, 1.0 / ToSeconds(cam.period));
+    }
+    if (o.mode == SimMode::kRealTime) {
+      for (std::size_t k = 0; k < camera_writers.size(); ++k) {
+        workers.push_back(std::make_unique<CameraWorker>(
+            *cameras, k, [this, k](const Image& im, Time stamp) { PublishImage(k, im, stamp); }));
+      }
     }
     for (const maps::SignalHead& head : map.signal_heads) {
       lamp_readers.emplace_back(head.id, std::make_unique<dds::Reader<msg::Int32>>(
@@ -299,20 +372,33 @@ struct SimService::Impl {
     for (const std::size_t k : due) {
       // Each frame's noise from the seed, the camera and the frame's time.
       const auto stamp_ns = static_cast<std::uint64_t>(world.time().count());
-      cameras->Render(k, image,
-                      seed * 0x9e3779b97f4a7c15ULL ^ (k + 1) * 0xbf58476d1ce4e5b9ULL ^ stamp_ns);
-      const SimCamera& cam = cameras->cameras()[k];
-      msg::Image m{};
-      SetHeader(m.header, Stamp(world.time()), cam.frame_id.c_str());
-      m.width = static_cast<std::uint32_t>(image.width_px);
-      m.height = static_cast<std::uint32_t>(image.height_px);
-      dds::BorrowString(m.encoding, "rgb8");
-      m.is_bigendian = 0;
-      m.step = 3 * m.width;
-      dds::BorrowSequence(m.data, std::span<std::uint8_t>(image.rgb));
-      camera_writers[k]->Write(m);
-      ++frames;
+      const std::uint64_t noise =
+          seed * 0x9e3779b97f4a7c15ULL ^ (k + 1) * 0xbf58476d1ce4e5b9ULL ^ stamp_ns;
+      if (!workers.empty()) {
+        if (!workers[k]->Offer(noise, Stamp(world.time())) && workers[k]->dropped() % 100 == 1) {
+          spdlog::warn("camera {}: {} frame(s) dropped: rendering is slower than the frame rate",
+                       cameras->cameras()[k].name, workers[k]->dropped());
+        }
+        continue;
+      }
+      cameras->Render(k, image, noise);
+      PublishImage(k, image, Stamp(world.time()));
     }
+  }
+
+  // Publishes camera k's frame (from the loop's thread, or the camera's worker).
+  void PublishImage(std::size_t k, const Image& im, Time stamp) {
+    const SimCamera& cam = cameras->cameras()[k];
+    msg::Image m{};
+    SetHeader(m.header, stamp, cam.frame_id.c_str());
+    m.width = static_cast<std::uint32_t>(im.width_px);
+    m.height = static_cast<std::uint32_t>(im.height_px);
+    dds::BorrowString(m.encoding, "rgb8");
+    m.is_bigendian = 0;
+    m.step = 3 * m.width;
+    auto& data = const_cast<std::vector<std::uint8_t>&>(im.rgb);
+    dds::BorrowSequence(m.data, std::span<std::uint8_t>(data));
+    camera_writers[k]->Write(m);
   }
 
   // One control period: commands, physics steps with their sensors and cameras, /clock,
