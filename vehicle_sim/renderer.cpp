@@ -492,6 +492,7 @@ struct CameraRenderer::Impl {
   // centre and the tile's corner rays.
   int tw = 0, th = 0;
   std::vector<std::array<Eigen::Vector3f, 4>> tile_planes;
+  std::array<Eigen::Vector3f, 4> image_planes;  ///< the same for the whole image
 
   // Buffers.
   std::vector<float> depth;  ///< range of the nearest part, valid inside the parts' rectangles
@@ -547,34 +548,13 @@ struct CameraRenderer::Impl {
     for (int ty = 0; ty < th; ++ty) {
       for (int tx = 0; tx < tw; ++tx) {
         // The tile's outer corners, half a pixel beyond its pixel centres and a pixel more of
-        // margin; the corner rays in clockwise image order.
-        const double u0 = tx * kTile - 1.5, v0 = ty * kTile - 1.5;
-        const double u1 = std::min(w, (tx + 1) * kTile) + 0.5,
-                     v1 = std::min(h, (ty + 1) * kTile) + 0.5;
-        const std::array<Eigen::Vector2d, 4> corners{
-            Eigen::Vector2d(u0, v0), Eigen::Vector2d(u1, v0), Eigen::Vector2d(u1, v1),
-            Eigen::Vector2d(u0, v1)};
-        std::array<Eigen::Vector3d, 4> rays;
-        for (int k = 0; k < 4; ++k) {
-          const auto r = model.Unproject(corners[static_cast<std::size_t>(k)]);
-          // Beyond the fold: a wide ray in the corner's direction.
-          rays[static_cast<std::size_t>(k)] =
-              r ? *r
-                : Eigen::Vector3d(corners[static_cast<std::size_t>(k)].x() - intrinsics.cx_px,
-                                  corners[static_cast<std::size_t>(k)].y() - intrinsics.cy_px, 1e-3)
-                      .normalized();
-        }
-        auto& planes = tile_planes[static_cast<std::size_t>(ty * tw + tx)];
-        for (int k = 0; k < 4; ++k) {
-          // Clockwise in the image (x right, y down) is counter-clockwise about +z: the cross
-          // product of consecutive rays points into the tile's pyramid.
-          planes[static_cast<std::size_t>(k)] =
-              rays[static_cast<std::size_t>(k)]
-                  .cross(rays[static_cast<std::size_t>((k + 1) % 4)])
-                  .cast<float>();
-        }
+        // margin.
+        tile_planes[static_cast<std::size_t>(ty * tw + tx)] =
+            PyramidPlanes(tx * kTile - 1.5, ty * kTile - 1.5, std::min(w, (tx + 1) * kTile) + 0.5,
+                          std::min(h, (ty + 1) * kTile) + 0.5);
       }
     }
+    image_planes = PyramidPlanes(-1.5, -1.5, w + 0.5, h + 0.5);
     depth.resize(n);
     ground_depth.assign(n, std::numeric_limits<float>::infinity());
     colour.resize(n * 3);
@@ -596,6 +576,29 @@ struct CameraRenderer::Impl {
     }
   }
 
+  // The inward normals of the four planes through the camera's centre and the rays of the
+  // corners of the image rectangle [u0, u1] x [v0, v1].
+  [[nodiscard]] std::array<Eigen::Vector3f, 4> PyramidPlanes(double u0, double v0, double u1,
+                                                             double v1) const {
+    const std::array<Eigen::Vector2d, 4> corners{Eigen::Vector2d(u0, v0), Eigen::Vector2d(u1, v0),
+                                                 Eigen::Vector2d(u1, v1), Eigen::Vector2d(u0, v1)};
+    std::array<Eigen::Vector3d, 4> rays;
+    for (std::size_t k = 0; k < 4; ++k) {
+      const auto r = model.Unproject(corners[k]);
+      // Beyond the fold: a wide ray in the corner's direction.
+      const camera::Intrinsics& in = model.intrinsics();
+      rays[k] = r ? *r
+                  : Eigen::Vector3d(corners[k].x() - in.cx_px, corners[k].y() - in.cy_px, 1e-3)
+                        .normalized();
+    }
+    std::array<Eigen::Vector3f, 4> planes;
+    for (std::size_t k = 0; k < 4; ++k) {
+      // Clockwise in the image (x right, y down) is counter-clockwise about +z: the cross
+      // product of consecutive rays points into the pyramid.
+      planes[k] = rays[k].cross(rays[(k + 1) % 4]).cast<float>();
+    }
+    return planes;
+  }
   void DrawGround(const Eigen::Isometry3d& X_MC);
   void BuildParts(const Eigen::Isometry3d& X_MC, const FrameState& frame,
                   std::optional<int> exclude);
@@ -832,8 +835,7 @@ void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
   // Against each tile's pyramid: the part is outside when all its corners are outside one of
   // the pyramid's planes. Cheap enough to run for every part; precise for parts near the edges
   // or partly behind the camera, where projecting corners fails.
-  const auto visible_in_tile = [&](int t) {
-    const auto& planes = tile_planes[static_cast<std::size_t>(t)];
+  const auto visible_in = [&](const std::array<Eigen::Vector3f, 4>& planes) {
     for (const Eigen::Vector3f& n : planes) {
       bool all_out = true;
       for (const Eigen::Vector3d& c : corners) {
@@ -846,6 +848,7 @@ void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
     }
     return true;
   };
+  if (!visible_in(image_planes)) return;  // outside the view
   int tx0 = 0, ty0 = 0, tx1 = tw, ty1 = th;
   if (!any_behind) {
     // A first bound from the projected corners, widened by a tile for the lens' bending.
@@ -872,7 +875,7 @@ void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
   int bx0 = tw, by0 = th, bx1 = 0, by1 = 0;
   for (int ty = ty0; ty < ty1; ++ty) {
     for (int tx = tx0; tx < tx1; ++tx) {
-      if (!visible_in_tile(ty * tw + tx)) continue;
+      if (!visible_in(tile_planes[static_cast<std::size_t>(ty * tw + tx)])) continue;
       bx0 = std::min(bx0, tx);
       by0 = std::min(by0, ty);
       bx1 = std::max(bx1, tx + 1);
@@ -1265,25 +1268,18 @@ void CameraRenderer::Render(const Eigen::Isometry3d& X_MC, const FrameState& fra
     const int radius = std::max(1, static_cast<int>(std::ceil(2.0 * film.blur_sigma_px)));
     cv::GaussianBlur(image, image, cv::Size(2 * radius + 1, 2 * radius + 1), film.blur_sigma_px);
   }
-  if (film.exposure != 1.0 || film.noise_sigma > 0) {
-    // Exposure through a table, and a window of the camera's block of noise at an offset drawn
-    // from the frame's seed, in one pass.
-    std::array<std::int16_t, 256> lut{};
-    for (int k = 0; k < 256; ++k) {
-      lut[static_cast<std::size_t>(k)] =
-          static_cast<std::int16_t>(std::min(255L, std::lround(k * film.exposure)));
-    }
+  if (film.exposure != 1.0) image.convertTo(image, CV_8UC3, film.exposure);
+  if (film.noise_sigma > 0) {
+    // A window of the camera's block of noise at an offset drawn from the frame's seed.
     std::mt19937_64 rng(noise_seed);
     const auto ox = static_cast<std::size_t>(rng() % 64), oy = static_cast<std::size_t>(rng() % 64);
     const std::size_t row = m.W() * 3;
     for (std::size_t v = 0; v < static_cast<std::size_t>(m.h); ++v) {
-      const std::int8_t* noise = film.noise_sigma > 0
-                                     ? m.noise.ptr<std::int8_t>(static_cast<int>(v + oy)) + ox * 3
-                                     : nullptr;
+      const std::int8_t* noise = m.noise.ptr<std::int8_t>(static_cast<int>(v + oy)) + ox * 3;
       std::uint8_t* px = out.rgb.data() + v * row;
       for (std::size_t k = 0; k < row; ++k) {
-        const int value = lut[px[k]] + (noise != nullptr ? noise[k] : 0);
-        px[k] = static_cast<std::uint8_t>(std::clamp(value, 0, 255));
+        const int value = px[k] + noise[k];
+        px[k] = static_cast<std::uint8_t>(value < 0 ? 0 : value > 255 ? 255 : value);
       }
     }
   }

@@ -121,7 +121,11 @@ CameraRun RunCamera(const maps::Map& map, const camera::Intrinsics& intrinsics,
   Image image;
   CameraRun run;
   for (int f = 0; f < frames; ++f) {
-    for (int i = 0; i < 4; ++i) world.SetCommand(i, Weave(i, world.time()));
+    // The car carrying the on-board camera creeps along its lane (towards the poles, heads and
+    // cars ahead); the others weave.
+    for (int i = 0; i < 4; ++i) {
+      world.SetCommand(i, onboard && i == 0 ? VehicleCommand{0.3, 0.0} : Weave(i, world.time()));
+    }
     world.StepUntil(world.time() + std::chrono::milliseconds(67));
     for (int i = 0; i < 4; ++i) {
       const VehicleState& state = world.State(i);
