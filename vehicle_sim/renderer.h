@@ -98,6 +98,9 @@ struct RenderWorldOptions {
   StaticSceneOptions scene;
   /// Reference tags on the ground.
   std::vector<GroundTag> ground_tags;
+  /// The ground is sampled with AVX2 where the CPU has it (about twice as fast); false forces
+  /// the portable path (`cv::remap`), which gives the same picture to within a level or two.
+  bool allow_avx2 = true;
 };
 
 namespace internal {

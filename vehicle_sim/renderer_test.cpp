@@ -431,6 +431,36 @@ TEST(Renderer, TheFrontCameraSeesTheLaneMarkingsWhereTheMapHasThemAndTheLitLamp)
   Save(rear, "rear.png");
 }
 
+TEST(Renderer, TheAvx2AndPortableGroundSamplersDrawTheSamePicture) {
+  // Where the CPU has AVX2 the ground is sampled by our own gathering code, elsewhere by
+  // cv::remap: the two must agree (weights in 1/256 against OpenCV's 1/32).
+  RenderWorldOptions portable_options;
+  portable_options.ground_tags = GroundTags();
+  portable_options.allow_avx2 = false;
+  const auto portable = std::make_shared<const RenderWorld>(
+      DrivingSchool(), GeometryFromMap(DrivingSchool()), portable_options);
+  const Approaching a = CarBeforeTheStopLine(1.0);
+  const camera::Intrinsics k = camera::PiCameraV21Intrinsics();
+  const auto cars = Cars();
+  FrameState frame;
+  frame.vehicles = cars;
+  for (const Eigen::Isometry3d& X_MC : {FrontCamera(a.car.X_MV), Overhead(20.0 * kPi / 180).X_PC}) {
+    Image fast, slow;
+    CameraRenderer(SchoolWorld(), k, {}).Render(X_MC, frame, fast);
+    CameraRenderer(portable, k, {}).Render(X_MC, frame, slow);
+    ASSERT_EQ(fast.rgb.size(), slow.rgb.size());
+    double sum = 0;
+    int large = 0;
+    for (std::size_t i = 0; i < fast.rgb.size(); ++i) {
+      const int d = std::abs(static_cast<int>(fast.rgb[i]) - static_cast<int>(slow.rgb[i]));
+      sum += d;
+      large += d > 24 ? 1 : 0;
+    }
+    EXPECT_LT(sum / static_cast<double>(fast.rgb.size()), 0.5);
+    EXPECT_LT(large, static_cast<int>(fast.rgb.size() / 2000)) << "bytes differing by > 24";
+  }
+}
+
 TEST(Renderer, RaisedAndSlopingGroundIsDrawnAtItsHeight) {
   // The small town's northern row is a terrace 5 cm up, reached by ramps. Seen from a camera low
   // in the south-west looking north-east, the kerb lines on the terrace and on a ramp must be

@@ -102,7 +102,7 @@ struct CameraRun {
 
 // Renders `frames` frames of one camera while four cars drive; a frame every 1/15 s.
 CameraRun RunCamera(const maps::Map& map, const camera::Intrinsics& intrinsics,
-                    const FilmOptions& film, bool onboard, int frames) {
+                    const FilmOptions& film, bool onboard, int frames, double texel_m) {
   World world(map, {});
   SimConfig config;
   config.vehicles.clear();
@@ -111,7 +111,10 @@ CameraRun RunCamera(const maps::Map& map, const camera::Intrinsics& intrinsics,
   }
   const std::vector<RigidTransform2> poses = SpawnPoses(config, map);
   for (int i = 0; i < 4; ++i) world.AddVehicle(VehicleParams{}, poses[static_cast<std::size_t>(i)]);
-  const auto render_world = std::make_shared<const RenderWorld>(map, world.Scene().geometry());
+  RenderWorldOptions options;
+  options.ground_texel_m = texel_m;
+  const auto render_world =
+      std::make_shared<const RenderWorld>(map, world.Scene().geometry(), options);
   CameraRenderer renderer(render_world, intrinsics, film);
   std::vector<RenderVehicle> cars(4);
   std::vector<HeadLamps> lamps;
@@ -169,9 +172,9 @@ CameraRun RunCamera(const maps::Map& map, const camera::Intrinsics& intrinsics,
   return run;
 }
 
-void Cameras(const maps::Map& map, int frames) {
-  std::printf("cameras on %s, 4 cars driving, %d frames each, one thread\n", map.name.c_str(),
-              frames);
+void Cameras(const maps::Map& map, int frames, double texel_m) {
+  std::printf("cameras on %s, 4 cars driving, %d frames each, ground texel %.4g m, one thread\n",
+              map.name.c_str(), frames, texel_m);
   FilmOptions effects;
   effects.exposure = 1.1;
   effects.blur_sigma_px = 0.5;
@@ -193,13 +196,15 @@ void Cameras(const maps::Map& map, int frames) {
         r.stats.objects_ms / n, r.stats.film_ms / n, r.stats.parts_drawn / n,
         static_cast<double>(r.stats.pixels_tested) / n / 1e6);
   };
-  line("on-board 1280x720:", RunCamera(map, camera::PiCameraV21Intrinsics(), {}, true, frames));
+  line("on-board 1280x720:",
+       RunCamera(map, camera::PiCameraV21Intrinsics(), {}, true, frames, texel_m));
   line("on-board 1280x720, film effects:",
-       RunCamera(map, camera::PiCameraV21Intrinsics(), effects, true, frames));
+       RunCamera(map, camera::PiCameraV21Intrinsics(), effects, true, frames, texel_m));
   line("on-board 1280x720, effects + motion blur (4):",
-       RunCamera(map, camera::PiCameraV21Intrinsics(), motion, true, frames));
-  line("overhead 1920x1080:", RunCamera(map, overhead, {}, false, frames));
-  line("overhead 1920x1080, film effects:", RunCamera(map, overhead, effects, false, frames));
+       RunCamera(map, camera::PiCameraV21Intrinsics(), motion, true, frames, texel_m));
+  line("overhead 1920x1080:", RunCamera(map, overhead, {}, false, frames, texel_m));
+  line("overhead 1920x1080, film effects:",
+       RunCamera(map, overhead, effects, false, frames, texel_m));
   std::printf("goals: <= 5 ms on-board, <= 8 ms with effects, <= 15 ms overhead\n");
 }
 
@@ -216,6 +221,10 @@ int main(int argc, char** argv) {
   std::string camera_map_path = "config/maps/driving_school.yaml";
   int camera_frames = 100;
   bool only_cameras = false;
+  double texel_m = RenderConfig{}.ground_texel_m;
+  app.add_option("--ground-texel", texel_m, "the ground picture's metres per texel (sim.render)")
+      ->check(CLI::Range(0.0005, 0.1))
+      ->capture_default_str();
   app.add_option("--camera-map", camera_map_path, "map the cameras' benchmark runs on")
       ->capture_default_str();
   app.add_option("--camera-frames", camera_frames, "frames per camera run")
@@ -233,7 +242,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   if (only_cameras) {
-    Cameras(maps::LoadMapOrLayout(camera_map_path), camera_frames);
+    Cameras(maps::LoadMapOrLayout(camera_map_path), camera_frames, texel_m);
     return 0;
   }
   const maps::Map map = maps::LoadMapOrLayout(map_path);
@@ -262,6 +271,6 @@ int main(int argc, char** argv) {
     }
   }
   std::printf("goals: >= 100x real time for 1 car, >= 10x for 10, >= 2 million rays/s\n");
-  Cameras(maps::LoadMapOrLayout(camera_map_path), camera_frames);
+  Cameras(maps::LoadMapOrLayout(camera_map_path), camera_frames, texel_m);
   return 0;
 }
