@@ -483,11 +483,12 @@ struct CameraRenderer::Impl {
   float fx = 1, fy = 1, cx = 0, cy = 0;
   std::vector<float> table_x, table_y;
   std::vector<float> column_x;  ///< without distortion: x of each column
-  std::vector<float> row_y;     ///< a row's y, repeated
+  float inv_fy = 1.0f;
+  std::vector<float> row_y;  ///< a row's y, repeated
   std::vector<int> row_ax, row_ay;
   [[nodiscard]] Eigen::Vector3f Ray(int u, int v) const {
     if (!distorted) {
-      return {(static_cast<float>(u) - cx) / fx, (static_cast<float>(v) - cy) / fy, 1.0f};
+      return {column_x[static_cast<std::size_t>(u)], (static_cast<float>(v) - cy) * inv_fy, 1.0f};
     }
     const std::size_t i = Index(u, v);
     return {table_x[i], table_y[i], 1.0f};
@@ -564,6 +565,10 @@ struct CameraRenderer::Impl {
     ground_depth.assign(n, std::numeric_limits<float>::infinity());
     colour.resize(n * 3);
     column_x.resize(W());
+    for (int k = 0; k < w; ++k) {
+      column_x[static_cast<std::size_t>(k)] = (static_cast<float>(k) - cx) / fx;
+    }
+    inv_fy = 1.0f / fy;
     row_y.resize(W());
     row_ax.resize(W());
     row_ay.resize(W());
@@ -809,9 +814,6 @@ void CameraRenderer::Impl::DrawGround(const Eigen::Isometry3d& X_MC) {
   const float min_dz = height > 0 ? -1e-6f : -std::numeric_limits<float>::infinity();
   const float t1 = thresholds[1], t2 = thresholds[2], t3 = thresholds[3], t4 = thresholds[4];
   const float t5 = thresholds[5], t6 = thresholds[6], t7 = thresholds[7];
-  for (int k = 0; k < w && !distorted; ++k) {
-    column_x[static_cast<std::size_t>(k)] = (static_cast<float>(k) - cx) / fx;
-  }
   if (g.avx2) {
     const GroundFrame frame{r00,
                             r01,
