@@ -1044,6 +1044,8 @@ void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
   };
   if (!visible_in(image_planes)) return;  // outside the view
   int tx0 = 0, ty0 = 0, tx1 = tw, ty1 = th;
+  // Without distortion a part in front of the camera lies inside its corners' projections.
+  std::optional<std::array<int, 4>> exact;
   if (!any_behind) {
     // A first bound from the projected corners, widened by a tile for the lens' bending.
     double u0 = 1e30, v0 = 1e30, u1 = -1e30, v1 = -1e30;
@@ -1064,6 +1066,11 @@ void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
       ty0 = std::clamp(static_cast<int>(std::floor(v0 / kTile)) - 1, 0, th);
       tx1 = std::clamp(static_cast<int>(std::floor(u1 / kTile)) + 2, 0, tw);
       ty1 = std::clamp(static_cast<int>(std::floor(v1 / kTile)) + 2, 0, th);
+      if (!distorted) {
+        exact = std::array<int, 4>{
+            static_cast<int>(std::floor(u0)) - 1, static_cast<int>(std::floor(v0)) - 1,
+            static_cast<int>(std::ceil(u1)) + 2, static_cast<int>(std::ceil(v1)) + 2};
+      }
     }
   }
   int bx0 = tw, by0 = th, bx1 = 0, by1 = 0;
@@ -1081,6 +1088,12 @@ void CameraRenderer::Impl::Place(FramePart& fp, const Eigen::Isometry3d& X_MC) {
   fp.y0 = by0 * kTile;
   fp.x1 = std::min(w, bx1 * kTile);
   fp.y1 = std::min(h, by1 * kTile);
+  if (exact) {
+    fp.x0 = std::max(fp.x0, (*exact)[0]);
+    fp.y0 = std::max(fp.y0, (*exact)[1]);
+    fp.x1 = std::min(fp.x1, (*exact)[2]);
+    fp.y1 = std::min(fp.y1, (*exact)[3]);
+  }
 }
 
 namespace {
