@@ -152,12 +152,9 @@ std::vector<Detection> Detect(const Image& image) {
 }
 
 camera::Camera Overhead(double tilt_rad, std::vector<double> distortion = {}) {
-  camera::Intrinsics k;
-  k.width_px = 1920;
-  k.height_px = 1080;
-  k.fx_px = k.fy_px = 1000.0;
-  k.cx_px = 959.5;
-  k.cy_px = 539.5;
+  // fx = fy = 1000 px, principal point at the image's middle (the existing helper: a
+  // "focal length" of 1000 over a "sensor" 1920 wide).
+  camera::Intrinsics k = camera::IntrinsicsFromSensor(1000.0, 1920.0, 1920, 1080);
   k.distortion = std::move(distortion);
   camera::Camera cam{"overhead", "overhead_optical", "map", camera::CameraModel(k), {}};
   // Above the middle of the map, or tilted 20° forward (north) from south of it, image top to

@@ -181,12 +181,8 @@ void Cameras(const maps::Map& map, int frames, double texel_m) {
   effects.noise_sigma = 3.0;
   FilmOptions motion = effects;
   motion.exposure_time_s = 0.01;
-  camera::Intrinsics overhead;
-  overhead.width_px = 1920;
-  overhead.height_px = 1080;
-  overhead.fx_px = overhead.fy_px = 1000;
-  overhead.cx_px = 959.5;
-  overhead.cy_px = 539.5;
+  // fx = fy = 1000 px, principal point in the middle: the renderer test's overhead camera.
+  const camera::Intrinsics overhead = camera::IntrinsicsFromSensor(1000.0, 1920.0, 1920, 1080);
   const auto line = [](const char* what, const CameraRun& r) {
     const double n = r.frames;
     std::printf(
