@@ -29,7 +29,7 @@ find_package(CGAL REQUIRED)
 pkg_check_modules(ODE REQUIRED IMPORTED_TARGET GLOBAL ode)
 
 # The Eye: OpenCV and AprilTag (libapriltag-dev ships apriltag and apriltag-utils).
-find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d)
+find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d videoio)
 find_package(apriltag REQUIRED CONFIG)
 
 # Helper libraries: config, logging, CLI, persistence, JSON, systemd, tests, benchmarks.

@@ -335,6 +335,8 @@ struct CityConfig {
   OperatorsConfig operators;
   /// The simulator's section (vehicle_sim/sim_config.h): carried, not read, by the SCM.
   std::optional<config::ForeignSection> sim;
+  /// The Eye's section (eye/eye_config.h): carried, not read, by the SCM.
+  std::optional<config::ForeignSection> eye;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -348,6 +350,7 @@ struct CityConfig {
     a.Optional("devices", devices);
     a.Optional("operators", operators);
     a.Optional("sim", sim);
+    a.Optional("eye", eye);
   }
   bool operator==(const CityConfig&) const = default;
 };

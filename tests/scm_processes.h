@@ -59,6 +59,18 @@ struct Output {
   std::string text;
 };
 
+/// Runs `argv` to the end through the shell, stderr folded into stdout: its exit code (-1 when
+/// it did not end within 5 minutes of its last line) and output.
+inline Output RunCaptured(const std::vector<std::string>& argv) {
+  std::vector<std::string> sh{"/bin/sh", "-c", "exec \"$@\" 2>&1", "sh"};
+  sh.insert(sh.end(), argv.begin(), argv.end());
+  ChildProcess p(sh, {});
+  Output out;
+  while (auto line = p.ReadLine(std::chrono::milliseconds(300000))) out.text += *line + "\n";
+  out.code = p.Wait(std::chrono::milliseconds(60000)).value_or(-1);
+  return out;
+}
+
 inline bool AnyGreen(const msg::Spat& s) {
   for (const auto& x : dds::Elements(s.intersections)) {
     for (const auto& g : dds::Elements(x.signal_groups)) {

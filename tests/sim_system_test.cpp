@@ -316,17 +316,6 @@ TEST_F(SimProcess, AControllerOutsideLockstepIsRefused) {
   EXPECT_NE(text.find("only lockstep waits for controllers"), std::string::npos) << text;
 }
 
-// Runs `argv` through the shell with stderr folded into stdout; its exit code and output.
-std::pair<int, std::string> RunCaptured(const std::vector<std::string>& argv) {
-  std::vector<std::string> sh{"/bin/sh", "-c", "exec \"$@\" 2>&1", "sh"};
-  sh.insert(sh.end(), argv.begin(), argv.end());
-  ChildProcess p(sh, {});
-  std::string text;
-  while (auto line = p.ReadLine(std::chrono::milliseconds(300000))) text += *line + "\n";
-  const auto code = p.Wait(std::chrono::milliseconds(60000));
-  return {code.value_or(-1), text};
-}
-
 // The AprilTag library's detections (corners and centre moved to OpenCV's pixel convention:
 // the library puts a pixel's centre at +0.5) by id.
 std::map<int, Eigen::Vector2d> DetectTagCentres(const std::filesystem::path& png) {

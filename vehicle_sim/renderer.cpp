@@ -1,15 +1,6 @@
 #include "vehicle_sim/renderer.h"
 
 #include <apriltag/apriltag.h>
-#include <apriltag/tag16h5.h>
-#include <apriltag/tag25h9.h>
-#include <apriltag/tag36h10.h>
-#include <apriltag/tag36h11.h>
-#include <apriltag/tagCircle21h7.h>
-#include <apriltag/tagCircle49h12.h>
-#include <apriltag/tagCustom48h12.h>
-#include <apriltag/tagStandard41h12.h>
-#include <apriltag/tagStandard52h13.h>
 #include <immintrin.h>
 #include <sys/mman.h>
 
@@ -25,6 +16,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/camera/tag_family.h"
 #include "common/error.h"
 #include "maps/map.h"
 #include "maps/render.h"
@@ -117,44 +109,13 @@ constexpr Rgb kPlateColour{255, 255, 255};
 constexpr Rgb kTagBlack{0, 0, 0};
 constexpr Rgb kTerrainSide{150, 160, 140};
 
-struct Family {
-  apriltag_family_t* (*create)();
-  void (*destroy)(apriltag_family_t*);
-};
-
-const std::map<std::string, Family, std::less<>>& Families() {
-  static const std::map<std::string, Family, std::less<>> kFamilies{
-      {"tag16h5", {tag16h5_create, tag16h5_destroy}},
-      {"tag25h9", {tag25h9_create, tag25h9_destroy}},
-      {"tag36h10", {tag36h10_create, tag36h10_destroy}},
-      {"tag36h11", {tag36h11_create, tag36h11_destroy}},
-      {"tagCircle21h7", {tagCircle21h7_create, tagCircle21h7_destroy}},
-      {"tagCircle49h12", {tagCircle49h12_create, tagCircle49h12_destroy}},
-      {"tagCustom48h12", {tagCustom48h12_create, tagCustom48h12_destroy}},
-      {"tagStandard41h12", {tagStandard41h12_create, tagStandard41h12_destroy}},
-      {"tagStandard52h13", {tagStandard52h13_create, tagStandard52h13_destroy}},
-  };
-  return kFamilies;
-}
-
 TagBitmap MakeTagBitmap(const TagSpec& spec) {
-  const auto it = Families().find(spec.family);
-  if (it == Families().end()) {
-    std::string names;
-    for (const auto& [name, f] : Families()) names += (names.empty() ? "" : ", ") + name;
-    throw InputError("unknown AprilTag family \"" + spec.family + "\" (known: " + names + ")");
-  }
-  apriltag_family_t* family = it->second.create();
-  const int ncodes = static_cast<int>(family->ncodes);
-  if (spec.id < 0 || spec.id >= ncodes) {
-    it->second.destroy(family);
-    throw InputError("AprilTag family " + spec.family + " has ids 0.." +
-                     std::to_string(ncodes - 1) + ", not " + std::to_string(spec.id));
-  }
-  image_u8_t* image = apriltag_to_image(family, spec.id);
+  const camera::TagFamily family(spec.family);
+  family.CheckId(spec.id);
+  image_u8_t* image = apriltag_to_image(family.get(), spec.id);
   TagBitmap bitmap;
-  bitmap.total = family->total_width;
-  bitmap.at_border = family->width_at_border;
+  bitmap.total = family.total_width();
+  bitmap.at_border = family.width_at_border();
   bitmap.white.resize(static_cast<std::size_t>(bitmap.total * bitmap.total));
   for (int y = 0; y < bitmap.total; ++y) {
     for (int x = 0; x < bitmap.total; ++x) {
@@ -163,7 +124,6 @@ TagBitmap MakeTagBitmap(const TagSpec& spec) {
     }
   }
   image_u8_destroy(image);
-  it->second.destroy(family);
   return bitmap;
 }
 

@@ -505,6 +505,11 @@ Intrinsics LoadOpenCvCalibration(const std::filesystem::path& path) {
 }
 
 void SaveOpenCvCalibration(const std::filesystem::path& path, const Intrinsics& intrinsics) {
+  SaveOpenCvCalibration(path, intrinsics, [](cv::FileStorage&) {});
+}
+
+void SaveOpenCvCalibration(const std::filesystem::path& path, const Intrinsics& intrinsics,
+                           const std::function<void(cv::FileStorage&)>& extra) {
   intrinsics.Validate();
   const std::string file = path.string();
   cv::Mat K(3, 3, CV_64F);
@@ -528,6 +533,7 @@ void SaveOpenCvCalibration(const std::filesystem::path& path, const Intrinsics& 
     fs << "image_height" << intrinsics.height_px;
     fs << "camera_matrix" << K;
     fs << "distortion_coefficients" << D;
+    extra(fs);
     fs.release();
   } catch (const cv::Exception& e) {
     throw InputError(file + ": cannot write camera calibration file (" + OpenCvText(e) + ")");

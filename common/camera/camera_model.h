@@ -32,6 +32,7 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -40,6 +41,10 @@
 #include <Eigen/Geometry>
 
 #include "common/geometry.h"
+
+namespace cv {
+class FileStorage;
+}  // namespace cv
 
 namespace autodrive::camera {
 
@@ -246,5 +251,10 @@ struct Camera {
 /// Overwrites an existing file.
 /// @throws InputError if `intrinsics` is not valid or the file cannot be written.
 void SaveOpenCvCalibration(const std::filesystem::path& path, const Intrinsics& intrinsics);
+
+/// As above; then `extra` writes further keys into the open file, after the four (a
+/// calibration's board, errors and images, as OpenCV's own calibration sample writes them).
+void SaveOpenCvCalibration(const std::filesystem::path& path, const Intrinsics& intrinsics,
+                           const std::function<void(cv::FileStorage&)>& extra);
 
 }  // namespace autodrive::camera
