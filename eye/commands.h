@@ -13,5 +13,7 @@ void AddCalibrate(CLI::App& app);
 void AddRegister(CLI::App& app);
 /// `localize`: the fleet's poses from frames on disk, to CSV (localize_commands.cpp).
 void AddLocalize(CLI::App& app);
+/// `run`: the online localiser on DDS (run_command.cpp).
+void AddRun(CLI::App& app);
 
 }  // namespace autodrive::eye::cli

@@ -1,6 +1,7 @@
 // autodrive-eye: the overhead AprilTag localiser. Subcommands: calibrate (a camera's
 // intrinsics from chessboard photos), register (each camera's pose in the map from the
-// reference tags), localize (the fleet's poses from frames on disk). See docs/eye.md.
+// reference tags), localize (the fleet's poses from frames on disk), run (online on DDS). See
+// docs/eye.md.
 #include <cstdio>
 #include <exception>
 
@@ -17,6 +18,7 @@ int main(int argc, char** argv) {
   autodrive::eye::cli::AddCalibrate(app);
   autodrive::eye::cli::AddRegister(app);
   autodrive::eye::cli::AddLocalize(app);
+  autodrive::eye::cli::AddRun(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

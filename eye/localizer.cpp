@@ -260,10 +260,16 @@ std::vector<LocalizedVehicle> Localizer::Fuse(const FrameDetections& frame,
   }
   std::vector<LocalizedVehicle> out;
   const std::lock_guard lock(mutex_);
+  // Cars not seen for lost_after_s are lost (before this frame's measurements restart them).
+  for (VehicleTrack& track : tracks_) {
+    if (track.started() && !track.active(frame.stamp) && frame.stamp > track.last_update()) {
+      track.Stop();
+      emit(EyeEvent::Kind::kVehicleLost, track.vehicle().name,
+           "not seen for " + std::to_string(config_.tracking.lost_after_s) + " s");
+    }
+  }
   for (const VehicleMeasurement& m : frame.vehicles) {
     VehicleTrack& track = tracks_.at(m.vehicle);
-    const bool was_active = track.active(frame.stamp);
-    if (!was_active) track.Stop();
     const TrackUpdate result = track.Update(frame.stamp, m.tag);
     ++counters_.measurements;
     if (result == TrackUpdate::kOutlier) ++counters_.outliers;
@@ -278,13 +284,6 @@ std::vector<LocalizedVehicle> Localizer::Fuse(const FrameDetections& frame,
       out.push_back({m.vehicle, track.Predict(frame.stamp), {frame.camera}});
     } else {
       it->estimate = track.Predict(frame.stamp);
-    }
-  }
-  for (VehicleTrack& track : tracks_) {
-    if (track.started() && !track.active(frame.stamp) && frame.stamp > track.last_update()) {
-      track.Stop();
-      emit(EyeEvent::Kind::kVehicleLost, track.vehicle().name,
-           "not seen for " + std::to_string(config_.tracking.lost_after_s) + " s");
     }
   }
   return out;

@@ -1,6 +1,7 @@
 #include "scm/city.h"
 
 #include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
@@ -562,6 +563,22 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
       (void)ParseVehicleName(v);
     } catch (const InputError& e) {
       root.Then("fleet.vehicles").Fail(e.what());
+    }
+  }
+  // One publisher per `ips` topic: the simulator publishes every car's, so the Eye may not too.
+  if (config.sim && config.eye) {
+    try {
+      const YAML::Node eye = YAML::Load(config.eye->yaml);
+      const YAML::Node ips = eye["outputs"] ? eye["outputs"]["ips"] : YAML::Node();
+      if (ips && ips.IsScalar() && ips.as<std::string>() == "true") {
+        root.Then("eye.outputs.ips")
+            .Fail(
+                "the simulator (the sim section) publishes every car's ips topic, so the Eye "
+                "may not: set eye.outputs.ips to false, or drop the sim section; rule: one "
+                "publisher per ips topic");
+      }
+    } catch (const YAML::Exception&) {
+      // The Eye reports its own section's errors.
     }
   }
   city.map = std::move(map);

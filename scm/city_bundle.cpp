@@ -27,6 +27,7 @@ CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& parti
   std::vector<VehicleId> vehicles;
   for (const auto& name : owned.config.fleet.vehicles) vehicles.push_back(ParseVehicleName(name));
   sources.push_back(std::make_unique<IpsSource>(participant, vehicles));
+  if (owned.config.fleet.eye) sources.push_back(std::make_unique<EyeSource>(participant));
   (void)c;
 }
 

@@ -251,10 +251,14 @@ struct FleetConfig {
   std::vector<std::string> vehicles;
   /// Observations older than this are dropped (lab seconds, not scaled).
   nanoseconds staleness_s = std::chrono::seconds(1);
+  /// The Eye's poses (`/autodrive/eye/fleet`, with headings) feed the fleet state too, and are
+  /// preferred to the `ips` topics' positions.
+  bool eye = false;
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Optional("vehicles", vehicles);
+    a.Optional("eye", eye);
     a.Optional("staleness_s", staleness_s,
                config::Range<nanoseconds>{std::chrono::milliseconds(10), std::chrono::minutes(1)});
   }

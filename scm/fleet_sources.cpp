@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "common/dds/conversions.h"
 #include "common/dds/topics.h"
 #include "common/error.h"
 
@@ -43,6 +44,34 @@ std::size_t IpsSource::Poll(const ClockReading& now, FleetRegistry& fleet) {
       } catch (const InputError& e) {
         ++malformed_;
         spdlog::warn("bad observation of {}: {}", VehicleName(t.vehicle), e.what());
+      }
+    }
+  }
+  return recorded;
+}
+
+EyeSource::EyeSource(const dds::Participant& participant)
+    : reader_(participant, dds::topics::EyeFleet()) {}
+
+std::size_t EyeSource::Poll(const ClockReading& /*now*/, FleetRegistry& fleet) {
+  std::size_t recorded = 0;
+  while (reader_.TakeOne(sample_)) {
+    for (const auto& v : dds::Elements(sample_->vehicles)) {
+      VehicleObservation o;
+      try {
+        o.vehicle = ParseVehicleName(dds::View(v.vehicle_id));
+        o.source = PoseSource::kEye;
+        o.observed = dds::FromMsg(v.observed);
+        o.X_MV = dds::FromMsg(v.pose.pose);
+        o.speed_mps = v.twist.twist.linear.x;
+        std::copy(std::begin(v.pose.covariance), std::end(v.pose.covariance),
+                  o.pose_covariance.begin());
+        o.tag = TagId(v.tag_id);
+        o.heading_known = true;
+        if (!std::isfinite(o.speed_mps)) throw InputError("speed is not finite");
+        if (fleet.Observe(o)) ++recorded;
+      } catch (const InputError& e) {
+        if (malformed_++ % 100 == 0) spdlog::warn("bad Eye observation: {}", e.what());
       }
     }
   }

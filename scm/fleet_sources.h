@@ -63,4 +63,20 @@ class IpsSource final : public ObservationSource {
   std::uint64_t malformed_ = 0;
 };
 
+/// The Eye's poses from `/autodrive/eye/fleet` (autodrive-eye run): each car's origin and
+/// heading, speed and covariance at its frame's exposure time, labelled `PoseSource::kEye`.
+/// Samples with a malformed name or a value that is not finite are refused and counted.
+class EyeSource final : public ObservationSource {
+ public:
+  explicit EyeSource(const dds::Participant& participant);
+  std::size_t Poll(const ClockReading& now, FleetRegistry& fleet) override;
+  [[nodiscard]] std::string_view name() const override { return "eye"; }
+  [[nodiscard]] std::uint64_t malformed() const override { return malformed_; }
+
+ private:
+  dds::Reader<msg::FleetState> reader_;
+  dds::Message<msg::FleetState> sample_;
+  std::uint64_t malformed_ = 0;
+};
+
 }  // namespace autodrive::scm

@@ -201,6 +201,13 @@ TopicSpec<msg::Image> OverheadCamera(std::string_view name) {
   return Spec<msg::Image>("/autodrive/cameras/" + std::string(name) + "/image", Qos::Stream());
 }
 
+TopicSpec<msg::FleetState> EyeFleet() {
+  return Spec<msg::FleetState>("/autodrive/eye/fleet", Qos::Stream());
+}
+TopicSpec<msg::Event> EyeEvents() {
+  return Spec<msg::Event>("/autodrive/eye/events", Qos::LatchedState(100));
+}
+
 TopicSpec<msg::Header> SimStep() {
   return Spec<msg::Header>("/autodrive/sim/step", Qos::Command());
 }

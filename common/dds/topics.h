@@ -104,6 +104,15 @@ TopicSpec<msg::DeviceCommand> DeviceCommands();
 /// from the simulator or a real camera's driver. `name`: [a-z][a-z0-9_]*. Stream.
 TopicSpec<msg::Image> OverheadCamera(std::string_view name);
 
+// --- The Eye, /autodrive/eye/... ---------------------------------------------------------------
+/// The fleet as the Eye localises it (`/autodrive/eye/fleet`): each message holds the cars
+/// measured in one camera frame, source EYE, pose (the car's origin) and twist at the frame's
+/// exposure stamp, with covariances. What the SCM's fleet registry reads. Stream.
+TopicSpec<msg::FleetState> EyeFleet();
+/// The Eye's events (`/autodrive/eye/events`: camera registered, moved or lost, car found or
+/// lost). Latched, last 100 per writer.
+TopicSpec<msg::Event> EyeEvents();
+
 // --- Simulation -------------------------------------------------------------------------------
 /// `/clock` (rosgraph_msgs/Clock), best effort keep last 1 exactly like ROS 2's ClockQoS, so
 /// that our readers also match ROS simulators' /clock.

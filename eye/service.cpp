@@ -1,0 +1,311 @@
+#include "eye/service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "common/dds/conversions.h"
+#include "common/dds/messages.h"
+#include "common/dds/reader.h"
+#include "common/dds/topics.h"
+#include "common/dds/writer.h"
+#include "common/error.h"
+#include "eye/localizer.h"
+#include "eye/sources.h"
+
+namespace autodrive::eye {
+
+namespace {
+
+using SteadyClock = std::chrono::steady_clock;
+
+Time WallNow() {
+  return Time(
+      std::chrono::duration_cast<Duration>(std::chrono::system_clock::now().time_since_epoch()));
+}
+
+// A camera whose frames stop for this long is lost.
+constexpr auto kCameraLostAfter = std::chrono::seconds(2);
+
+}  // namespace
+
+struct EyeService::Impl {
+  const dds::Participant& participant;
+  Localizer localizer;
+  dds::Writer<msg::FleetState> fleet_writer;
+  dds::Writer<msg::Event> event_writer;
+  std::vector<std::unique_ptr<dds::Writer<msg::Point>>> ips_writers;  // per vehicle, or empty
+  std::atomic<bool> stop{false};
+  std::atomic<int> files_running{0};
+
+  std::mutex queue_mutex;
+  std::condition_variable queue_cv;
+  std::deque<FrameDetections> queue;
+
+  mutable std::mutex counters_mutex;
+  ServiceCounters counters;
+  std::vector<double> latencies_ms;  // a ring of the last kLatencies
+  std::size_t latency_next = 0;
+  static constexpr std::size_t kLatencies = 10000;
+  std::uint64_t event_id = 0;
+
+  dds::Message<msg::FleetState> fleet_message;
+  std::vector<std::jthread> threads;
+
+  Impl(const EyeConfig& config, const dds::Participant& p)
+      : participant(p),
+        localizer(config),
+        fleet_writer(p, dds::topics::EyeFleet()),
+        event_writer(p, dds::topics::EyeEvents()) {
+    if (config.outputs.ips) {
+      for (const VehicleTagConfig& v : config.vehicles) {
+        ips_writers.push_back(
+            std::make_unique<dds::Writer<msg::Point>>(p, dds::topics::Ips(v.id())));
+      }
+    }
+    for (std::size_t c = 0; c < config.cameras.size(); ++c) {
+      const CameraConfig& cam = config.cameras[c];
+      if (cam.source.rfind("topic:", 0) == 0) {
+        auto reader = std::make_shared<dds::Reader<msg::Image>>(
+            p, dds::topics::OverheadCamera(cam.source.substr(6)));
+        threads.emplace_back([this, c, reader] { TopicCamera(c, *reader); });
+      } else {
+        std::shared_ptr<FrameSource> source = OpenSource(cam);
+        const bool files =
+            cam.source.rfind("images:", 0) == 0 || cam.source.rfind("video:", 0) == 0;
+        if (files) ++files_running;
+        threads.emplace_back([this, c, source, files] { SourceCamera(c, *source, files); });
+      }
+    }
+    threads.emplace_back([this] { FuseLoop(); });
+  }
+
+  ~Impl() { StopThreads(); }
+
+  void StopThreads() {
+    stop.store(true);
+    queue_cv.notify_all();
+    threads.clear();  // joins
+  }
+
+  void Publish(const EyeEvent& e) {
+    msg::Event m{};
+    m.header.stamp = dds::ToMsg(e.stamp);
+    dds::BorrowString(m.header.frame_id, "map");
+    m.event_id = ++event_id;
+    const bool warning = e.kind == EyeEvent::Kind::kCameraMoved ||
+                         e.kind == EyeEvent::Kind::kCameraLost ||
+                         e.kind == EyeEvent::Kind::kVehicleLost;
+    m.severity = warning ? 2 : 1;  // Event_Constants WARNING, INFO
+    dds::BorrowString(m.source, "eye");
+    dds::BorrowString(m.code, ToString(e.kind));
+    dds::BorrowString(m.message, e.text.c_str());
+    dds::BorrowString(m.device_id, e.subject.c_str());
+    m.active = warning;
+    event_writer.Write(m);
+    spdlog::log(warning ? spdlog::level::warn : spdlog::level::info, "{} {}: {}", ToString(e.kind),
+                e.subject, e.text);
+  }
+
+  void Push(FrameDetections&& d) {
+    {
+      const std::lock_guard lock(queue_mutex);
+      queue.push_back(std::move(d));
+    }
+    queue_cv.notify_one();
+  }
+
+  void Detect(std::size_t camera, Time stamp, const cv::Mat& image) {
+    try {
+      Push(localizer.Detect(camera, stamp, image));
+      const std::lock_guard lock(counters_mutex);
+      ++counters.frames;
+    } catch (const InputError& e) {
+      const std::lock_guard lock(counters_mutex);
+      if (counters.bad_frames++ % 100 == 0) spdlog::warn("camera {}: {}", camera, e.what());
+    }
+  }
+
+  // A simulated (or ROS) camera's image topic: the newest frame each time, older ones dropped.
+  void TopicCamera(std::size_t camera, dds::Reader<msg::Image>& reader) {
+    dds::Message<msg::Image> sample;
+    auto last_frame = SteadyClock::now();
+    bool had_frames = false, lost = false;
+    const std::string name = localizer.config().cameras[camera].name;
+    while (!stop.load()) {
+      if (!reader.WaitForData(std::chrono::milliseconds(100))) {
+        if (had_frames && !lost && SteadyClock::now() - last_frame > kCameraLostAfter) {
+          lost = true;
+          Publish({EyeEvent::Kind::kCameraLost, WallNow(), name, "no frame for 2 s"});
+        }
+        continue;
+      }
+      int taken = 0;
+      while (reader.TakeOne(sample)) ++taken;
+      if (taken == 0) continue;
+      if (taken > 1) {
+        const std::lock_guard lock(counters_mutex);
+        counters.dropped_frames += static_cast<std::uint64_t>(taken - 1);
+      }
+      last_frame = SteadyClock::now();
+      had_frames = true;
+      lost = false;
+      const msg::Image& m = *sample;
+      const std::string_view encoding = dds::View(m.encoding);
+      const bool rgb = encoding == "rgb8", bgr = encoding == "bgr8", mono = encoding == "mono8";
+      const std::size_t channels = mono ? 1 : 3;
+      if (!(rgb || bgr || mono) || m.step < m.width * channels ||
+          m.data._length < static_cast<std::size_t>(m.step) * m.height) {
+        const std::lock_guard lock(counters_mutex);
+        if (counters.bad_frames++ % 100 == 0) {
+          spdlog::warn("camera {}: refused a {}x{} frame of encoding \"{}\" (rgb8, bgr8 or mono8)",
+                       name, m.width, m.height, encoding);
+        }
+        continue;
+      }
+      const cv::Mat view(static_cast<int>(m.height), static_cast<int>(m.width),
+                         mono ? CV_8UC1 : CV_8UC3, m.data._buffer, m.step);
+      cv::Mat grey;
+      if (mono) {
+        grey = view;
+      } else {
+        cv::cvtColor(view, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+      }
+      Detect(camera, dds::FromMsg(m.header.stamp), grey);
+    }
+  }
+
+  // Files, a device or a stream. Files are paced at the camera's rate and stamped from the
+  // service's start, as a live camera would be.
+  void SourceCamera(std::size_t camera, FrameSource& source, bool files) {
+    const Time start_wall = WallNow();
+    const auto start = SteadyClock::now();
+    const double rate = localizer.config().cameras[camera].rate_hz;
+    try {
+      while (!stop.load()) {
+        auto frame = source.Next();
+        if (!frame) break;
+        if (files) {
+          const auto due =
+              start + std::chrono::duration_cast<SteadyClock::duration>(
+                          std::chrono::duration<double>(static_cast<double>(frame->index) / rate));
+          while (!stop.load() && SteadyClock::now() < due) {
+            std::this_thread::sleep_for(std::min<SteadyClock::duration>(
+                due - SteadyClock::now(), std::chrono::milliseconds(50)));
+          }
+          frame->stamp = start_wall + FromSeconds(static_cast<double>(frame->index) / rate);
+        }
+        Detect(camera, frame->stamp, frame->image);
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("camera {}: {}", localizer.config().cameras[camera].name, e.what());
+    }
+    if (files) --files_running;
+  }
+
+  void FuseLoop() {
+    std::vector<EyeEvent> events;
+    while (true) {
+      FrameDetections frame;
+      {
+        std::unique_lock lock(queue_mutex);
+        queue_cv.wait(lock, [&] { return stop.load() || !queue.empty(); });
+        if (stop.load()) return;
+        frame = std::move(queue.front());
+        queue.pop_front();
+      }
+      events.clear();
+      const std::vector<LocalizedVehicle> cars = localizer.Fuse(frame, &events);
+      for (const EyeEvent& e : events) Publish(e);
+      if (!cars.empty()) PublishFleet(frame.stamp, cars);
+    }
+  }
+
+  void PublishFleet(Time stamp, const std::vector<LocalizedVehicle>& cars) {
+    const EyeConfig& config = localizer.config();
+    msg::FleetState& m = *fleet_message;
+    m.header.stamp = dds::ToMsg(stamp);
+    dds::UpdateString(m.header.frame_id, "map");
+    dds::SetLengthKeepingCapacity(m.vehicles, static_cast<std::uint32_t>(cars.size()));
+    for (std::size_t i = 0; i < cars.size(); ++i) {
+      const LocalizedVehicle& car = cars[i];
+      const VehicleTagConfig& v = config.vehicles[car.vehicle];
+      const VehicleEstimate& e = car.estimate;
+      auto& t = dds::Elements(m.vehicles)[i];
+      dds::UpdateString(t.vehicle_id, v.name);
+      t.tag_id = static_cast<std::uint32_t>(v.tag_id);
+      t.source = 1;  // TrackedVehicle_Constants::EYE
+      t.observed = dds::ToMsg(e.stamp);
+      t.pose.pose = dds::ToMsg(
+          RigidTransform2(Eigen::Vector2d(e.pose.x(), e.pose.y()), e.pose.z()).ToRigidTransform3());
+      std::fill(std::begin(t.pose.covariance), std::end(t.pose.covariance), 0.0);
+      // ROS order x, y, z, roll, pitch, yaw: (x, y, yaw) at indices 0, 1, 5.
+      const int index[3] = {0, 1, 5};
+      for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) t.pose.covariance[index[r] * 6 + index[c]] = e.covariance(r, c);
+      }
+      t.twist.twist = msg::Twist{};
+      t.twist.twist.linear.x = e.speed_mps;
+      t.twist.twist.angular.z = e.yaw_rate_radps;
+      std::fill(std::begin(t.twist.covariance), std::end(t.twist.covariance), 0.0);
+      t.twist.covariance[0] = e.covariance(3, 3);
+      t.twist.covariance[35] = e.covariance(4, 4);
+      t.twist.covariance[5] = t.twist.covariance[30] = e.covariance(3, 4);
+      dds::UpdateString(t.map_lane_id, "");
+      t.intersection_id = 0;
+      t.approach_id = 0;
+      t.distance_to_stop_line_m = 0.0;
+      if (!ips_writers.empty()) {
+        ips_writers[car.vehicle]->Write(msg::Point{e.pose.x(), e.pose.y(), 0.0});
+      }
+    }
+    fleet_writer.Write(fleet_message);
+    const double latency_ms = ToSeconds(WallNow() - stamp) * 1e3;
+    const std::lock_guard lock(counters_mutex);
+    ++counters.fleet_messages;
+    if (latencies_ms.size() < kLatencies) {
+      latencies_ms.push_back(latency_ms);
+    } else {
+      latencies_ms[latency_next] = latency_ms;
+      latency_next = (latency_next + 1) % kLatencies;
+    }
+  }
+};
+
+EyeService::EyeService(const EyeConfig& config, const dds::Participant& participant)
+    : impl_(std::make_unique<Impl>(config, participant)) {}
+
+EyeService::~EyeService() = default;
+
+void EyeService::Stop() { impl_->StopThreads(); }
+
+bool EyeService::finished() const {
+  return impl_->files_running.load() == 0 &&
+         std::all_of(impl_->localizer.config().cameras.begin(),
+                     impl_->localizer.config().cameras.end(), [](const CameraConfig& c) {
+                       return c.source.rfind("images:", 0) == 0 || c.source.rfind("video:", 0) == 0;
+                     });
+}
+
+ServiceCounters EyeService::counters() const {
+  const std::lock_guard lock(impl_->counters_mutex);
+  ServiceCounters c = impl_->counters;
+  std::vector<double> l = impl_->latencies_ms;
+  if (!l.empty()) {
+    std::sort(l.begin(), l.end());
+    c.latency_p50_ms = l[l.size() / 2];
+    c.latency_p99_ms = l[std::min(l.size() - 1, l.size() * 99 / 100)];
+  }
+  return c;
+}
+
+}  // namespace autodrive::eye

@@ -1,0 +1,49 @@
+#pragma once
+/// @file
+/// The Eye online: each camera's frames read on a thread of its own (a simulated overhead
+/// camera's image topic, or a device, stream or files) and searched there, one thread fusing
+/// them in the localiser, and the fleet published on DDS: `/autodrive/eye/fleet` (source EYE,
+/// pose and twist with covariances), the devkit's `ips` per car when configured, and events.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+
+#include "common/dds/participant.h"
+#include "eye/eye_config.h"
+
+namespace autodrive::eye {
+
+/// Counters of a running service.
+struct ServiceCounters {
+  std::uint64_t frames = 0;          ///< frames searched, all cameras
+  std::uint64_t fleet_messages = 0;  ///< fleet messages published
+  std::uint64_t dropped_frames = 0;  ///< frames skipped because the camera's last was busy
+  std::uint64_t bad_frames = 0;      ///< frames refused (wrong size or encoding)
+  double latency_p50_ms = 0.0;       ///< exposure stamp to fleet message written, wall clock
+  double latency_p99_ms = 0.0;
+};
+
+/// The service. Starts its threads on construction and stops them on destruction (or `Stop`).
+/// Not copyable or movable.
+class EyeService {
+ public:
+  /// @throws ConfigError / InputError for a bad configuration or calibration file,
+  /// InputError when a source cannot be opened.
+  EyeService(const EyeConfig& config, const dds::Participant& participant);
+  ~EyeService();
+  EyeService(const EyeService&) = delete;
+  EyeService& operator=(const EyeService&) = delete;
+
+  /// Stops the threads (idempotent).
+  void Stop();
+  /// True once every file source has ended (a service on files only is then done).
+  [[nodiscard]] bool finished() const;
+  [[nodiscard]] ServiceCounters counters() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace autodrive::eye

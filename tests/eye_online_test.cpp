@@ -1,0 +1,89 @@
+// The Eye online with real processes: autodrive-sim renders the Driving School's overhead
+// camera on DDS, autodrive-eye run localises the cars from it, autodrive-scm takes the Eye's
+// poses into its fleet. The Eye's poses are compared with the simulator's own `ips` topics
+// (each car's origin, without noise) while autodrive-example-driver drives them, and the SCM's
+// fleet must show the cars from the Eye.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "autodrive_msgs/msg/FleetState.h"
+
+#include "common/dds/messages.h"
+#include "common/ids.h"
+#include "tests/scm_processes.h"
+
+namespace autodrive::test {
+namespace {
+
+using std::chrono::seconds;
+
+class EyeOnline : public ScmProcesses {};
+
+TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
+  const std::string city = Config("config/cities/driving_school.yaml");
+  dds::Reader<msg::FleetState> eye_fleet(*participant_, dds::topics::EyeFleet());
+  dds::Reader<msg::FleetState> scm_fleet(*participant_, dds::topics::Fleet());
+  std::map<std::string, std::unique_ptr<dds::Reader<msg::Point>>> ips;
+  for (const char* car : {"nigel_1", "nigel_2"}) {
+    ips[car] = std::make_unique<dds::Reader<msg::Point>>(*participant_,
+                                                         dds::topics::Ips(ParseVehicleName(car)));
+  }
+  StartScm();
+  ChildProcess sim(
+      {Bin("autodrive-sim"), "--city", city, "--partition", partition_, "--log-level", "warn"});
+  // The example driver drives the cars along their lanes.
+  ChildProcess driver({Bin("autodrive-example-driver"), "--city", city, "--partition", partition_,
+                       "--log-level", "warn"});
+  ChildProcess eye({Bin("autodrive-eye"), "run", "--config", city, "--partition", partition_,
+                    "--log-level", "warn"});
+  // Each Eye pose against the car's latest ips position (its origin, 30 Hz): they differ by
+  // what the car drives between the two (0.2 m/s for up to ~50 ms) and the Eye's error.
+  std::map<std::string, Eigen::Vector2d> last_ips;
+  std::map<std::string, int> compared;
+  double worst = 0;
+  bool scm_saw_eye = false;
+  const auto deadline = SteadyClock::now() + seconds(90);
+  while (SteadyClock::now() < deadline &&
+         (compared["nigel_1"] < 150 || compared["nigel_2"] < 150 || !scm_saw_eye)) {
+    eye_fleet.WaitForData(std::chrono::milliseconds(50));
+    for (auto& [car, reader] : ips) {
+      while (auto p = reader->TakeOne()) last_ips[car] = {(*p)->x, (*p)->y};
+    }
+    while (auto m = eye_fleet.TakeOne()) {
+      for (const auto& v : dds::Elements((*m)->vehicles)) {
+        const std::string car(dds::View(v.vehicle_id));
+        EXPECT_EQ(v.source, 1);  // EYE
+        EXPECT_EQ(car, "nigel_" + std::to_string(v.tag_id));
+        EXPECT_GT(v.pose.covariance[0], 0.0);
+        if (!last_ips.contains(car)) continue;
+        const double d = std::hypot(v.pose.pose.position.x - last_ips[car].x(),
+                                    v.pose.pose.position.y - last_ips[car].y());
+        worst = std::max(worst, d);
+        ++compared[car];
+      }
+    }
+    while (auto m = scm_fleet.TakeOne()) {
+      for (const auto& v : dds::Elements((*m)->vehicles))
+        scm_saw_eye = scm_saw_eye || v.source == 1;
+    }
+  }
+  std::cout << "[ measured ] Eye poses compared with the simulator's ips: nigel_1 "
+            << compared["nigel_1"] << ", nigel_2 " << compared["nigel_2"] << "; largest distance "
+            << worst * 1e3 << " mm\n";
+  EXPECT_GE(compared["nigel_1"], 150);
+  EXPECT_GE(compared["nigel_2"], 150);
+  EXPECT_LT(worst, 0.03);
+  EXPECT_TRUE(scm_saw_eye) << "the SCM's fleet never showed a car from the Eye";
+  EXPECT_EQ(eye.Stop(), 0);
+  driver.Stop();
+  sim.Stop();
+}
+
+}  // namespace
+}  // namespace autodrive::test
