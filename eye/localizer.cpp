@@ -93,6 +93,13 @@ std::optional<Registration> Localizer::Register(
   return result;
 }
 
+void Localizer::Reregister(std::size_t camera) {
+  const std::lock_guard lock(mutex_);
+  CameraState& cam = *cameras_.at(camera);
+  cam.registered = false;
+  cam.move.Reset();
+}
+
 std::vector<cv::Rect> Localizer::PredictedRegions(const CameraState& cam, Time stamp) const {
   // Guarded by mutex_ (the caller holds it).
   std::vector<cv::Rect> rects;

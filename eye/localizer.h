@@ -106,6 +106,10 @@ class Localizer {
                                        const std::vector<std::vector<TagDetection>>& frames,
                                        std::string* why);
 
+  /// Forgets `camera`'s registration: it registers again from its next frames that show
+  /// reference tags (after it moved, when the operator says so).
+  void Reregister(std::size_t camera);
+
   /// Searches a frame of `camera` (CV_8UC1 grey, or BGR converted here) taken at `stamp`: the
   /// whole frame when a full scan is due (its first frame, `full_scan_period_s` since the last,
   /// or not yet registered; `force_full` too), else the regions around the tracked cars'

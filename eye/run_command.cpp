@@ -1,8 +1,10 @@
 // autodrive-eye run: the localiser online on DDS until SIGINT or SIGTERM (or --duration).
+#include <pthread.h>
 #include <spdlog/spdlog.h>
 
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <memory>
 #include <string>
 #include <thread>
@@ -22,7 +24,8 @@ void AddRun(CLI::App& app) {
       "localise the fleet online: each camera of the configuration (a simulated camera's image "
       "topic, a device, a stream, or files paced at their rate) on its own thread; publishes "
       "/autodrive/eye/fleet (source EYE, pose and twist with covariances), the cars' ips topics "
-      "when outputs.ips is set, and /autodrive/eye/events; until SIGINT or SIGTERM");
+      "when outputs.ips is set, and /autodrive/eye/events; until SIGINT or SIGTERM. SIGHUP "
+      "registers every camera again (after a camera_moved event)");
   struct Options {
     std::string config;
     std::string partition;
@@ -43,6 +46,13 @@ void AddRun(CLI::App& app) {
       ->capture_default_str();
   dds::AddSecurityOptions(*cmd, o->security);
   cmd->callback([o] {
+    // SIGHUP: register every camera again (after a camera_moved event, when the operator says
+    // so). Blocked first, before any thread starts (the shutdown thread too), so that only
+    // sigtimedwait below takes it.
+    sigset_t hup;
+    sigemptyset(&hup);
+    sigaddset(&hup, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &hup, nullptr);
     std::atomic<bool> stop{false};
     ShutdownSignals signals([&](int sig) {
       spdlog::info("signal {}: stopping", sig);
@@ -56,7 +66,11 @@ void AddRun(CLI::App& app) {
     const auto start = std::chrono::steady_clock::now();
     auto last_report = start;
     while (!stop.load() && !service.finished()) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      const timespec tick{0, 100'000'000};
+      if (sigtimedwait(&hup, nullptr, &tick) == SIGHUP) {
+        spdlog::info("SIGHUP: registering every camera again");
+        service.Reregister();
+      }
       const auto now = std::chrono::steady_clock::now();
       if (o->duration_s > 0 && now - start >= std::chrono::duration<double>(o->duration_s)) break;
       if (now - last_report >= std::chrono::seconds(10)) {

@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <span>
 #include <thread>
 #include <vector>
 
@@ -44,6 +45,9 @@ struct EyeService::Impl {
   dds::Writer<msg::FleetState> fleet_writer;
   dds::Writer<msg::Event> event_writer;
   std::vector<std::unique_ptr<dds::Writer<msg::Point>>> ips_writers;  // per vehicle, or empty
+  // Per camera, when outputs.debug_image_rate_hz > 0: its writer and when it last wrote.
+  std::vector<std::unique_ptr<dds::Writer<msg::Image>>> debug_writers;
+  std::vector<SteadyClock::time_point> debug_last;
   std::atomic<bool> stop{false};
   std::atomic<int> files_running{0};
 
@@ -72,6 +76,13 @@ struct EyeService::Impl {
             std::make_unique<dds::Writer<msg::Point>>(p, dds::topics::Ips(v.id())));
       }
     }
+    for (const CameraConfig& cam : config.cameras) {
+      if (config.outputs.debug_image_rate_hz > 0) {
+        debug_writers.push_back(
+            std::make_unique<dds::Writer<msg::Image>>(p, dds::topics::EyeDebugImage(cam.name)));
+      }
+    }
+    debug_last.assign(config.cameras.size(), SteadyClock::time_point{});
     for (std::size_t c = 0; c < config.cameras.size(); ++c) {
       const CameraConfig& cam = config.cameras[c];
       if (cam.source.rfind("topic:", 0) == 0) {
@@ -124,9 +135,60 @@ struct EyeService::Impl {
     queue_cv.notify_one();
   }
 
+  // The frame with its tags drawn: cars' in green with their names, reference tags in blue,
+  // unknown ones in red; published as rgb8.
+  void PublishDebugImage(std::size_t camera, Time stamp, const cv::Mat& image,
+                         const FrameDetections& d) {
+    const EyeConfig& config = localizer.config();
+    cv::Mat rgb;
+    if (image.channels() == 1) {
+      cv::cvtColor(image, rgb, cv::COLOR_GRAY2RGB);
+    } else {
+      rgb = image.clone();
+    }
+    for (const TagDetection& t : d.tags) {
+      cv::Scalar colour(255, 60, 60);
+      std::string label = std::to_string(t.id);
+      for (const VehicleTagConfig& v : config.vehicles) {
+        if (v.tag_id == t.id) {
+          colour = cv::Scalar(40, 220, 40);
+          label = v.name;
+        }
+      }
+      for (const ReferenceTagConfig& r : config.reference_tags) {
+        if (r.id == t.id) colour = cv::Scalar(60, 120, 255);
+      }
+      std::vector<cv::Point> quad;
+      for (const Eigen::Vector2d& c : t.corners_px) {
+        quad.emplace_back(static_cast<int>(std::lround(c.x())),
+                          static_cast<int>(std::lround(c.y())));
+      }
+      cv::polylines(rgb, quad, true, colour, 2);
+      cv::putText(rgb, label, quad[3] + cv::Point(0, 16), cv::FONT_HERSHEY_SIMPLEX, 0.5, colour, 1);
+    }
+    msg::Image m{};
+    m.header.stamp = dds::ToMsg(stamp);
+    dds::BorrowString(m.header.frame_id, config.cameras[camera].name.c_str());
+    m.width = static_cast<std::uint32_t>(rgb.cols);
+    m.height = static_cast<std::uint32_t>(rgb.rows);
+    dds::BorrowString(m.encoding, "rgb8");
+    m.step = static_cast<std::uint32_t>(rgb.step[0]);
+    dds::BorrowSequence(m.data, std::span<std::uint8_t>(rgb.data, rgb.total() * 3));
+    debug_writers[camera]->Write(m);
+  }
+
   void Detect(std::size_t camera, Time stamp, const cv::Mat& image) {
     try {
-      Push(localizer.Detect(camera, stamp, image));
+      FrameDetections d = localizer.Detect(camera, stamp, image);
+      if (!debug_writers.empty()) {
+        const auto now = SteadyClock::now();
+        if (now - debug_last[camera] >=
+            std::chrono::duration<double>(1.0 / localizer.config().outputs.debug_image_rate_hz)) {
+          debug_last[camera] = now;
+          PublishDebugImage(camera, stamp, image, d);
+        }
+      }
+      Push(std::move(d));
       const std::lock_guard lock(counters_mutex);
       ++counters.frames;
     } catch (const InputError& e) {
@@ -287,6 +349,12 @@ EyeService::EyeService(const EyeConfig& config, const dds::Participant& particip
 EyeService::~EyeService() = default;
 
 void EyeService::Stop() { impl_->StopThreads(); }
+
+void EyeService::Reregister() {
+  for (std::size_t c = 0; c < impl_->localizer.camera_count(); ++c) {
+    impl_->localizer.Reregister(c);
+  }
+}
 
 bool EyeService::finished() const {
   return impl_->files_running.load() == 0 &&

@@ -37,6 +37,8 @@ class EyeService {
 
   /// Stops the threads (idempotent).
   void Stop();
+  /// Every camera registers again from its next frames (`Localizer::Reregister`).
+  void Reregister();
   /// True once every file source has ended (a service on files only is then done).
   [[nodiscard]] bool finished() const;
   [[nodiscard]] ServiceCounters counters() const;

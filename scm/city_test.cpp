@@ -65,6 +65,20 @@ std::string LoadError(const std::string& from, const std::string& to) {
       [&] { (void)LoadCityString(text, "city.yaml", CitiesDir()); });
 }
 
+TEST(City, RefusesTwoPublishersOfTheIpsTopics) {
+  // The Driving School runs its cars in the simulator, which publishes their ips topics: the
+  // Eye may not publish them too.
+  EXPECT_THAT(LoadError("eye:\n  cameras:", "eye:\n  outputs: {ips: true}\n  cameras:"),
+              HasSubstr("eye.outputs.ips: the simulator (the sim section) publishes every car's "
+                        "ips topic, so the Eye may not"));
+  // Without the simulator's cars the Eye is the lab's IPS.
+  const std::string text = config::internal::ReadFile(CitiesDir() / "driving_school.yaml");
+  std::string eye_only = text.substr(0, text.find("\nsim:\n")) + text.substr(text.find("\neye:\n"));
+  eye_only.replace(eye_only.find("eye:\n  cameras:"), 15,
+                   "eye:\n  outputs: {ips: true}\n  cameras:");
+  EXPECT_NO_THROW((void)LoadCityString(eye_only, "city.yaml", CitiesDir()));
+}
+
 TEST(City, RefusesConflictingGroupsInOnePhase) {
   EXPECT_EQ(LoadError("- {groups: [1], green_s: 8.0}", "- {groups: [1, 2], green_s: 8.0}"),
             "city.yaml: intersections[0] (driving_school_crossing).plans[0] (day).phases[0]: "

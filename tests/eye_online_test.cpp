@@ -4,9 +4,11 @@
 // (each car's origin, without noise) while autodrive-example-driver drives them, and the SCM's
 // fleet must show the cars from the Eye.
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <string>
@@ -14,6 +16,7 @@
 
 #include "autodrive_msgs/msg/FleetState.h"
 
+#include "common/config.h"
 #include "common/dds/messages.h"
 #include "common/ids.h"
 #include "tests/scm_processes.h"
@@ -26,7 +29,20 @@ using std::chrono::seconds;
 class EyeOnline : public ScmProcesses {};
 
 TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
-  const std::string city = Config("config/cities/driving_school.yaml");
+  // The Driving School as shipped, with the Eye's debug images on (twice a second).
+  std::string text = config::internal::ReadFile(Config("config/cities/driving_school.yaml"));
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  replace("../maps/", Config("config/maps") + "/");
+  replace("../cameras/", Config("config/cameras") + "/");
+  replace("eye:\n  cameras:", "eye:\n  outputs: {debug_image_rate_hz: 2}\n  cameras:");
+  const std::string city = (dir_ / "city.yaml").string();
+  std::ofstream(city) << text;
+  dds::Reader<msg::Image> debug(*participant_, dds::topics::EyeDebugImage("overhead"));
+  dds::Reader<msg::Event> events(*participant_, dds::topics::EyeEvents());
   dds::Reader<msg::FleetState> eye_fleet(*participant_, dds::topics::EyeFleet());
   dds::Reader<msg::FleetState> scm_fleet(*participant_, dds::topics::Fleet());
   std::map<std::string, std::unique_ptr<dds::Reader<msg::Point>>> ips;
@@ -69,8 +85,16 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
       }
     }
     while (auto m = scm_fleet.TakeOne()) {
-      for (const auto& v : dds::Elements((*m)->vehicles))
-        scm_saw_eye = scm_saw_eye || v.source == 1;
+      for (const auto& v : dds::Elements((*m)->vehicles)) {
+        const std::string car(dds::View(v.vehicle_id));
+        if (v.source != 1 || !last_ips.contains(car)) continue;
+        // The SCM's fleet holds the Eye's pose of the car, located on the map.
+        EXPECT_LT(std::hypot(v.pose.pose.position.x - last_ips[car].x(),
+                             v.pose.pose.position.y - last_ips[car].y()),
+                  0.05)
+            << car;
+        scm_saw_eye = true;
+      }
     }
   }
   std::cout << "[ measured ] Eye poses compared with the simulator's ips: nigel_1 "
@@ -80,6 +104,26 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
   EXPECT_GE(compared["nigel_2"], 150);
   EXPECT_LT(worst, 0.03);
   EXPECT_TRUE(scm_saw_eye) << "the SCM's fleet never showed a car from the Eye";
+  // Debug images: the camera's frames with the detections drawn.
+  const auto image = debug.TakeOne();
+  ASSERT_TRUE(image.has_value()) << "no debug image";
+  EXPECT_EQ((*image)->width, 1920u);
+  EXPECT_EQ(dds::View((*image)->encoding), "rgb8");
+  // SIGHUP: the camera registers again (a second camera_registered event).
+  const auto registered = [&] {
+    int n = 0;
+    for (const auto& e : events.TakeAll()) n += dds::View(e->code) == "camera_registered" ? 1 : 0;
+    return n;
+  };
+  int count = registered();
+  EXPECT_EQ(count, 1);
+  ::kill(eye.pid(), SIGHUP);
+  const auto until = SteadyClock::now() + seconds(30);
+  while (count < 2 && SteadyClock::now() < until) {
+    events.WaitForData(std::chrono::milliseconds(100));
+    count += registered();
+  }
+  EXPECT_EQ(count, 2) << "SIGHUP did not register the camera again";
   EXPECT_EQ(eye.Stop(), 0);
   driver.Stop();
   sim.Stop();

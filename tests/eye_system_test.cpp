@@ -150,6 +150,30 @@ class EyeEndToEnd : public ::testing::Test {
                                     (dir_ / c.name).string()});
       ASSERT_EQ(r.code, 0) << r.text;
     }
+    // Registration from the rendered frames against the camera's true pose.
+    const Output reg = RunCaptured(
+        {Bin("autodrive-eye"), "register", "--config", city, "--out-dir", dir_.string()});
+    ASSERT_EQ(reg.code, 0) << reg.text;
+    for (const SequenceCamera& c : s.cameras) {
+      const camera::Camera truth = LoadCamera(dir_ / c.name);
+      const YAML::Node pose = YAML::LoadFile((dir_ / (c.name + "_pose.yaml")).string());
+      Eigen::Matrix4d X = Eigen::Matrix4d::Zero();
+      for (std::size_t r = 0; r < 4; ++r) {
+        for (std::size_t k = 0; k < 4; ++k) {
+          X(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(k)) =
+              pose["X_parent_optical"][r][k].as<double>();
+        }
+      }
+      const Eigen::Isometry3d X_MC(X);
+      const double dp = (X_MC.translation() - truth.X_PC.translation()).norm();
+      const double da = Eigen::AngleAxisd(X_MC.linear().transpose() * truth.X_PC.linear()).angle();
+      std::cout << fmt::format(
+          "[ measured ] {}: camera {} registered {:.2f} mm and {:.4f} deg "
+          "from its true pose ({:.3f} px RMS)\n",
+          s.name, c.name, dp * 1e3, da * 180 / kPi, pose["rms_px"].as<double>());
+      EXPECT_LT(dp, 0.005) << c.name;
+      EXPECT_LT(da, 0.2 * kPi / 180) << c.name;
+    }
     const auto poses = dir_ / "poses.csv";
     const Output eye =
         RunCaptured({Bin("autodrive-eye"), "localize", "--config", city, "--out", poses.string()});

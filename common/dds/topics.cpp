@@ -207,6 +207,9 @@ TopicSpec<msg::FleetState> EyeFleet() {
 TopicSpec<msg::Event> EyeEvents() {
   return Spec<msg::Event>("/autodrive/eye/events", Qos::LatchedState(100));
 }
+TopicSpec<msg::Image> EyeDebugImage(std::string_view camera) {
+  return Spec<msg::Image>("/autodrive/eye/" + std::string(camera) + "/debug_image", Qos::Stream(2));
+}
 
 TopicSpec<msg::Header> SimStep() {
   return Spec<msg::Header>("/autodrive/sim/step", Qos::Command());

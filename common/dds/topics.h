@@ -112,6 +112,9 @@ TopicSpec<msg::FleetState> EyeFleet();
 /// The Eye's events (`/autodrive/eye/events`: camera registered, moved or lost, car found or
 /// lost). Latched, last 100 per writer.
 TopicSpec<msg::Event> EyeEvents();
+/// A camera's frames with the Eye's detections drawn on them
+/// (`/autodrive/eye/<camera>/debug_image`, rgb8), at `outputs.debug_image_rate_hz`. Stream.
+TopicSpec<msg::Image> EyeDebugImage(std::string_view camera);
 
 // --- Simulation -------------------------------------------------------------------------------
 /// `/clock` (rosgraph_msgs/Clock), best effort keep last 1 exactly like ROS 2's ClockQoS, so
