@@ -46,10 +46,14 @@ const char* ToString(ClockKind kind) {
 
 WallClock::WallClock(WallTimeSources sources) : sources_(std::move(sources)) {}
 
-Time WallClock::ReadWall() const {
-  if (sources_.wall) return sources_.wall();
+Time SystemNow() {
   return Time(
       std::chrono::duration_cast<Duration>(std::chrono::system_clock::now().time_since_epoch()));
+}
+
+Time WallClock::ReadWall() const {
+  if (sources_.wall) return sources_.wall();
+  return SystemNow();
 }
 
 MonoTime WallClock::ReadMonotonic() const {

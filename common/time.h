@@ -72,6 +72,10 @@ using MonoTime = MonotonicTimeClock::time_point;
 [[nodiscard]] Duration FromSeconds(double seconds);
 /// A Time from seconds since the clock's epoch, rounded to the nearest nanosecond.
 [[nodiscard]] Time TimeFromSeconds(double seconds);
+/// The system clock's time now (`std::chrono::system_clock`), for stamps of live data and
+/// latency figures. Durations that safety depends on are measured on a `Clock`'s monotonic
+/// time instead (docs/time.md).
+[[nodiscard]] Time SystemNow();
 /// A MonoTime from seconds since the timeline's origin (tests, simulation).
 [[nodiscard]] MonoTime MonoFromSeconds(double seconds);
 /// "12.345678901s" style text of a time point, for logs.

@@ -91,14 +91,19 @@ std::optional<Registration> RegisterCamera(const camera::CameraModel& model,
   const cv::Mat K = CameraMatrix(model.intrinsics());
   const cv::Mat dist = Distortion(model.intrinsics());
   cv::Mat rvec, tvec;
-  if (!cv::solvePnP(object, image, K, dist, rvec, tvec, false, cv::SOLVEPNP_SQPNP)) {
-    return fail("PnP found no pose");
-  }
-  cv::solvePnPRefineLM(
-      object, image, K, dist, rvec, tvec,
-      cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-12));
   std::vector<cv::Point2d> projected;
-  cv::projectPoints(object, rvec, tvec, K, dist, projected);
+  try {
+    if (!cv::solvePnP(object, image, K, dist, rvec, tvec, false, cv::SOLVEPNP_SQPNP)) {
+      return fail("PnP found no pose");
+    }
+    cv::solvePnPRefineLM(
+        object, image, K, dist, rvec, tvec,
+        cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-12));
+    cv::projectPoints(object, rvec, tvec, K, dist, projected);
+  } catch (const cv::Exception& e) {
+    // Degenerate corners (reference tags configured on top of each other, say).
+    return fail(std::string("OpenCV could not solve for the pose: ") + e.what());
+  }
   double sum2 = 0;
   for (std::size_t i = 0; i < image.size(); ++i) {
     const double e = cv::norm(projected[i] - image[i]);

@@ -29,11 +29,6 @@ namespace {
 
 using SteadyClock = std::chrono::steady_clock;
 
-Time WallNow() {
-  return Time(
-      std::chrono::duration_cast<Duration>(std::chrono::system_clock::now().time_since_epoch()));
-}
-
 // A camera whose frames stop for this long is lost.
 constexpr auto kCameraLostAfter = std::chrono::seconds(2);
 
@@ -191,7 +186,8 @@ struct EyeService::Impl {
       Push(std::move(d));
       const std::lock_guard lock(counters_mutex);
       ++counters.frames;
-    } catch (const InputError& e) {
+    } catch (const std::exception& e) {
+      // A frame that cannot be searched (bad size, OpenCV refusing it) is counted, never fatal.
       const std::lock_guard lock(counters_mutex);
       if (counters.bad_frames++ % 100 == 0) spdlog::warn("camera {}: {}", camera, e.what());
     }
@@ -207,7 +203,7 @@ struct EyeService::Impl {
       if (!reader.WaitForData(std::chrono::milliseconds(100))) {
         if (had_frames && !lost && SteadyClock::now() - last_frame > kCameraLostAfter) {
           lost = true;
-          Publish({EyeEvent::Kind::kCameraLost, WallNow(), name, "no frame for 2 s"});
+          Publish({EyeEvent::Kind::kCameraLost, SystemNow(), name, "no frame for 2 s"});
         }
         continue;
       }
@@ -249,7 +245,7 @@ struct EyeService::Impl {
   // Files, a device or a stream. Files are paced at the camera's rate and stamped from the
   // service's start, as a live camera would be.
   void SourceCamera(std::size_t camera, FrameSource& source, bool files) {
-    const Time start_wall = WallNow();
+    const Time start_wall = SystemNow();
     const auto start = SteadyClock::now();
     const double rate = localizer.config().cameras[camera].rate_hz;
     try {
@@ -286,9 +282,14 @@ struct EyeService::Impl {
         queue.pop_front();
       }
       events.clear();
-      const std::vector<LocalizedVehicle> cars = localizer.Fuse(frame, &events);
-      for (const EyeEvent& e : events) Publish(e);
-      if (!cars.empty()) PublishFleet(frame.stamp, cars);
+      try {
+        const std::vector<LocalizedVehicle> cars = localizer.Fuse(frame, &events);
+        for (const EyeEvent& e : events) Publish(e);
+        if (!cars.empty()) PublishFleet(frame.stamp, cars);
+      } catch (const std::exception& e) {
+        // E.g. OpenCV refusing a degenerate registration: logged, the next frame goes on.
+        spdlog::error("fusing a frame of camera {}: {}", frame.camera, e.what());
+      }
     }
   }
 
@@ -331,7 +332,7 @@ struct EyeService::Impl {
       }
     }
     fleet_writer.Write(fleet_message);
-    const double latency_ms = ToSeconds(WallNow() - stamp) * 1e3;
+    const double latency_ms = ToSeconds(SystemNow() - stamp) * 1e3;
     const std::lock_guard lock(counters_mutex);
     ++counters.fleet_messages;
     if (latencies_ms.size() < kLatencies) {

@@ -100,9 +100,7 @@ class Capture final : public FrameSource {
     if (!capture_.read(frame.image) || frame.image.empty()) return std::nullopt;
     frame.index = index_++;
     if (live_) {
-      frame.stamp = Time(std::chrono::duration_cast<Duration>(
-                        std::chrono::system_clock::now().time_since_epoch())) -
-                    FromSeconds(camera_.latency_s);
+      frame.stamp = SystemNow() - FromSeconds(camera_.latency_s);
     } else {
       const double ms = capture_.get(cv::CAP_PROP_POS_MSEC);
       frame.stamp = ms > 0 || frame.index == 0

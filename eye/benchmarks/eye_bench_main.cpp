@@ -43,11 +43,6 @@ double ThreadCpuSeconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-Time WallNow() {
-  return Time(
-      std::chrono::duration_cast<Duration>(std::chrono::system_clock::now().time_since_epoch()));
-}
-
 struct Scene {
   camera::Camera camera;
   EyeConfig config;
@@ -168,12 +163,12 @@ void Latency(int frames, const std::filesystem::path& dir) {
     while (std::chrono::steady_clock::now() < due) {
       fleet.WaitForData(std::chrono::milliseconds(2));
       while (auto m = fleet.TakeOne()) {
-        latency_ms.push_back(ToSeconds(WallNow() - dds::FromMsg((*m)->header.stamp)) * 1e3);
+        latency_ms.push_back(ToSeconds(SystemNow() - dds::FromMsg((*m)->header.stamp)) * 1e3);
       }
     }
     const cv::Mat& image = rgb[static_cast<std::size_t>(sent)];
     msg::Image m{};
-    m.header.stamp = dds::ToMsg(WallNow());
+    m.header.stamp = dds::ToMsg(SystemNow());
     dds::BorrowString(m.header.frame_id, "bench_overhead");
     m.width = static_cast<std::uint32_t>(image.cols);
     m.height = static_cast<std::uint32_t>(image.rows);
@@ -187,7 +182,7 @@ void Latency(int frames, const std::filesystem::path& dir) {
   while (std::chrono::steady_clock::now() < end) {
     fleet.WaitForData(std::chrono::milliseconds(10));
     while (auto m = fleet.TakeOne()) {
-      latency_ms.push_back(ToSeconds(WallNow() - dds::FromMsg((*m)->header.stamp)) * 1e3);
+      latency_ms.push_back(ToSeconds(SystemNow() - dds::FromMsg((*m)->header.stamp)) * 1e3);
     }
   }
   service.Stop();
