@@ -3,12 +3,14 @@
 /// Helpers shared by the project's GoogleTest tests. Include only from tests.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <charconv>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 #include "common/error.h"
 
@@ -52,5 +54,28 @@ inline std::filesystem::path SourceDir() {
   }
   return src;
 }
+
+/// A fresh, empty directory for one test's files, `<temp>/<prefix>_<pid>_<test name>`, removed
+/// at the end when the test passed (kept for inspection when it failed).
+class TempDir {
+ public:
+  explicit TempDir(std::string_view prefix) {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = std::filesystem::temp_directory_path() /
+            (std::string(prefix) + "_" + std::to_string(::getpid()) + "_" + info->name());
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  ~TempDir() {
+    if (!::testing::Test::HasFailure()) std::filesystem::remove_all(path_);
+  }
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+  [[nodiscard]] std::string str() const { return path_.string(); }
+
+ private:
+  std::filesystem::path path_;
+};
 
 }  // namespace autodrive::test

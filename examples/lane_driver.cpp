@@ -151,7 +151,7 @@ DriverDecision LaneDriver::Step(
       std::optional<std::int32_t> shown;
       for (SignalHeadId h : x.signal_heads) {
         const maps::SignalHead& head = map_->signal_heads.at(h.value() - 1);
-        if (head.approach == piece.lane->approach) shown = lamp(h);
+        if (head.approach == piece.lane->ingress_approach) shown = lamp(h);
       }
       const bool green = shown && *shown == 3;
       const bool yellow = shown && *shown == 2;

@@ -518,7 +518,7 @@ class Builder {
           a.egress.push_back(out);
           Lane& lin = map_.lanes[in.value() - 1];
           lin.ingress_of = x.id;
-          lin.approach = a.id;
+          lin.ingress_approach = a.id;
           if (x.control != Control::kUncontrolled) {
             const Vec e = lin.centreline.back();
             const Vec d = -Outward(s);
@@ -526,7 +526,7 @@ class Builder {
           }
           Lane& lout = map_.lanes[out.value() - 1];
           lout.egress_of = x.id;
-          lout.approach = a.id;
+          lout.egress_approach = a.id;
         }
         x.approaches.push_back(a);
       }

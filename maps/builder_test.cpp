@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 
 #include "common/error.h"
@@ -96,6 +97,84 @@ TEST(MapBuilder, MovementPathsStartAtTheIngressEndAndEndAtTheEgressStart) {
     EXPECT_EQ(map.lane(m.from).ingress_of, m.intersection);
     EXPECT_EQ(map.lane(m.to).egress_of, m.intersection);
   }
+}
+
+// Every lane names the intersection and approach its end enters exactly when that approach
+// lists it as ingress, and the one its start leaves exactly when that approach lists it as
+// egress.
+void ExpectLanesKnowTheirApproaches(const Map& map) {
+  std::map<LaneId, std::pair<IntersectionId, ApproachId>> ingress, egress;
+  for (const auto& x : map.intersections) {
+    for (const auto& a : x.approaches) {
+      for (const LaneId l : a.ingress) ingress.insert_or_assign(l, std::pair{x.id, a.id});
+      for (const LaneId l : a.egress) egress.insert_or_assign(l, std::pair{x.id, a.id});
+    }
+  }
+  for (const auto& lane : map.lanes) {
+    SCOPED_TRACE(lane.name);
+    const auto in = ingress.find(lane.id);
+    EXPECT_EQ(lane.ingress_of.has_value(), in != ingress.end());
+    EXPECT_EQ(lane.ingress_approach.has_value(), in != ingress.end());
+    if (in != ingress.end()) {
+      EXPECT_EQ(lane.ingress_of, in->second.first);
+      EXPECT_EQ(lane.ingress_approach, in->second.second);
+    }
+    const auto out = egress.find(lane.id);
+    EXPECT_EQ(lane.egress_of.has_value(), out != egress.end());
+    EXPECT_EQ(lane.egress_approach.has_value(), out != egress.end());
+    if (out != egress.end()) {
+      EXPECT_EQ(lane.egress_of, out->second.first);
+      EXPECT_EQ(lane.egress_approach, out->second.second);
+    }
+  }
+}
+
+TEST(MapBuilder, LaneBetweenTwoIntersectionsKnowsTheApproachOfEach) {
+  const Map map = Build(test_layouts::TwoFourWays());
+  ASSERT_EQ(map.intersections.size(), 2u);
+  const Intersection& west = map.intersections[0];
+  const Intersection& east = map.intersections[1];
+  ASSERT_EQ(west.tile, (TileIndex{1, 1}));
+  ASSERT_EQ(east.tile, (TileIndex{1, 3}));
+  const auto lane = [&](const std::string& name) -> const Lane& {
+    for (const auto& l : map.lanes) {
+      if (l.name == name) return l;
+    }
+    ADD_FAILURE() << "no lane " << name;
+    return map.lanes.front();
+  };
+  constexpr ApproachId kEast(1), kWest(3);
+  // Eastbound: leaves the west intersection by its east approach, enters the east one by its
+  // west approach.
+  const Lane& eastbound = lane("r1c2:W>E:0");
+  EXPECT_EQ(eastbound.egress_of, west.id);
+  EXPECT_EQ(eastbound.egress_approach, kEast);
+  EXPECT_EQ(eastbound.ingress_of, east.id);
+  EXPECT_EQ(eastbound.ingress_approach, kWest);
+  const Lane& westbound = lane("r1c2:E>W:0");
+  EXPECT_EQ(westbound.egress_of, east.id);
+  EXPECT_EQ(westbound.egress_approach, kWest);
+  EXPECT_EQ(westbound.ingress_of, west.id);
+  EXPECT_EQ(westbound.ingress_approach, kEast);
+  // A lane that only enters (from the map's edge) has no egress side, and the reverse.
+  const Lane& from_edge = lane("r1c0:W>E:0");
+  EXPECT_EQ(from_edge.ingress_approach, kWest);
+  EXPECT_FALSE(from_edge.egress_of.has_value());
+  EXPECT_FALSE(from_edge.egress_approach.has_value());
+  const Lane& to_edge = lane("r1c4:W>E:0");
+  EXPECT_EQ(to_edge.egress_approach, kEast);
+  EXPECT_FALSE(to_edge.ingress_of.has_value());
+  EXPECT_FALSE(to_edge.ingress_approach.has_value());
+  ExpectLanesKnowTheirApproaches(map);
+}
+
+TEST(MapBuilder, EveryLaneOfTheSmallTownKnowsItsApproaches) {
+  // Four-way and T-junctions, lanes between two of them, roads between none.
+  const Map map = Build(LoadLayout((test::SourceDir() / "config/maps/small_town.yaml").string()));
+  int between = 0;
+  for (const auto& l : map.lanes) between += l.ingress_of && l.egress_of;
+  EXPECT_EQ(between, 8) << "the centre's four arms lead to four T-junctions, both ways";
+  ExpectLanesKnowTheirApproaches(map);
 }
 
 // The radius of the circle through three points.

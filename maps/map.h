@@ -83,9 +83,14 @@ struct Lane {
   std::vector<MovementId> movements_out;  ///< movements that start at this lane's end
   std::vector<MovementId> movements_in;   ///< movements that end at this lane's start
   std::optional<StopLine> stop_line;      ///< at the end, when it enters a controlled intersection
-  std::optional<IntersectionId> ingress_of;  ///< the intersection its end enters
-  std::optional<IntersectionId> egress_of;   ///< the intersection its start leaves
-  std::optional<ApproachId> approach;        ///< with ingress_of / egress_of: which approach
+  /// The intersection its end enters, and by which of its approaches (both set or neither).
+  std::optional<IntersectionId> ingress_of;
+  std::optional<ApproachId> ingress_approach;
+  /// The intersection its start leaves, and by which of its approaches (both set or neither).
+  /// A lane between two intersections has both pairs, each naming its own intersection's
+  /// approach (west of one, east of the next).
+  std::optional<IntersectionId> egress_of;
+  std::optional<ApproachId> egress_approach;
   double length_m = 0.0;
 };
 

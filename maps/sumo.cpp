@@ -69,13 +69,12 @@ double Length(const Polyline& p) {
   return l;
 }
 
-// The polyline resampled at equal steps along its length, of at least `kMinShapeStep_m` (netconvert
-// drops shape points closer than 0.1 m, SUMO's POSITION_EPS, to the previous one, which would
-// cut corners and move ends), keeping both ends.
-constexpr double kMinShapeStep_m = 0.115;
-Polyline Resample(const Polyline& p) {
+// The polyline resampled at equal steps along its length of at least `min_step` (lab metres)
+// keeping both ends. netconvert drops shape points closer than 0.1 m (SUMO's POSITION_EPS) to
+// the previous one, which would cut corners and move ends; see `ShapeStep`.
+Polyline Resample(const Polyline& p, double min_step) {
   const double total = Length(p);
-  const auto n = static_cast<std::size_t>(std::max(1.0, std::floor(total / kMinShapeStep_m)));
+  const auto n = static_cast<std::size_t>(std::max(1.0, std::floor(total / min_step)));
   Polyline out = {p.front()};
   std::size_t i = 1;
   double run = 0;  // length of p up to p[i - 1]
@@ -104,11 +103,12 @@ std::string Num(double v) {
   return s;
 }
 
-std::string Shape(const Polyline& p) {
+// The polyline in SUMO's coordinates: the map's times `scale`.
+std::string Shape(const Polyline& p, double scale) {
   std::string out;
   for (const Vec& v : p) {
     if (!out.empty()) out += ' ';
-    out += Num(v.x()) + "," + Num(v.y());
+    out += Num(v.x() * scale) + "," + Num(v.y() * scale);
   }
   return out;
 }
@@ -200,6 +200,16 @@ class Exporter {
  public:
   Exporter(const Map& map, const SumoOptions& options) : map_(map), o_(options) {}
 
+  // The shortest step between shape points, in lab metres: 0.115 SUMO metres (above SUMO's
+  // POSITION_EPS, 0.1 m), but no finer than 1 cm of the lab (the map's own sampling).
+  [[nodiscard]] double ShapeStep() const { return std::max(0.115 / o_.scale, 0.01); }
+  [[nodiscard]] Polyline Resample(const Polyline& p) const {
+    return maps::Resample(p, ShapeStep());
+  }
+  [[nodiscard]] std::string Shape(const Polyline& p) const { return maps::Shape(p, o_.scale); }
+  // A length, speed or acceleration of the lab in SUMO's frame.
+  [[nodiscard]] std::string Scaled(double lab) const { return Num(lab * o_.scale); }
+
   SumoExport Run(const fs::path& dir) {
     o_.Validate();
     MakeJunctions();
@@ -212,13 +222,16 @@ class Exporter {
     out_.net_file = dir / (stem + ".net.xml");
     out_.vtype_file = dir / (stem + ".vtypes.xml");
     out_.log_file = dir / (stem + ".netconvert.log");
+    out_.config_file = dir / (stem + ".sumocfg");
     out_.vehicle_type = o_.vehicle_type.id;
+    out_.scale = o_.scale;
     WriteFile(out_.node_file, NodesXml());
     WriteFile(out_.edge_file, EdgesXml());
     WriteFile(out_.connection_file, ConnectionsXml());
     WriteFile(out_.tll_file, TrafficLightsXml());
     WriteFile(out_.vtype_file, VehicleTypeXml());
     RunNetconvert();
+    WriteFile(out_.config_file, ConfigXml());
     return std::move(out_);
   }
 
@@ -246,7 +259,11 @@ class Exporter {
           n.tl = x.name;
           break;
         case Control::kStop:
-          n.type = "allway_stop";
+          // A traffic light too: SUMO's allway_stop lets a left turn with a waiting point inside
+          // the junction roll through without stopping, and vehicles on the crossing paths of
+          // these small boxes collide (see "Traffic lights" above).
+          n.type = "traffic_light";
+          n.tl = x.name;
           break;
         case Control::kYield:
         case Control::kUncontrolled:
@@ -378,7 +395,7 @@ class Exporter {
       sm.to = out_.lane_pieces.at(m.to).front();
       const Intersection& x = map_.intersection(m.intersection);
       sm.junction = junction_of_.at(x.id);
-      if (x.control == Control::kSignal) {
+      if (x.control == Control::kSignal || x.control == Control::kStop) {
         const auto pos = std::find(x.movements.begin(), x.movements.end(), m.id);
         AUTODRIVE_CHECK(pos != x.movements.end(),
                         "movement " << m.name << " not in its intersection");
@@ -434,9 +451,11 @@ class Exporter {
     internal::AppendComment(doc, " written by autodrive::maps::ExportSumo ");
     pugi::xml_node root = internal::AppendElement(doc, "nodes");
     for (const NodeInfo& n : nodes_) {
-      pugi::xml_node node = internal::AppendElement(
-          root, "node",
-          {{"id", n.id}, {"x", Num(n.position.x())}, {"y", Num(n.position.y())}, {"type", n.type}});
+      pugi::xml_node node = internal::AppendElement(root, "node",
+                                                    {{"id", n.id},
+                                                     {"x", Scaled(n.position.x())},
+                                                     {"y", Scaled(n.position.y())},
+                                                     {"type", n.type}});
       if (!n.tl.empty()) internal::AppendAttribute(node, "tl", n.tl);
       internal::AppendAttribute(node, "shape", Shape(n.shape));
     }
@@ -453,8 +472,8 @@ class Exporter {
                                                      {"from", e.from_node},
                                                      {"to", e.to_node},
                                                      {"numLanes", std::to_string(e.lanes.size())},
-                                                     {"speed", Num(o_.speed_mps)},
-                                                     {"width", Num(map_.lane_width_m)},
+                                                     {"speed", Scaled(o_.speed_mps)},
+                                                     {"width", Scaled(map_.lane_width_m)},
                                                      {"spreadType", "center"},
                                                      {"shape", Shape(e.shape)}});
       for (std::size_t i = 0; i < e.lane_shapes.size(); ++i) {
@@ -510,7 +529,8 @@ class Exporter {
     internal::AddXmlDeclaration(doc);
     pugi::xml_node root = internal::AppendElement(doc, "tlLogics");
     for (const Intersection& x : map_.intersections) {
-      if (x.control != Control::kSignal) continue;
+      if (x.control != Control::kSignal && x.control != Control::kStop) continue;
+      const bool stop = x.control == Control::kStop;
       const std::string& id = junction_of_.at(x.id);
       pugi::xml_node logic = internal::AppendElement(
           root, "tlLogic", {{"id", id}, {"type", "static"}, {"programID", "0"}, {"offset", "0"}});
@@ -526,10 +546,11 @@ class Exporter {
           yellow += served ? 'y' : 'r';
         }
         const std::string side(1, SideLetter(a.side));
-        phase(o_.green, green, side + " green");
-        phase(o_.yellow, yellow, side + " yellow");
-        if (o_.all_red > Duration::zero()) {
-          phase(o_.all_red, std::string(x.movements.size(), 'r'), side + " all red");
+        phase(stop ? o_.stop_green : o_.green, green, side + " green");
+        phase(stop ? o_.stop_yellow : o_.yellow, yellow, side + " yellow");
+        const Duration all_red = stop ? o_.stop_all_red : o_.all_red;
+        if (all_red > Duration::zero()) {
+          phase(all_red, std::string(x.movements.size(), 'r'), side + " all red");
         }
       }
       for (std::size_t i = 0; i < x.movements.size(); ++i) {
@@ -543,25 +564,55 @@ class Exporter {
   }
 
   std::string VehicleTypeXml() const {
-    const SumoVehicleType& v = o_.vehicle_type;
     pugi::xml_document doc;
     internal::AddXmlDeclaration(doc);
-    internal::AppendElement(internal::AppendElement(doc, "additional"), "vType",
-                            {{"id", v.id},
-                             {"vClass", "passenger"},
-                             {"guiShape", "passenger"},
-                             {"length", Num(v.length_m)},
-                             {"width", Num(v.width_m)},
-                             {"height", Num(v.height_m)},
-                             {"maxSpeed", Num(v.max_speed_mps)},
-                             {"accel", Num(v.accel_mps2)},
-                             {"decel", Num(v.decel_mps2)},
-                             {"emergencyDecel", Num(v.emergency_decel_mps2)},
-                             {"apparentDecel", Num(v.decel_mps2)},
-                             {"minGap", Num(v.min_gap_m)},
-                             {"speedFactor", Num(v.speed_factor)},
-                             {"speedDev", "0"},
-                             {"sigma", Num(v.sigma)}});
+    internal::AppendComment(
+        doc, " written by autodrive::maps::ExportSumo: lab sizes x " + Num(o_.scale) + " ");
+    pugi::xml_node root = internal::AppendElement(doc, "additional");
+    std::vector<const SumoVehicleType*> types = {&o_.vehicle_type};
+    for (const SumoVehicleType& v : o_.other_vehicle_types) types.push_back(&v);
+    for (const SumoVehicleType* t : types) {
+      const SumoVehicleType& v = *t;
+      internal::AppendElement(root, "vType",
+                              {{"id", v.id},
+                               {"vClass", v.vclass},
+                               {"guiShape", v.gui_shape},
+                               {"color", v.color},
+                               {"length", Scaled(v.length_m)},
+                               {"width", Scaled(v.width_m)},
+                               {"height", Scaled(v.height_m)},
+                               {"maxSpeed", Scaled(v.max_speed_mps)},
+                               {"accel", Scaled(v.accel_mps2)},
+                               {"decel", Scaled(v.decel_mps2)},
+                               {"emergencyDecel", Scaled(v.emergency_decel_mps2)},
+                               {"apparentDecel", Scaled(v.decel_mps2)},
+                               {"minGap", Scaled(v.min_gap_m)},
+                               {"speedFactor", Num(v.speed_factor)},
+                               {"speedDev", "0"},
+                               {"sigma", Num(v.sigma)}});
+    }
+    return internal::XmlText(doc, kIndent);
+  }
+
+  // The SUMO configuration: the network, the vehicle types, and the options under which a lab's
+  // traffic runs: a vehicle is never teleported (nothing vanishes unplanned; a jam shows), and
+  // collisions are checked inside junctions too and reported, not resolved by removing cars.
+  std::string ConfigXml() const {
+    pugi::xml_document doc;
+    internal::AddXmlDeclaration(doc);
+    internal::AppendComment(doc, " written by autodrive::maps::ExportSumo; run: sumo -c " +
+                                     out_.config_file.filename().string() + " -r ROUTES.rou.xml ");
+    pugi::xml_node root = internal::AppendElement(doc, "configuration");
+    pugi::xml_node input = internal::AppendElement(root, "input");
+    internal::AppendElement(input, "net-file", {{"value", out_.net_file.filename().string()}});
+    internal::AppendElement(input, "additional-files",
+                            {{"value", out_.vtype_file.filename().string()}});
+    pugi::xml_node processing = internal::AppendElement(root, "processing");
+    internal::AppendElement(processing, "time-to-teleport", {{"value", "-1"}});
+    internal::AppendElement(processing, "collision.check-junctions", {{"value", "true"}});
+    internal::AppendElement(processing, "collision.action", {{"value", "warn"}});
+    internal::AppendElement(root, "time").append_child("step-length").append_attribute("value") =
+        "0.05";
     return internal::XmlText(doc, kIndent);
   }
 
@@ -587,11 +638,11 @@ class Exporter {
                                      "--roundabouts.guess",
                                      "false",
                                      "--default.lanewidth",
-                                     Num(map_.lane_width_m),
+                                     Scaled(map_.lane_width_m),
                                      "--default.speed",
-                                     Num(o_.speed_mps),
+                                     Scaled(o_.speed_mps),
                                      "--geometry.min-radius",
-                                     "0.05",
+                                     Scaled(0.05),
                                      "--precision",
                                      "4",
                                      "--xml-validation",
@@ -641,15 +692,32 @@ void SumoOptions::Validate() const {
   AUTODRIVE_THROW_UNLESS(positive(speed_mps),
                          "SumoOptions.speed_mps must be > 0, got " << speed_mps);
   AUTODRIVE_THROW_UNLESS(!netconvert.empty(), "SumoOptions.netconvert must not be empty");
+  AUTODRIVE_THROW_UNLESS(
+      stop_green > Duration::zero() && stop_yellow >= Duration::zero() &&
+          stop_all_red >= Duration::zero(),
+      "SumoOptions.stop_green must be > 0 s and stop_yellow, stop_all_red >= 0 s");
   AUTODRIVE_THROW_UNLESS(green > Duration::zero(),
                          "SumoOptions.green must be > 0 s, got " << ToSeconds(green) << " s");
   AUTODRIVE_THROW_UNLESS(yellow >= Duration::zero(),
                          "SumoOptions.yellow must be >= 0 s, got " << ToSeconds(yellow) << " s");
   AUTODRIVE_THROW_UNLESS(all_red >= Duration::zero(),
                          "SumoOptions.all_red must be >= 0 s, got " << ToSeconds(all_red) << " s");
-  const SumoVehicleType& v = vehicle_type;
-  AUTODRIVE_THROW_UNLESS(IsValidSumoId(v.id),
-                         "SumoOptions.vehicle_type.id \"" << v.id << "\" is not a valid SUMO id");
+  AUTODRIVE_THROW_UNLESS(positive(scale), "SumoOptions.scale must be > 0, got " << scale);
+  std::set<std::string> ids = {vehicle_type.id};
+  for (const SumoVehicleType& t : other_vehicle_types) {
+    AUTODRIVE_THROW_UNLESS(ids.insert(t.id).second,
+                           "SumoOptions: two vehicle types have the id \"" << t.id << "\"");
+  }
+  vehicle_type.Validate();
+  for (const SumoVehicleType& t : other_vehicle_types) t.Validate();
+}
+
+void SumoVehicleType::Validate() const {
+  const SumoVehicleType& v = *this;
+  const auto positive = [](double x) { return std::isfinite(x) && x > 0; };
+  AUTODRIVE_THROW_UNLESS(
+      IsValidSumoId(v.id) && IsValidSumoId(v.vclass),
+      "vehicle type id \"" << v.id << "\" or class \"" << v.vclass << "\" is not a valid SUMO id");
   const std::pair<const char*, double> dims[] = {
       {"length_m", v.length_m},        {"width_m", v.width_m},
       {"height_m", v.height_m},        {"max_speed_mps", v.max_speed_mps},
@@ -657,16 +725,42 @@ void SumoOptions::Validate() const {
       {"speed_factor", v.speed_factor}};
   for (const auto& [key, value] : dims) {
     AUTODRIVE_THROW_UNLESS(positive(value),
-                           "SumoOptions.vehicle_type." << key << " must be > 0, got " << value);
+                           "vehicle type " << v.id << ": " << key << " must be > 0, got " << value);
   }
-  AUTODRIVE_THROW_UNLESS(std::isfinite(v.min_gap_m) && v.min_gap_m >= 0,
-                         "SumoOptions.vehicle_type.min_gap_m must be >= 0, got " << v.min_gap_m);
+  AUTODRIVE_THROW_UNLESS(
+      std::isfinite(v.min_gap_m) && v.min_gap_m >= 0,
+      "vehicle type " << v.id << ": min_gap_m must be >= 0, got " << v.min_gap_m);
   AUTODRIVE_THROW_UNLESS(
       std::isfinite(v.emergency_decel_mps2) && v.emergency_decel_mps2 >= v.decel_mps2,
-      "SumoOptions.vehicle_type.emergency_decel_mps2 must be >= decel_mps2 ("
-          << v.decel_mps2 << "), got " << v.emergency_decel_mps2);
+      "vehicle type " << v.id << ": emergency_decel_mps2 must be >= decel_mps2 (" << v.decel_mps2
+                      << "), got " << v.emergency_decel_mps2);
   AUTODRIVE_THROW_UNLESS(v.sigma >= 0 && v.sigma <= 1,
-                         "SumoOptions.vehicle_type.sigma must be in [0, 1], got " << v.sigma);
+                         "vehicle type " << v.id << ": sigma must be in [0, 1], got " << v.sigma);
+}
+
+SumoVehicleType LabBus() {
+  SumoVehicleType t;
+  t.id = "bus";
+  t.vclass = "bus";
+  t.gui_shape = "bus";
+  t.length_m = 0.857;
+  t.width_m = 0.182;
+  t.height_m = 0.3;
+  t.max_speed_mps = 0.2;
+  t.accel_mps2 = 0.3;
+  t.decel_mps2 = 0.8;
+  t.emergency_decel_mps2 = 1.6;
+  t.color = "1,0.8,0";
+  return t;
+}
+
+SumoVehicleType LabEmergencyVehicle() {
+  SumoVehicleType t;
+  t.id = "emergency";
+  t.vclass = "emergency";
+  t.gui_shape = "emergency";
+  t.color = "1,0,0";
+  return t;
 }
 
 SumoExport ExportSumo(const Map& map, const std::string& out_dir, const SumoOptions& options) {

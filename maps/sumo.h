@@ -19,8 +19,8 @@
 ///   straights and one-lane roads the lengths are the map's (a loop's: the sum of its halves).
 /// - **Junctions.** Each intersection is one junction at its tile centre, id its `name`
 ///   (`x_r2c3` unless the layout names it), shaped by the mouths of its arms so that the edges
-///   end on its tile edges as the lanes do. Type: `traffic_light` for signalised,
-///   `allway_stop` for stop-controlled (every approach has a stop sign),
+///   end on its tile edges as the lanes do. Type: `traffic_light` for signalised and for
+///   stop-controlled (every approach has a stop sign; see "Traffic lights"),
 ///   `right_before_left` for yield and uncontrolled (every approach yields; SUMO has no
 ///   all-way yield, and `priority` would make one road the main road, which the map does not).
 ///   Every other tile edge a road crosses is a plain `priority` junction `n_<tile>_<side>`,
@@ -34,9 +34,23 @@
 /// - **Traffic lights.** A signalised intersection's program (`tlLogic` with its junction's
 ///   id, programID "0") has link index `i` for its `i`-th movement (`Intersection::movements`
 ///   order) and serves one approach at a time: green, yellow, all red, in approach order. The
-///   smart-city manager is expected to replace it at run time through libsumo/TraCI.
+///   co-simulation (scm/traffic) replaces it at run time with the lamps the lights show.
+///   A stop-controlled intersection is a traffic light too, with short phases (`stop_green`,
+///   `stop_yellow`, `stop_all_red`) that stand in for the all-way stop when SUMO runs alone; the
+///   co-simulation runs it as an all-way stop (every vehicle stops, first come first served,
+///   never two conflicting movements in the box). SUMO's own `allway_stop` is not used: a left
+///   turn with a waiting point inside the junction rolls through it without stopping, and on
+///   these small boxes (a 1 m tile) vehicles on crossing paths collide in it (11 junction
+///   collisions in 10 minutes of 120 cars on a 4 x 4 grid of stop-controlled four-ways).
 ///
-/// Coordinates are the map frame's (metres), without netconvert's normalisation offset.
+/// **Scale.** The network is the lab's map enlarged `SumoOptions::scale` times (14 by default: a
+/// full-size city for the 1:14 lab), with speeds and accelerations enlarged alike and time
+/// unchanged, so that SUMO's built-in constants, which assume full-size traffic, hold: a vehicle
+/// under 0.1 m/s counts as halting (a Nigel crawling at 7 mm/s, not one at 38 % of its top
+/// speed), shape points closer than 0.1 m are merged (7 mm of the lab), junction radii and
+/// look-ahead distances are metres. Coordinates are the map frame's times the scale, without
+/// netconvert's normalisation offset: a SUMO position divided by the scale is a map position.
+/// `SumoExport::scale` says which scale a network has; `scm/traffic` maps at this boundary.
 
 #include <filesystem>
 #include <map>
@@ -58,8 +72,12 @@ inline constexpr double kPlainConnectionLength_m = 0.001;
 /// (0.318 x 0.175 x 0.257 m, top speed 0.26 m/s), with accelerations chosen for it: it reaches
 /// top speed in about half a second (accel 0.5 m/s^2) and brakes from it in a quarter of a
 /// second (decel 1 m/s^2), and keeps 5 cm to the car ahead when stopped.
+/// Sizes, speeds and accelerations are the lab's (m, m/s, m/s^2); the export multiplies them by
+/// `SumoOptions::scale`.
 struct SumoVehicleType {
   std::string id = "nigel";
+  std::string vclass = "passenger";     ///< SUMO's `vClass` (passenger, bus, emergency, ...)
+  std::string gui_shape = "passenger";  ///< how sumo-gui draws it
   double length_m = 0.318;
   double width_m = 0.175;
   double height_m = 0.257;
@@ -70,7 +88,19 @@ struct SumoVehicleType {
   double min_gap_m = 0.05;            ///< gap to the leader when standing
   double speed_factor = 1.0;          ///< multiplies lane speed limits (SUMO's `speedFactor`)
   double sigma = 0.5;                 ///< driver imperfection in [0, 1] (SUMO's default)
+  std::string color = "1,1,0";        ///< sumo-gui's colour (r,g,b in [0, 1])
+
+  /// Throws `InputError` naming the type, the field and the value when a value is out of range.
+  void Validate() const;
 };
+
+/// The lab's bus: a 12 m bus at 1:14 (0.86 x 0.18 m), slower and gentler than a Nigel.
+SumoVehicleType LabBus();
+/// The lab's emergency vehicle: a Nigel in SUMO's `emergency` class.
+SumoVehicleType LabEmergencyVehicle();
+
+/// SUMO metres per lab metre of an exported network: the lab is 1:14.
+inline constexpr double kSumoScale = 14.0;
 
 /// Parameters of the export.
 struct SumoOptions {
@@ -84,7 +114,15 @@ struct SumoOptions {
   Duration green = std::chrono::seconds(12);
   Duration yellow = std::chrono::seconds(3);
   Duration all_red = std::chrono::seconds(2);  ///< zero: no all-red phase
-  SumoVehicleType vehicle_type;
+  /// The stand-in program of a stop-controlled intersection (SUMO alone), per approach.
+  Duration stop_green = std::chrono::seconds(4);
+  Duration stop_yellow = std::chrono::seconds(2);
+  Duration stop_all_red = std::chrono::seconds(3);
+  /// SUMO metres per lab metre (see "Scale" above); 1 writes the lab's own sizes.
+  double scale = kSumoScale;
+  SumoVehicleType vehicle_type;  ///< the default type (Nigel)
+  /// Further types written beside it (ids unique): by default the bus and the emergency vehicle.
+  std::vector<SumoVehicleType> other_vehicle_types{LabBus(), LabEmergencyVehicle()};
 
   /// Throws `InputError` naming the field and the value when a value is out of range.
   void Validate() const;
@@ -105,7 +143,8 @@ struct SumoMovement {
   SumoLaneRef to;    ///< the egress lane (its first piece)
   std::string junction;
   /// The movement's link index in the junction's traffic light (its index in
-  /// `Intersection::movements`); unset when the intersection is not signalised.
+  /// `Intersection::movements`); unset when the intersection is neither signalised nor
+  /// stop-controlled.
   std::optional<int> tls_link_index;
 };
 
@@ -117,8 +156,12 @@ struct SumoExport {
   std::filesystem::path tll_file;         ///< `<name>.tll.xml` (empty `<tlLogics/>` when none)
   std::filesystem::path net_file;         ///< `<name>.net.xml`, written by netconvert
   std::filesystem::path vtype_file;       ///< `<name>.vtypes.xml`, an additional file
-  std::filesystem::path log_file;         ///< `<name>.netconvert.log`: its stdout and stderr
-  std::string vehicle_type;               ///< the vType's id
+  /// `<name>.sumocfg`: the network and the vehicle types, with the options a lab run needs
+  /// (no teleports, junction collision checks); `sumo -c` it with a route file.
+  std::filesystem::path config_file;
+  std::filesystem::path log_file;               ///< `<name>.netconvert.log`: its stdout and stderr
+  std::string vehicle_type;                     ///< the default vType's id
+  double scale = kSumoScale;                    ///< SUMO metres per lab metre
   std::vector<std::string> netconvert_command;  ///< as run
   /// Every map lane: the SUMO lane it starts on.
   std::map<LaneId, SumoLaneRef> lanes;

@@ -28,6 +28,9 @@ CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& parti
   for (const auto& name : owned.config.fleet.vehicles) vehicles.push_back(ParseVehicleName(name));
   sources.push_back(std::make_unique<IpsSource>(participant, vehicles));
   if (owned.config.fleet.eye) sources.push_back(std::make_unique<EyeSource>(participant));
+  if (owned.config.fleet.traffic) {
+    sources.push_back(std::make_unique<TrafficSource>(participant));
+  }
   (void)c;
 }
 

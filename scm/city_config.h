@@ -254,11 +254,15 @@ struct FleetConfig {
   /// The Eye's poses (`/autodrive/eye/fleet`, with headings) feed the fleet state too, and are
   /// preferred to the `ips` topics' positions.
   bool eye = false;
+  /// SUMO's background vehicles (`/autodrive/scm/traffic`, autodrive-traffic) count on the
+  /// detectors and approaches as lab cars do; they are not part of the published fleet state.
+  bool traffic = true;
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Optional("vehicles", vehicles);
     a.Optional("eye", eye);
+    a.Optional("traffic", traffic);
     a.Optional("staleness_s", staleness_s,
                config::Range<nanoseconds>{std::chrono::milliseconds(10), std::chrono::minutes(1)});
   }
@@ -341,6 +345,8 @@ struct CityConfig {
   std::optional<config::ForeignSection> sim;
   /// The Eye's section (eye/eye_config.h): carried, not read, by the SCM.
   std::optional<config::ForeignSection> eye;
+  /// SUMO co-simulation's section (scm/traffic/traffic_config.h): carried, not read, by the SCM.
+  std::optional<config::ForeignSection> traffic;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -355,6 +361,7 @@ struct CityConfig {
     a.Optional("operators", operators);
     a.Optional("sim", sim);
     a.Optional("eye", eye);
+    a.Optional("traffic", traffic);
   }
   bool operator==(const CityConfig&) const = default;
 };

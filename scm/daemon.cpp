@@ -445,6 +445,7 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
                          *bundle->supervisor,
                          *publishers,
                          *bundle->lights,
+                         *bundle->fleet,
                          *persistence,
                          *this,
                          *control,
@@ -515,7 +516,11 @@ void Scm::Impl::Pass() {
   loader->RunCompletions();
   const DayClock day = DayAt(now.wire);
   CityBundle& c = *bundle;  // a configuration applied by a completion above is in place
-  for (auto& source : c.sources) source->Poll(now, *c.fleet);
+  for (auto& source : c.sources) {
+    const std::uint64_t malformed = source->malformed();
+    counters.fleet_observations += source->Poll(now, *c.fleet);
+    figures.malformed_inputs += source->malformed() - malformed;
+  }
   TakeDeviceStatuses(now);
   HandleOperatorRequests(now, day);
   HandleSignalRequests(now, day);
@@ -542,7 +547,13 @@ void Scm::Impl::Pass() {
 
 MonoTime Scm::Impl::NextDeadline() const {
   MonoTime next = std::min({next_spat, next_tick, next_housekeeping});
-  next = std::min(next, bundle->runtime->next_wake());
+  // A controller due at or before the pass just run was stepped by it. One that is due again
+  // at once asks to be stepped on every pass (a call on its green phase keeps its gap timer
+  // running, `IntersectionController::next_wake`): the next tick does that. Waking for it at
+  // once would spin the loop for as long as a car stands on a green phase's detector.
+  if (const MonoTime wake = bundle->runtime->next_wake(); wake > current.mono) {
+    next = std::min(next, wake);
+  }
   next = std::min(next, bundle->supervisor->next_deadline());
   return next;
 }

@@ -58,6 +58,8 @@ struct ScmCounters {
   std::uint64_t events_dropped = 0;
   std::uint64_t foreign_devices = 0;
   std::uint64_t clock_sessions = 0;  ///< new sessions of the control timeline seen
+  /// Observations the fleet's sources recorded (lab vehicles and background traffic objects).
+  std::uint64_t fleet_observations = 0;
 };
 
 /// The daemon. Not copyable or movable. `Run` blocks until `Stop`; `Pass` is for tests that

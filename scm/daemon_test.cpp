@@ -1,7 +1,8 @@
 // The daemon in-process, pass by pass, on clocks the test controls: a wall clock stepped by
 // +-5 s during a yellow and a red clearance, a simulated clock that restarts, the loop's
-// allocations in steady state, the ips fleet source, and requests that come while SPaT is due. Real
-// DDS (its own partition) and a real SQLite database in the test's temporary folder.
+// allocations in steady state (with 5,000 background vehicles too), the ips fleet source, SUMO's
+// background traffic on actuated detectors, and requests that come while SPaT is due. Real DDS
+// (its own partition) and a real SQLite database in the test's temporary folder.
 #include "scm/daemon.h"
 
 #include <gmock/gmock.h>
@@ -12,10 +13,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <new>
 #include <set>
 
 #include "autodrive_msgs/msg/SignalGroupState.h"
+#include "autodrive_msgs/msg/TrafficObject.h"
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
@@ -66,13 +69,24 @@ class DaemonTest : public ::testing::Test {
   void TearDown() override { std::filesystem::remove_all(dir_); }
 
   /// The Driving School city without waiting for lights (no light host in these tests), written
-  /// into the test's folder with its map path made absolute.
-  std::filesystem::path DrivingSchoolWithoutLights(const std::string& extra = "") const {
+  /// into the test's folder with its map path made absolute. `actuated`: its actuated plan
+  /// (evening) all day.
+  std::filesystem::path DrivingSchoolWithoutLights(const std::string& extra = "",
+                                                   bool actuated = false) const {
     std::string text =
         config::internal::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
     const std::string map =
         (test::SourceDir() / "config/maps/driving_school.yaml").lexically_normal().string();
     text.replace(text.find("map: ../maps/driving_school.yaml"), 32, "map: " + map);
+    if (actuated) {
+      const std::string schedule =
+          "      - {at: \"06:00\", plan: day}\n      - {at: \"19:00\", plan: evening}\n";
+      const auto at = text.find(schedule);
+      EXPECT_NE(at, std::string::npos) << "the Driving School's schedule changed";
+      if (at != std::string::npos) {
+        text.replace(at, schedule.size(), "      - {at: \"00:00\", plan: evening}\n");
+      }
+    }
     text += "\ndevices: {wait_for_lights: false}\n" + extra;
     const auto path = dir_ / "city.yaml";
     std::ofstream(path) << text;
@@ -232,6 +246,174 @@ TEST_F(DaemonTest, SteadyStatePassesAllocateNothing) {
   EXPECT_EQ(g_allocations.load(), 0u) << "allocations in " << passes << " passes";
   EXPECT_GE(scm.counters().spat_published - spats_before, 590u);
   EXPECT_GT(scm.counters().controller_steps, steps_before) << "the phases did change";
+}
+
+/// The centre of a background car `before_m` before the end of `lane`'s centreline.
+Eigen::Vector2d BeforeEnd(const maps::Lane& lane, double before_m) {
+  double left = before_m;
+  for (std::size_t i = lane.centreline.size() - 1; i > 0; --i) {
+    const Eigen::Vector2d a = lane.centreline[i - 1];
+    const Eigen::Vector2d b = lane.centreline[i];
+    const double length = (b - a).norm();
+    if (left <= length) return b + (a - b) * (left / length);
+    left -= length;
+  }
+  return lane.centreline.front();
+}
+
+/// Fills `m` as autodrive-traffic would: `cars` (id, then lane name and centre) of 0.25 x
+/// 0.12 m, stamped `stamp`.
+void FillTraffic(
+    dds::Message<msg::TrafficObjects>& m, Time stamp,
+    const std::vector<std::pair<std::string, std::pair<std::string, Eigen::Vector2d>>>& cars) {
+  m->header.stamp = dds::ToMsg(stamp);
+  dds::UpdateString(m->header.frame_id, "map");
+  dds::ResizeSequence(m->objects, static_cast<std::uint32_t>(cars.size()));
+  for (std::size_t i = 0; i < cars.size(); ++i) {
+    auto& o = dds::Elements(m->objects)[i];
+    dds::UpdateString(o.object_id, cars[i].first);
+    o.object_class = autodrive_msgs_msg_TrafficObject_Constants_CAR;
+    o.pose.position.x = cars[i].second.second.x();
+    o.pose.position.y = cars[i].second.second.y();
+    o.pose.orientation.w = 1.0;
+    o.size.x = 0.25;
+    o.size.y = 0.12;
+    o.size.z = 0.1;
+    dds::UpdateString(o.map_lane_id, cars[i].second.first);
+  }
+}
+
+TEST_F(DaemonTest, BackgroundCarsCallTheirPhaseOnlyFromItsZoneAndOnlyWhileFresh) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  Scm scm(Options(DrivingSchoolWithoutLights("", /*actuated=*/true)), clock, *participant_);
+  const auto& map = scm.city().map;
+  const maps::Intersection& crossing = map.intersections.at(0);
+  // Groups 1..4 serve east, north, west and south (the approaches' order in the map).
+  const auto ingress = [&](std::size_t a) -> const maps::Lane& {
+    return map.lane(crossing.approaches.at(a).ingress.at(0));
+  };
+  const auto egress = [&](std::size_t a) -> const maps::Lane& {
+    return map.lane(crossing.approaches.at(a).egress.at(0));
+  };
+  const auto& x = scm.runtime().intersections().at(0);
+  ASSERT_EQ(x.controller->plan().type, PlanType::kActuated);
+  ASSERT_EQ(x.controller->plan().detectors.size(), 4u);
+  const auto aspect = [&](std::size_t g) { return x.last_aspects.at(g); };
+  dds::Writer<msg::TrafficObjects> traffic(*participant_, dds::topics::Traffic());
+  ASSERT_TRUE(traffic.WaitForReaders(1, seconds(10)));
+  dds::Message<msg::TrafficObjects> m;
+  using Cars = std::vector<std::pair<std::string, std::pair<std::string, Eigen::Vector2d>>>;
+  // Passes for `d` of test time, publishing `cars` every 100 ms as autodrive-traffic does (each
+  // acknowledged, so in the SCM's reader before the next pass); stops early when `until` holds.
+  MonoTime last_message{};
+  const auto run = [&](Duration d, const Cars& cars, const std::function<bool()>& until = {}) {
+    const MonoTime end = time.mono() + d;
+    MonoTime next_message = time.mono();
+    while (time.mono() < end) {
+      if (time.mono() >= next_message) {
+        FillTraffic(m, clock.Read().wire, cars);
+        traffic.Write(m);
+        EXPECT_TRUE(traffic.WaitForAcks(seconds(10)));
+        last_message = time.mono();
+        next_message += milliseconds(100);
+      }
+      time.AdvanceTo(std::min({scm.next_deadline(), time.mono() + milliseconds(20), next_message}));
+      scm.Pass();
+      if (until && until()) break;
+    }
+  };
+
+  // Through the start-up sequence to the first phase (east) resting in green: no calls.
+  run(seconds(30), {}, [&] { return x.controller->stage() == Stage::kGreen; });
+  ASSERT_EQ(aspect(0), Aspect::kGreen);
+
+  // Cars elsewhere: on the south approach's egress lane, on the south ingress lane upstream of
+  // the detector (0.6 m from the line; the car reaches 0.75 .. 1.0 m), and on another map's
+  // lane. None calls: east rests in green.
+  const std::uint64_t observed = scm.counters().fleet_observations;
+  run(seconds(20), Cars{{"leaving", {egress(3).name, BeforeEnd(egress(3), 0.5)}},
+                        {"upstream", {ingress(3).name, BeforeEnd(ingress(3), 0.875)}},
+                        {"elsewhere", {"r9c9:W>E:0", Eigen::Vector2d(0.5, 0.5)}}});
+  EXPECT_EQ(aspect(0), Aspect::kGreen) << "no call from a car outside every zone";
+  EXPECT_EQ(aspect(3), Aspect::kRed);
+  EXPECT_GE(scm.counters().fleet_observations - observed, 2u * 150u)
+      << "the SCM took the cars on its map from 200 messages";
+
+  // A car standing in the south zone calls south: east gaps out, south gets green.
+  const Cars waiting_south{{"south", {ingress(3).name, BeforeEnd(ingress(3), 0.3)}}};
+  const MonoTime called = time.mono();
+  run(seconds(15), waiting_south, [&] { return aspect(3) == Aspect::kGreen; });
+  ASSERT_EQ(aspect(3), Aspect::kGreen) << "the background car's call was served";
+  EXPECT_LT(time.mono() - called, seconds(6)) << "yellow 3 s and red clearance 2 s after it";
+  const MonoTime south_green = time.mono();
+
+  // A car on east's zone too: south is extended while its car is refreshed (beyond its min
+  // green, 5 s, and its extension, 2 s) ...
+  Cars both = waiting_south;
+  both.push_back({"east", {ingress(0).name, BeforeEnd(ingress(0), 0.2)}});
+  run(seconds(8), both);
+  EXPECT_EQ(aspect(3), Aspect::kGreen) << "extended by its own call";
+  // Stepped on every pass while the call lasts, the loop still sleeps until its next tick.
+  EXPECT_GT(scm.next_deadline(), time.mono()) << "the loop would spin";
+  // ... and gaps out once it is no longer refreshed: it stays counted while fresh (1 s), then
+  // the extension (2 s) runs out, well before max green (15 s).
+  const MonoTime last_south = last_message;  // the last message with it
+  const Cars only_east{{"east", {ingress(0).name, BeforeEnd(ingress(0), 0.2)}}};
+  run(seconds(6), only_east, [&] { return aspect(3) != Aspect::kGreen; });
+  ASSERT_EQ(aspect(3), Aspect::kYellow) << "the stale car stopped calling";
+  EXPECT_GE(time.mono() - last_south, milliseconds(2500))
+      << "not before staleness (1 s) and extension (2 s)";
+  EXPECT_LT(time.mono() - south_green, seconds(15)) << "before max green";
+  // East is served next (its car calls it).
+  run(seconds(10), only_east, [&] { return aspect(0) == Aspect::kGreen; });
+  EXPECT_EQ(aspect(0), Aspect::kGreen);
+}
+
+TEST_F(DaemonTest, FiveThousandBackgroundCarsCostTheLoopNoAllocationInSteadyState) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  Scm scm(Options(DrivingSchoolWithoutLights("", /*actuated=*/true)), clock, *participant_);
+  const auto& map = scm.city().map;
+  dds::Writer<msg::TrafficObjects> traffic(*participant_, dds::topics::Traffic());
+  ASSERT_TRUE(traffic.WaitForReaders(1, seconds(10)));
+  // 5,000 cars spread over every lane of the map in turn, some on the crossing's detectors (so
+  // its groups are called and extended, and stepped on every pass).
+  std::vector<std::pair<std::string, std::pair<std::string, Eigen::Vector2d>>> cars;
+  for (std::size_t i = 0; i < 5000; ++i) {
+    const maps::Lane& lane = map.lanes[i % map.lanes.size()];
+    cars.push_back({fmt::format("flow_{}.{}", i % 37, i),
+                    {lane.name, BeforeEnd(lane, 0.05 + 0.9 * static_cast<double>(i % 11) / 10)}});
+  }
+  dds::Message<msg::TrafficObjects> m;
+  MonoTime next_message = time.mono();
+  auto pass_to = [&](MonoTime t) {
+    if (time.mono() >= next_message) {
+      // The same cars again (new stamp): what SUMO sends while they drive on.
+      m->header.stamp = dds::ToMsg(clock.Read().wire);
+      traffic.Write(m);
+      EXPECT_TRUE(traffic.WaitForAcks(seconds(10)));
+      next_message += milliseconds(100);
+    }
+    time.AdvanceTo(std::min(t, next_message));
+    scm.Pass();
+  };
+  FillTraffic(m, clock.Read().wire, cars);
+  const MonoTime warm = time.mono() + seconds(60);
+  while (time.mono() < warm) pass_to(std::min(scm.next_deadline(), time.mono() + milliseconds(20)));
+  const std::uint64_t observed = scm.counters().fleet_observations;
+  g_allocations = 0;
+  g_count_allocations = true;
+  const MonoTime end = time.mono() + seconds(20);
+  int passes = 0;
+  while (time.mono() < end) {
+    pass_to(std::min(scm.next_deadline(), time.mono() + milliseconds(20)));
+    ++passes;
+  }
+  g_count_allocations = false;
+  EXPECT_EQ(g_allocations.load(), 0u) << "allocations in " << passes << " passes";
+  EXPECT_GE(scm.counters().fleet_observations - observed, 5000u * 190u)
+      << "the SCM took the 200 messages of 5,000 cars";
 }
 
 TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {

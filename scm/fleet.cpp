@@ -58,6 +58,47 @@ LineProjection Project(const maps::Polyline& line, const Eigen::Vector2d& p) {
   return best;
 }
 
+double Length(const maps::Polyline& line) {
+  double s = 0.0;
+  for (std::size_t i = 1; i < line.size(); ++i) s += (line[i] - line[i - 1]).norm();
+  return s;
+}
+
+// Background vehicles are placed on lanes and movements simplified to within this (m).
+constexpr double kCoarseTolerance_m = 0.001;
+
+// Douglas-Peucker: the points of line[first..last] to keep so that no point left out is
+// farther than `tolerance_m` from the simplified line; appends them after line[first].
+void Simplify(const maps::Polyline& line, std::size_t first, std::size_t last, double tolerance_m,
+              maps::Polyline& out) {
+  const Eigen::Vector2d a = line[first];
+  const Eigen::Vector2d ab = line[last] - a;
+  const double length2 = ab.squaredNorm();
+  double worst = -1.0;
+  std::size_t worst_i = first;
+  for (std::size_t i = first + 1; i < last; ++i) {
+    const double t = length2 > 0 ? std::clamp((line[i] - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+    const double d = (a + t * ab - line[i]).norm();
+    if (d > worst) {
+      worst = d;
+      worst_i = i;
+    }
+  }
+  if (worst > tolerance_m) {
+    Simplify(line, first, worst_i, tolerance_m, out);
+    Simplify(line, worst_i, last, tolerance_m, out);
+  } else {
+    out.push_back(line[last]);
+  }
+}
+
+maps::Polyline Simplified(const maps::Polyline& line, double tolerance_m) {
+  if (line.size() < 3) return line;
+  maps::Polyline out{line.front()};
+  Simplify(line, 0, line.size() - 1, tolerance_m, out);
+  return out;
+}
+
 }  // namespace
 
 std::string_view ToString(PoseSource source) {
@@ -96,13 +137,41 @@ FleetRegistry::FleetRegistry(const maps::Map& map, FleetRegistryParams params)
     max_reach_m_ = std::max(max_reach_m_, reach);
   }
   box_of_tile_.assign(static_cast<std::size_t>(map_.rows * map_.cols), nullptr);
-  ingress_approach_.resize(map_.lanes.size());
   for (const auto& x : map_.intersections) {
     box_of_tile_[static_cast<std::size_t>(x.tile.row * map_.cols + x.tile.col)] = &x;
-    for (const auto& a : x.approaches) {
-      for (const LaneId l : a.ingress) ingress_approach_[l.value() - 1] = a.id;
-    }
   }
+  places_.reserve(map_.lanes.size() + map_.movements.size());
+  for (const auto& lane : map_.lanes) {
+    Place p;
+    p.line = Simplified(lane.centreline, kCoarseTolerance_m);
+    p.length_m = Length(p.line);
+    p.lane = lane.id;
+    if (lane.ingress_of && lane.ingress_approach) {
+      p.intersection = lane.ingress_of;
+      p.approach = *lane.ingress_approach;
+    }
+    places_.push_back(std::move(p));
+  }
+  for (const auto& mv : map_.movements) {
+    Place p;
+    p.line = Simplified(mv.path, kCoarseTolerance_m);
+    p.length_m = Length(p.line);
+    p.lane = mv.from;
+    p.intersection = mv.intersection;
+    p.approach = mv.from_approach;
+    p.movement = true;
+    places_.push_back(std::move(p));
+  }
+  place_of_name_.reserve(places_.size());
+  for (std::size_t i = 0; i < map_.lanes.size(); ++i) {
+    place_of_name_.emplace(map_.lanes[i].name, static_cast<std::uint32_t>(i));
+  }
+  for (std::size_t i = 0; i < map_.movements.size(); ++i) {
+    place_of_name_.emplace(map_.movements[i].name,
+                           static_cast<std::uint32_t>(map_.lanes.size() + i));
+  }
+  lane_first_.assign(map_.lanes.size() + 1, 0);
+  lane_fill_.assign(map_.lanes.size(), 0);
 }
 
 bool FleetRegistry::HeadingFits(const Eigen::Vector2d& tangent,
@@ -192,9 +261,9 @@ VehicleLocation FleetRegistry::Locate(const RigidTransform2& X_MV, bool heading_
   if (!match) return loc;
   const maps::Lane& lane = map_.lane(match->first);
   loc.lane = lane.id;
-  if (lane.ingress_of && ingress_approach_[lane.id.value() - 1]) {
+  if (lane.ingress_of && lane.ingress_approach) {
     loc.intersection = lane.ingress_of;
-    loc.approach = ingress_approach_[lane.id.value() - 1];
+    loc.approach = lane.ingress_approach;
     loc.distance_to_stop_line_m = lane.length_m - match->second;
   }
   return loc;
@@ -231,8 +300,7 @@ bool FleetRegistry::Observe(const VehicleObservation& o) {
 }
 
 bool FleetRegistry::Fresh(const VehicleObservation& o, Time now) const {
-  const Duration age = now - o.observed;
-  return age <= params_.staleness && -age <= params_.staleness;
+  return FreshAt(o.observed, now);
 }
 
 template <typename F>
@@ -323,13 +391,155 @@ bool FleetRegistry::Occupied(const DetectorZone& zone, Time now) const {
     const double d = *loc.distance_to_stop_line_m;
     if (d >= zone.from_stop_line_m && d <= zone.to_stop_line_m) occupied = true;
   });
-  return occupied;
+  if (occupied) return true;
+  const std::size_t l = zone.lane.value();
+  for (std::uint32_t i = lane_first_[l - 1]; i < lane_first_[l]; ++i) {
+    const ZoneEntry& z = zone_entries_[i];
+    if (z.nearest_m <= zone.to_stop_line_m && z.farthest_m >= zone.from_stop_line_m &&
+        FreshAt(z.observed, now)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+std::optional<std::uint32_t> FleetRegistry::FindPlace(std::string_view name) const {
+  const auto it = place_of_name_.find(name);
+  if (it == place_of_name_.end()) return std::nullopt;
+  return it->second;
+}
+
+void FleetRegistry::PlaceBackground(const TrafficObservation& o, std::uint32_t place,
+                                    Background& b) const {
+  const Place& p = places_[place];
+  b.place = place;
+  b.half_length_m = o.length_m / 2;
+  b.distance_to_stop_line_m = 0.0;
+  if (!p.intersection) return;  // a lane that enters no intersection: no stop line
+  const double along = Project(p.line, o.p_MC).along_m;
+  b.distance_to_stop_line_m = p.movement ? -along : p.length_m - along;
+}
+
+TrafficUpdate FleetRegistry::ObserveTraffic(Time observed,
+                                            std::span<const TrafficObservation> objects) {
+  TrafficUpdate u;
+  std::lock_guard lock(mutex_);
+  for (const TrafficObservation& o : objects) {
+    if (o.id.empty() || o.id.size() > kMaxTrafficIdBytes || !o.p_MC.allFinite() ||
+        !std::isfinite(o.length_m) || o.length_m < 0) {
+      ++u.refused;
+      continue;
+    }
+    const auto it = background_.find(o.id);
+    if (it == background_.end()) {
+      const auto place = FindPlace(o.map_lane);
+      if (!place) {
+        ++u.elsewhere;
+        continue;
+      }
+      if (background_.size() >= kMaxTrafficVehicles) {
+        ++u.refused;
+        continue;
+      }
+      Background& b = background_.emplace(std::string(o.id), Background{}).first->second;
+      b.observed = observed;
+      b.place_name = o.map_lane;
+      PlaceBackground(o, *place, b);
+      ++u.recorded;
+      continue;
+    }
+    Background& b = it->second;
+    if (observed < b.observed && b.observed - observed <= params_.staleness) {
+      ++u.ignored;
+      continue;
+    }
+    // Still on the same lane or movement (the common case): no lookup.
+    std::optional<std::uint32_t> place = b.place;
+    if (o.map_lane != b.place_name) {
+      place = FindPlace(o.map_lane);
+      if (!place) {
+        // It left this map (or every lane): its newest observation says it is not here.
+        background_.erase(it);
+        ++u.elsewhere;
+        continue;
+      }
+      b.place_name = o.map_lane;
+    }
+    b.observed = observed;
+    PlaceBackground(o, *place, b);
+    ++u.recorded;
+  }
+  u.dropped = DropStaleBackground(observed);
+  IndexBackground();
+  return u;
+}
+
+bool FleetRegistry::FreshAt(Time observed, Time now) const {
+  const Duration age = now - observed;
+  return age <= params_.staleness && -age <= params_.staleness;
+}
+
+std::size_t FleetRegistry::DropStaleBackground(Time now) {
+  return std::erase_if(background_,
+                       [&](const auto& kv) { return !FreshAt(kv.second.observed, now); });
+}
+
+void FleetRegistry::IndexBackground() {
+  // A counting sort by lane: counts, then starts, then fill.
+  std::fill(lane_first_.begin(), lane_first_.end(), 0);
+  for (const auto& [id, b] : background_) {
+    const Place& p = places_[b.place];
+    if (p.intersection) ++lane_first_[p.lane.value()];
+  }
+  for (std::size_t l = 1; l < lane_first_.size(); ++l) lane_first_[l] += lane_first_[l - 1];
+  zone_entries_.resize(lane_first_.back());
+  std::copy(lane_first_.begin(), lane_first_.end() - 1, lane_fill_.begin());
+  for (const auto& [id, b] : background_) {
+    const Place& p = places_[b.place];
+    if (!p.intersection) continue;
+    zone_entries_[lane_fill_[p.lane.value() - 1]++] =
+        ZoneEntry{b.distance_to_stop_line_m - b.half_length_m,
+                  b.distance_to_stop_line_m + b.half_length_m, b.observed};
+  }
+}
+
+std::size_t FleetRegistry::BackgroundVehicles(Time now) const {
+  std::lock_guard lock(mutex_);
+  return static_cast<std::size_t>(
+      std::count_if(background_.begin(), background_.end(),
+                    [&](const auto& kv) { return FreshAt(kv.second.observed, now); }));
+}
+
+std::vector<ApproachCount> FleetRegistry::ApproachCounts(IntersectionId x, Time now) const {
+  std::vector<ApproachCount> out;
+  if (x.value() < 1 || x.value() > map_.intersections.size()) return out;
+  for (const auto& a : map_.intersection(x).approaches) out.push_back({a.id, 0, 0});
+  const auto slot = [&](ApproachId a) -> ApproachCount* {
+    for (auto& c : out) {
+      if (c.approach == a) return &c;
+    }
+    return nullptr;
+  };
+  std::lock_guard lock(mutex_);
+  ForEachChosen(now, [&](const Entry& e) {
+    if (e.location.intersection != x || !e.location.approach) return;
+    if (ApproachCount* c = slot(*e.location.approach)) ++c->lab;
+  });
+  for (const auto& [id, b] : background_) {
+    const Place& p = places_[b.place];
+    if (p.intersection != x || !FreshAt(b.observed, now)) continue;
+    if (ApproachCount* c = slot(p.approach)) ++c->background;
+  }
+  return out;
 }
 
 std::size_t FleetRegistry::DropStale(Time now) {
   std::lock_guard lock(mutex_);
-  return std::erase_if(entries_,
-                       [&](const auto& kv) { return !Fresh(kv.second.observation, now); });
+  const std::size_t lab =
+      std::erase_if(entries_, [&](const auto& kv) { return !Fresh(kv.second.observation, now); });
+  const std::size_t background = DropStaleBackground(now);
+  if (background > 0) IndexBackground();
+  return lab + background;
 }
 
 }  // namespace autodrive::scm

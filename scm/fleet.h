@@ -2,13 +2,19 @@
 /// @file
 /// The fleet registry: the latest observation of every vehicle, located on the map (lane,
 /// intersection, approach, distance to the stop line), published as `/autodrive/scm/fleet` and
-/// queried by actuated signal control ("is a car waiting in this detector zone?").
+/// queried by actuated signal control ("is a car waiting in this detector zone?"). Beside the
+/// lab's fleet it keeps the background traffic (SUMO's vehicles), which detectors see as they
+/// see lab cars but which is not published as part of the fleet.
 
 #include <array>
 #include <cstdint>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "common/config.h"
@@ -80,6 +86,36 @@ struct VehicleLocation {
 struct FleetVehicle {
   VehicleObservation observation;
   VehicleLocation location;
+};
+
+/// One background vehicle (SUMO's, from `/autodrive/scm/traffic`) as its source hands it to the
+/// registry. The views point into the message: valid for the call only.
+struct TrafficObservation {
+  std::string_view id;  ///< the traffic simulation's id, unique among its vehicles
+  /// The name of the map lane it is on ("r2c3:W>E:0") or of the movement it follows inside an
+  /// intersection ("r2c3:S>W:0>0"); empty when on neither.
+  std::string_view map_lane;
+  /// The centre of its footprint in the map frame M (m).
+  Eigen::Vector2d p_MC = Eigen::Vector2d::Zero();
+  double length_m = 0.0;  ///< its footprint's length along its direction of travel
+};
+
+/// What `FleetRegistry::ObserveTraffic` did with a batch.
+struct TrafficUpdate {
+  std::size_t recorded = 0;   ///< on a lane or movement of this map, recorded
+  std::size_t elsewhere = 0;  ///< on no lane or movement of this map (empty or unknown name)
+  std::size_t ignored = 0;    ///< older than what is recorded of the same vehicle
+  std::size_t refused = 0;    ///< malformed (see `ObserveTraffic`) or beyond the capacity
+  std::size_t dropped = 0;    ///< forgotten as stale
+};
+
+/// How many vehicles are on one approach of an intersection: on its ingress lanes or inside the
+/// box on a movement from it.
+struct ApproachCount {
+  ApproachId approach{0};
+  std::size_t lab = 0;         ///< the lab's fleet (as in `Vehicles`)
+  std::size_t background = 0;  ///< background traffic
+  bool operator==(const ApproachCount&) const = default;
 };
 
 /// A detection zone of actuated control: a stretch of `lane` between `from_stop_line_m` and
@@ -154,14 +190,47 @@ class FleetRegistry {
   void StateInto(Time now, FleetStateMessage& m) const;
 
   /// True when a fresh vehicle (as in `Vehicles`) is on `zone.lane` with its distance to the
-  /// stop line in [`zone.from_stop_line_m`, `zone.to_stop_line_m`]. A vehicle's origin is
-  /// what counts: widen the zone by half a car length to detect any part of a car.
+  /// stop line in [`zone.from_stop_line_m`, `zone.to_stop_line_m`], or when a fresh background
+  /// vehicle's footprint on `zone.lane` (or on a movement from it) reaches into that range. A
+  /// lab vehicle's origin is what counts (its length is not known): widen the zone by half a
+  /// car length to detect any part of a car. Costs the lab vehicles plus the background
+  /// vehicles on that lane; allocates nothing.
   /// @throws InputError when the lane is not in the map or is not an ingress lane, or when the
   ///   zone's range is empty or not finite.
   [[nodiscard]] bool Occupied(const DetectorZone& zone, Time now) const;
 
-  /// Forgets observations that are stale at `now`. Returns how many were forgotten.
+  /// Records background traffic observed at `observed` (the traffic simulation's step, in the
+  /// system's clock). Each vehicle is placed by its `map_lane` name: on a lane, its distance
+  /// to the lane's stop line when the lane enters an intersection; on a movement, the ingress
+  /// lane the movement starts from with a negative distance (past the line), as `Locate` does.
+  /// A vehicle whose name is on no lane or movement of this map is not recorded, and one
+  /// recorded before is forgotten (it left this map). A vehicle named in an earlier batch and
+  /// not in this one stays until it is stale (as lab vehicles do); one whose stored
+  /// observation is newer by at most `staleness` is left alone (out of order), and a newer one
+  /// by more is replaced (a restarted simulation). Vehicles stale at `observed` are forgotten.
+  /// Refused and counted, never thrown: an empty id or one longer than `kMaxTrafficIdBytes`, a
+  /// position or length that is not finite, a negative length, and new vehicles beyond
+  /// `kMaxTrafficVehicles`. Allocates only for vehicles it has not seen before (and for a lane
+  /// name longer than any the vehicle had). Thread-safe; holds the registry's lock for the
+  /// batch (about 0.4 ms for 5,000 vehicles).
+  TrafficUpdate ObserveTraffic(Time observed, std::span<const TrafficObservation> objects);
+
+  /// Background vehicles on this map that are fresh at `now` (as in `Vehicles`).
+  [[nodiscard]] std::size_t BackgroundVehicles(Time now) const;
+
+  /// For each approach of intersection `x` (in the map's order), the fresh vehicles on it, lab
+  /// and background. Empty when `x` is not an intersection of the map.
+  [[nodiscard]] std::vector<ApproachCount> ApproachCounts(IntersectionId x, Time now) const;
+
+  /// Forgets observations, of lab and background vehicles, that are stale at `now`. Returns
+  /// how many were forgotten.
   std::size_t DropStale(Time now);
+
+  /// Background vehicles a registry keeps at most: a batch's vehicles beyond it are refused
+  /// (the traffic topic comes from the network and must not grow the SCM without bound).
+  static constexpr std::size_t kMaxTrafficVehicles = 65'536;
+  /// The longest background vehicle id taken, bytes.
+  static constexpr std::size_t kMaxTrafficIdBytes = 256;
 
   /// The parameters.
   [[nodiscard]] const FleetRegistryParams& params() const { return params_; }
@@ -171,7 +240,44 @@ class FleetRegistry {
     VehicleObservation observation;
     VehicleLocation location;
   };
+  // A lane or movement as background vehicles are placed on it by name.
+  struct Place {
+    // Its centreline or path within 1 mm: a few segments where the map has fifty, so that
+    // thousands of vehicles a message are placed quickly.
+    maps::Polyline line;
+    double length_m = 0.0;  // of `line`
+    LaneId lane{0};         // the lane, or the ingress lane the movement starts from
+    // An ingress lane: the intersection it enters and by which approach; a movement: the one
+    // it crosses and the approach it comes from. Nothing for other lanes.
+    std::optional<IntersectionId> intersection;
+    ApproachId approach{0};
+    bool movement = false;  // distances to the stop line are negative along it
+  };
+  // A background vehicle: where it is and when it was seen.
+  struct Background {
+    Time observed{};
+    std::string place_name;   // the name it was placed by: while it stays, no lookup
+    std::uint32_t place = 0;  // index into `places_`
+    // With the place's intersection: from its centre to the stop line (negative past it).
+    double distance_to_stop_line_m = 0.0;
+    double half_length_m = 0.0;
+  };
+  // A background vehicle in the per-lane index that `Occupied` reads: its footprint's extent
+  // as distances to the stop line.
+  struct ZoneEntry {
+    double nearest_m = 0.0;   // its front
+    double farthest_m = 0.0;  // its back
+    Time observed{};
+  };
+  struct StringHash {
+    using is_transparent = void;
+    std::size_t operator()(std::string_view s) const noexcept {
+      return std::hash<std::string_view>{}(s);
+    }
+  };
   [[nodiscard]] bool Fresh(const VehicleObservation& o, Time now) const;
+  // Observed within `staleness` of `now`, either side.
+  [[nodiscard]] bool FreshAt(Time observed, Time now) const;
   // Heading compatible; any heading fits when `yaw_rad` is nothing (unknown heading).
   [[nodiscard]] bool HeadingFits(const Eigen::Vector2d& tangent,
                                  std::optional<double> yaw_rad) const;
@@ -184,6 +290,15 @@ class FleetRegistry {
   void ForEachChosen(Time now, F&& f) const;
   [[nodiscard]] const maps::Intersection* BoxAt(const Eigen::Vector2d& p) const;
   [[nodiscard]] std::vector<const Entry*> Chosen(Time now) const;
+  // The index into `places_` of the lane or movement called `name`, or nothing.
+  [[nodiscard]] std::optional<std::uint32_t> FindPlace(std::string_view name) const;
+  // Places `b` at `o`'s centre on place `place`.
+  void PlaceBackground(const TrafficObservation& o, std::uint32_t place, Background& b) const;
+  // Rebuilds the per-lane index from `background_`. Caller holds the lock. Allocates nothing
+  // once the index has grown to the number of vehicles.
+  void IndexBackground();
+  // Forgets background vehicles stale at `now`. Caller holds the lock.
+  std::size_t DropStaleBackground(Time now);
 
   const maps::Map& map_;
   const FleetRegistryParams params_;
@@ -191,11 +306,17 @@ class FleetRegistry {
   std::vector<Eigen::AlignedBox2d> lane_boxes_;  // per lane: centreline box, grown by the reach
   double max_reach_m_ = 0.0;                     // the largest lane half-width plus margin
   std::vector<const maps::Intersection*> box_of_tile_;  // row-major; null where none
-  // Per lane: the approach it enters its intersection by. Not `Lane::approach`, which a lane
-  // that leaves one intersection and enters the next has only one of.
-  std::vector<std::optional<ApproachId>> ingress_approach_;
+  // Lanes (by id) then movements (by id); indices by name (views of the map's names).
+  std::vector<Place> places_;
+  std::unordered_map<std::string_view, std::uint32_t> place_of_name_;
   mutable std::mutex mutex_;
   std::map<std::pair<VehicleId, PoseSource>, Entry> entries_;
+  std::unordered_map<std::string, Background, StringHash, std::equal_to<>> background_;
+  // The background vehicles with a distance to a stop line, by lane: those on lane id l are
+  // zone_entries_[lane_first_[l - 1], lane_first_[l]).
+  std::vector<std::uint32_t> lane_first_;
+  std::vector<std::uint32_t> lane_fill_;
+  std::vector<ZoneEntry> zone_entries_;
 };
 
 }  // namespace autodrive::scm

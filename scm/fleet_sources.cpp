@@ -78,4 +78,33 @@ std::size_t EyeSource::Poll(const ClockReading& /*now*/, FleetRegistry& fleet) {
   return recorded;
 }
 
+TrafficSource::TrafficSource(const dds::Participant& participant)
+    : reader_(participant, dds::topics::Traffic()) {}
+
+std::size_t TrafficSource::Poll(const ClockReading& /*now*/, FleetRegistry& fleet) {
+  std::size_t recorded = 0;
+  while (reader_.TakeOne(sample_)) {
+    const auto objects = dds::Elements(sample_->objects);
+    batch_.clear();
+    batch_.reserve(objects.size());
+    for (const auto& o : objects) {
+      batch_.push_back(TrafficObservation{dds::View(o.object_id), dds::View(o.map_lane_id),
+                                          Eigen::Vector2d(o.pose.position.x, o.pose.position.y),
+                                          o.size.x});
+    }
+    const TrafficUpdate u = fleet.ObserveTraffic(dds::FromMsg(sample_->header.stamp), batch_);
+    recorded += u.recorded;
+    if (u.refused > 0) {
+      if (malformed_ == 0 || malformed_ / 1000 != (malformed_ + u.refused) / 1000) {
+        spdlog::warn(
+            "traffic: {} of {} objects refused (an empty or overlong id, a position or "
+            "length that is not finite, or more than {} vehicles)",
+            u.refused, objects.size(), FleetRegistry::kMaxTrafficVehicles);
+      }
+      malformed_ += u.refused;
+    }
+  }
+  return recorded;
+}
+
 }  // namespace autodrive::scm

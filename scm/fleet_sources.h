@@ -1,8 +1,8 @@
 #pragma once
 /// @file
 /// Where the fleet registry's observations come from. Each source takes what arrived on its
-/// topics and records it: the devkit's `ips` topics today; the Eye's poses and SUMO's traffic
-/// plug in beside it as further sources.
+/// topics and records it: the devkit's `ips` topics, the Eye's poses, and SUMO's background
+/// traffic.
 
 #include <cstdint>
 #include <memory>
@@ -32,7 +32,7 @@ class ObservationSource {
   virtual std::size_t Poll(const ClockReading& now, FleetRegistry& fleet) = 0;
   /// "ips", "eye", ...
   [[nodiscard]] virtual std::string_view name() const = 0;
-  /// Samples refused as malformed (not finite, out of range).
+  /// Samples (or objects of a sample) refused as malformed (not finite, out of range).
   [[nodiscard]] virtual std::uint64_t malformed() const = 0;
 };
 
@@ -76,6 +76,25 @@ class EyeSource final : public ObservationSource {
  private:
   dds::Reader<msg::FleetState> reader_;
   dds::Message<msg::FleetState> sample_;
+  std::uint64_t malformed_ = 0;
+};
+
+/// The background traffic from `/autodrive/scm/traffic` (autodrive-traffic: SUMO's vehicles,
+/// thousands per message at 10-20 Hz), recorded with `FleetRegistry::ObserveTraffic` at the
+/// message's stamp. Keeps the newest message only (keep-last 1): a loop that falls behind skips
+/// to it. Objects refused by the registry (see there) are counted as malformed. Steady state
+/// (the same vehicles again) allocates nothing: the message and the batch keep their memory.
+class TrafficSource final : public ObservationSource {
+ public:
+  explicit TrafficSource(const dds::Participant& participant);
+  std::size_t Poll(const ClockReading& now, FleetRegistry& fleet) override;
+  [[nodiscard]] std::string_view name() const override { return "traffic"; }
+  [[nodiscard]] std::uint64_t malformed() const override { return malformed_; }
+
+ private:
+  dds::Reader<msg::TrafficObjects> reader_;
+  dds::Message<msg::TrafficObjects> sample_;
+  std::vector<TrafficObservation> batch_;
   std::uint64_t malformed_ = 0;
 };
 

@@ -401,6 +401,137 @@ TEST(FleetRegistryParams, RoundTripsThroughYamlAndRefusesBadValuesWithTheirKey) 
   EXPECT_NE(error.find("staleness_s must be > 0, got -1"), std::string::npos) << error;
 }
 
+// ---- Background traffic (SUMO's vehicles) ------------------------------------------------
+
+// A background car of length `length_m` whose centre is at `X`, on the lane or movement `name`.
+TrafficObservation Car(std::string_view id, std::string_view name, const RigidTransform2& X,
+                       double length_m = 0.2) {
+  return TrafficObservation{id, name, X.translation(), length_m};
+}
+
+TEST_F(FleetTest, BackgroundCarWhoseFootprintReachesIntoTheZoneOccupiesIt) {
+  const maps::Lane& lane = ingress(3);
+  const DetectorZone zone{lane.id, 0.0, 0.4};
+  const maps::Movement& mv = map_.movement(lane.movements_out.at(0));
+  // Its centre's distance to the stop line -> occupied, for a 0.2 m car (0.1 m either side).
+  const auto occupied_with_car = [&](std::string_view name, const RigidTransform2& X) {
+    FleetRegistry fleet(map_);
+    const TrafficObservation car = Car("veh0", name, X);
+    const TrafficUpdate u = fleet.ObserveTraffic(t0_, std::span(&car, 1));
+    EXPECT_EQ(u.recorded, 1u);
+    return fleet.Occupied(zone, t0_);
+  };
+  EXPECT_TRUE(occupied_with_car(lane.name, BeforeStopLine(lane, 0.2)));
+  EXPECT_TRUE(occupied_with_car(lane.name, BeforeStopLine(lane, 0.49))) << "its front is in";
+  EXPECT_FALSE(occupied_with_car(lane.name, BeforeStopLine(lane, 0.51)));
+  EXPECT_TRUE(occupied_with_car(lane.name, BeforeStopLine(lane, 0.01)));
+  // Past the line on a movement from this lane: its back is still over the zone ...
+  EXPECT_TRUE(occupied_with_car(mv.name, PoseAlong(mv.path, 0.09)));
+  // ... until it has left it.
+  EXPECT_FALSE(occupied_with_car(mv.name, PoseAlong(mv.path, 0.11)));
+  // On another lane at the same distance, and on the egress lane of the same road.
+  EXPECT_FALSE(occupied_with_car(ingress(0).name, BeforeStopLine(ingress(0), 0.2)));
+  EXPECT_FALSE(occupied_with_car(egress(3).name, PoseAlong(egress(3).centreline, 0.2)));
+}
+
+TEST_F(FleetTest, BackgroundCarsAreNotPartOfTheFleetButAreCountedOnTheirApproach) {
+  const std::vector<TrafficObservation> cars = {
+      Car("a", ingress(0).name, BeforeStopLine(ingress(0), 0.3)),
+      Car("b", ingress(0).name, BeforeStopLine(ingress(0), 0.7)),
+      Car("c", map_.movement(ingress(2).movements_out.at(0)).name,
+          PoseAlong(map_.movement(ingress(2).movements_out.at(0)).path, 0.2)),
+      Car("d", egress(1).name, PoseAlong(egress(1).centreline, 0.3)),  // leaving: no approach
+  };
+  const TrafficUpdate u = fleet_.ObserveTraffic(t0_, cars);
+  EXPECT_EQ(u.recorded, 4u);
+  fleet_.Observe(Obs(1, BeforeStopLine(ingress(0), 0.5), t0_));
+  EXPECT_EQ(fleet_.BackgroundVehicles(t0_), 4u);
+  ASSERT_EQ(fleet_.Vehicles(t0_).size(), 1u) << "the fleet is the lab's";
+  EXPECT_EQ(fleet_.State(t0_)->vehicles._length, 1u);
+  const std::vector<ApproachCount> counts = fleet_.ApproachCounts(crossing().id, t0_);
+  ASSERT_EQ(counts.size(), 4u);
+  EXPECT_EQ(counts[0], (ApproachCount{approach(0).id, 1, 2}));
+  EXPECT_EQ(counts[1], (ApproachCount{approach(1).id, 0, 0}));
+  EXPECT_EQ(counts[2], (ApproachCount{approach(2).id, 0, 1}));
+  EXPECT_EQ(counts[3], (ApproachCount{approach(3).id, 0, 0}));
+  EXPECT_TRUE(fleet_.ApproachCounts(IntersectionId(99), t0_).empty());
+}
+
+TEST_F(FleetTest, BackgroundCarNotRefreshedWithinTheStalenessStopsCounting) {
+  const maps::Lane& lane = ingress(1);
+  const DetectorZone zone{lane.id, 0.0, 0.6};
+  const TrafficObservation parked = Car("parked", lane.name, BeforeStopLine(lane, 0.3));
+  const TrafficObservation other = Car("other", ingress(0).name, BeforeStopLine(ingress(0), 0.3));
+  ASSERT_EQ(fleet_.ObserveTraffic(t0_, std::span(&parked, 1)).recorded, 1u);
+  EXPECT_TRUE(fleet_.Occupied(zone, t0_ + milliseconds(1000)));
+  EXPECT_FALSE(fleet_.Occupied(zone, t0_ + milliseconds(1001)));
+  EXPECT_EQ(fleet_.BackgroundVehicles(t0_ + milliseconds(1001)), 0u);
+  // Messages keep coming without it: it stays until it is stale, then it is forgotten.
+  EXPECT_EQ(fleet_.ObserveTraffic(t0_ + milliseconds(500), std::span(&other, 1)).dropped, 0u);
+  EXPECT_TRUE(fleet_.Occupied(zone, t0_ + milliseconds(500)));
+  EXPECT_EQ(fleet_.BackgroundVehicles(t0_ + milliseconds(500)), 2u);
+  const TrafficUpdate later = fleet_.ObserveTraffic(t0_ + milliseconds(1100), std::span(&other, 1));
+  EXPECT_EQ(later.dropped, 1u);
+  EXPECT_FALSE(fleet_.Occupied(zone, t0_ + milliseconds(1100)));
+  EXPECT_EQ(fleet_.BackgroundVehicles(t0_ + milliseconds(1100)), 1u);
+  // DropStale forgets the rest.
+  EXPECT_EQ(fleet_.DropStale(t0_ + seconds(5)), 1u);
+  EXPECT_EQ(fleet_.BackgroundVehicles(t0_ + milliseconds(1100)), 0u);
+}
+
+TEST_F(FleetTest, BackgroundObjectsElsewhereOutOfOrderOrMalformedAreNotRecorded) {
+  const RigidTransform2 X = BeforeStopLine(ingress(0), 0.3);
+  const std::string long_id(FleetRegistry::kMaxTrafficIdBytes + 1, 'x');
+  const std::vector<TrafficObservation> batch = {
+      Car("ok", ingress(0).name, X),
+      Car("nowhere", "", X),              // on no lane
+      Car("other_map", "r9c9:W>E:0", X),  // another district's lane
+      Car("", ingress(0).name, X),        // no id
+      Car(long_id, ingress(0).name, X),   // id too long
+      TrafficObservation{"nan", ingress(0).name, Eigen::Vector2d(std::nan(""), 1.0), 0.2},
+      Car("negative", ingress(0).name, X, -0.1),
+      Car("inf", ingress(0).name, X, INFINITY),
+  };
+  const TrafficUpdate u = fleet_.ObserveTraffic(t0_, batch);
+  EXPECT_EQ(u.recorded, 1u);
+  EXPECT_EQ(u.elsewhere, 2u);
+  EXPECT_EQ(u.refused, 5u);
+  EXPECT_EQ(fleet_.BackgroundVehicles(t0_), 1u);
+  // An older message of the same car (out of order) changes nothing.
+  const TrafficObservation moved = Car("ok", ingress(1).name, BeforeStopLine(ingress(1), 0.3));
+  EXPECT_EQ(fleet_.ObserveTraffic(t0_ - milliseconds(100), std::span(&moved, 1)).ignored, 1u);
+  EXPECT_TRUE(fleet_.Occupied({ingress(0).id, 0.0, 0.6}, t0_));
+  EXPECT_FALSE(fleet_.Occupied({ingress(1).id, 0.0, 0.6}, t0_));
+  // A restarted simulation (a stamp far in the past) replaces it.
+  EXPECT_EQ(fleet_.ObserveTraffic(Time(seconds(1)), std::span(&moved, 1)).recorded, 1u);
+  EXPECT_TRUE(fleet_.Occupied({ingress(1).id, 0.0, 0.6}, Time(seconds(1))));
+  EXPECT_FALSE(fleet_.Occupied({ingress(0).id, 0.0, 0.6}, Time(seconds(1))));
+  // Driving off this map (onto another district's lane): forgotten at once.
+  const TrafficObservation gone = Car("ok", "r9c9:W>E:0", X);
+  EXPECT_EQ(fleet_.ObserveTraffic(Time(seconds(1)), std::span(&gone, 1)).elsewhere, 1u);
+  EXPECT_EQ(fleet_.BackgroundVehicles(Time(seconds(1))), 0u);
+  EXPECT_FALSE(fleet_.Occupied({ingress(1).id, 0.0, 0.6}, Time(seconds(1))));
+}
+
+TEST(FleetTraffic, NewVehiclesBeyondTheCapacityAreRefused) {
+  const Map map = LoadShipped("driving_school");
+  FleetRegistry fleet(map);
+  const maps::Lane& lane = map.lane(map.intersections[0].approaches[0].ingress[0]);
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < FleetRegistry::kMaxTrafficVehicles + 10; ++i) {
+    ids.push_back("v" + std::to_string(i));
+  }
+  std::vector<TrafficObservation> batch;
+  for (const auto& id : ids) batch.push_back(Car(id, lane.name, BeforeStopLine(lane, 0.3)));
+  const Time t(seconds(100));
+  const TrafficUpdate u = fleet.ObserveTraffic(t, batch);
+  EXPECT_EQ(u.recorded, FleetRegistry::kMaxTrafficVehicles);
+  EXPECT_EQ(u.refused, 10u);
+  EXPECT_EQ(fleet.BackgroundVehicles(t), FleetRegistry::kMaxTrafficVehicles);
+  // Known vehicles are still refreshed.
+  EXPECT_EQ(fleet.ObserveTraffic(t + milliseconds(100), std::span(batch.data(), 5)).recorded, 5u);
+}
+
 TEST(FleetSmallTown, LaneBetweenTwoIntersectionsIsOnTheApproachOfTheOneItEnters) {
   // r2c1:E>W:0 leaves "centre" by its west approach and enters "west_t" by its east approach.
   const Map town = LoadShipped("small_town");
@@ -419,6 +550,27 @@ TEST(FleetSmallTown, LaneBetweenTwoIntersectionsIsOnTheApproachOfTheOneItEnters)
   EXPECT_EQ(loc.intersection, west_t.id);
   EXPECT_EQ(loc.approach, ApproachId(1));  // east
   EXPECT_NEAR(*loc.distance_to_stop_line_m, 0.3, 0.01);
+  EXPECT_EQ(lane->ingress_approach, ApproachId(1));
+  // The intersection it leaves, by its west approach.
+  ASSERT_EQ(town.intersection(*lane->egress_of).name, "centre");
+  EXPECT_EQ(lane->egress_approach, ApproachId(3));
+
+  // A background car there counts on west_t's east approach, and not on the centre's.
+  FleetRegistry traffic(town);
+  const TrafficObservation car = Car("flow.1", lane->name, BeforeStopLine(*lane, 0.3));
+  ASSERT_EQ(traffic.ObserveTraffic(Time(seconds(10)), std::span(&car, 1)).recorded, 1u);
+  EXPECT_TRUE(traffic.Occupied({lane->id, 0.0, 0.4}, Time(seconds(10))));
+  std::size_t on_west_t = 0;
+  for (const auto& c : traffic.ApproachCounts(west_t.id, Time(seconds(10)))) {
+    on_west_t += c.background;
+    if (c.background > 0) {
+      EXPECT_EQ(c.approach, ApproachId(1));
+    }
+  }
+  EXPECT_EQ(on_west_t, 1u);
+  for (const auto& c : traffic.ApproachCounts(*lane->egress_of, Time(seconds(10)))) {
+    EXPECT_EQ(c.background, 0u) << "approach " << c.approach;
+  }
 }
 
 // Cross-check against the map's own geometry: random points near every lane of both shipped
@@ -449,6 +601,39 @@ TEST(FleetCrossCheck, RandomPointsNearLanesAreLocatedOnThem) {
       }
     }
     EXPECT_GT(checked, 100);
+  }
+}
+
+// Cross-check of the placing of background cars (on coarse copies of the lines) against the
+// map's own lines: a car of no length made at arc length s along an ingress lane or a movement
+// of both shipped maps is within 2 mm of the distance to the stop line the map gives.
+TEST(FleetCrossCheck, BackgroundCarsAreWhereTheMapsLinesPutThem) {
+  std::mt19937 rng(11);
+  for (const std::string name : {"driving_school", "small_town"}) {
+    const Map map = LoadShipped(name);
+    FleetRegistry fleet(map);
+    const Time t(seconds(100));
+    int checked = 0;
+    const auto check = [&](const std::string& place, const maps::Polyline& line, LaneId lane,
+                           bool movement) {
+      const double length = Length(line);
+      std::uniform_real_distribution<double> along(0.0, length);
+      for (int k = 0; k < 5 * test::SoakFactor(); ++k) {
+        const double s = along(rng);
+        const double d = movement ? -s : length - s;
+        const TrafficObservation car{"car", place, PoseAlong(line, s).translation(), 0.0};
+        ASSERT_EQ(fleet.ObserveTraffic(t, std::span(&car, 1)).recorded, 1u);
+        EXPECT_TRUE(fleet.Occupied({lane, d - 0.002, d + 0.002}, t)) << place << " at " << s;
+        EXPECT_FALSE(fleet.Occupied({lane, d + 0.004, d + 0.05}, t)) << place << " at " << s;
+        EXPECT_FALSE(fleet.Occupied({lane, d - 0.05, d - 0.004}, t)) << place << " at " << s;
+        ++checked;
+      }
+    };
+    for (const auto& lane : map.lanes) {
+      if (lane.ingress_of) check(lane.name, lane.centreline, lane.id, false);
+    }
+    for (const auto& mv : map.movements) check(mv.name, mv.path, mv.from, true);
+    EXPECT_GE(checked, 80);  // the Driving School's 4 ingress lanes and 12 movements, 5 each
   }
 }
 

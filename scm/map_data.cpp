@@ -79,10 +79,10 @@ std::uint8_t TurnToWire(maps::Turn turn) {
   return 0;
 }
 
-// The approach of `x` whose ingress lanes include `lane`, if any.
-const maps::Approach* IngressApproach(const maps::Intersection& x, LaneId lane) {
+// The approach of `x` with id `id`, if any.
+const maps::Approach* FindApproach(const maps::Intersection& x, ApproachId id) {
   for (const auto& a : x.approaches) {
-    if (std::find(a.ingress.begin(), a.ingress.end(), lane) != a.ingress.end()) return &a;
+    if (a.id == id) return &a;
   }
   return nullptr;
 }
@@ -152,9 +152,7 @@ void FillIntersection(const Map& map, const maps::Intersection& x,
     m.heading_rad = a.ingress_heading_rad;
   }
 
-  // Lane ids within the intersection: per approach, ingress lanes then egress lanes. The
-  // approach comes from the intersection, not from `Lane::approach`: a lane that leaves one
-  // intersection and enters the next has one `approach` field for both (see the report).
+  // Lane ids within the intersection: per approach, ingress lanes then egress lanes.
   struct MsgLane {
     LaneId id;
     ApproachId approach;
@@ -228,9 +226,9 @@ std::string Label(const Map& map, const maps::Sign& sign) {
   if (sign.type == "speed_limit") label << ' ' << sign.value << " m/s";
   if (sign.lane) {
     const maps::Lane& lane = map.lane(*sign.lane);
-    if (lane.ingress_of) {
+    if (lane.ingress_of && lane.ingress_approach) {
       const maps::Intersection& x = map.intersection(*lane.ingress_of);
-      if (const maps::Approach* a = IngressApproach(x, lane.id)) {
+      if (const maps::Approach* a = FindApproach(x, *lane.ingress_approach)) {
         label << ", " << x.name << ' ' << ApproachName(a->side) << " approach";
       }
     }

@@ -115,8 +115,8 @@ TEST_P(MapDataTest, LaneIdsAreUniqueFromOneAndNameTheMapsLanes) {
       const bool ingress = lane.direction == autodrive_msgs_msg_MapLane_Constants_INGRESS;
       EXPECT_EQ(ingress ? map_lane->ingress_of : map_lane->egress_of,
                 IntersectionId(x.intersection_id));
-      // The approach that lists the lane in the map's intersection (not Lane::approach, which
-      // a lane between two intersections has only one of).
+      // The approach that lists the lane in the map's intersection, which is also the lane's
+      // own ingress or egress approach (a lane between two intersections has one of each).
       std::uint32_t approach = 0;
       for (const auto& a : map_.intersection(IntersectionId(x.intersection_id)).approaches) {
         const auto& list = ingress ? a.ingress : a.egress;
@@ -125,6 +125,8 @@ TEST_P(MapDataTest, LaneIdsAreUniqueFromOneAndNameTheMapsLanes) {
         }
       }
       EXPECT_EQ(lane.approach_id, approach) << map_lane->name;
+      const auto own = ingress ? map_lane->ingress_approach : map_lane->egress_approach;
+      EXPECT_EQ(own, ApproachId(approach)) << map_lane->name;
       EXPECT_FLOAT_EQ(lane.width_m, static_cast<float>(map_lane->width_m));
       const auto c = dds::Elements(lane.centreline);
       ASSERT_GE(c.size(), 2u);

@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <charconv>
 
 #include "common/error.h"
+#include "scm/map_data.h"
 
 namespace autodrive::scm {
 
@@ -60,6 +62,7 @@ std::optional<Reply> Status(const OperatorCommand&, const ClockReading& now, Com
   add("foreign_devices", std::to_string(ctx.supervisor.counters().foreign_city +
                                         ctx.supervisor.counters().foreign_host));
   add("signal_requests", std::to_string(ctx.figures.signal_requests));
+  add("background_vehicles", std::to_string(ctx.fleet.BackgroundVehicles(now.wire)));
   add("monitor_violations", std::to_string(ctx.figures.monitor_violations));
   return r;
 }
@@ -101,6 +104,13 @@ std::optional<Reply> Show(const OperatorCommand& cmd, const ClockReading& now, C
                         ? fmt::format(", likely in {:.1f} s", ToSeconds(*s.likely_end - now.mono))
                         : "",
                     heads));
+  }
+  // Vehicles on each approach (its ingress lanes and the box's movements from it).
+  const maps::Intersection& mx = ctx.runtime.city().map.intersection(x.model->id);
+  for (const ApproachCount& a : ctx.fleet.ApproachCounts(x.model->id, now.wire)) {
+    const auto it = std::ranges::find(mx.approaches, a.approach, &maps::Approach::id);
+    r.values.emplace_back(fmt::format("approach {}", ApproachName(it->side)),
+                          fmt::format("{} lab, {} background vehicles", a.lab, a.background));
   }
   if (ctx.supervisor.monitor_seen(*xi)) {
     r.values.emplace_back("infrastructure monitor",

@@ -14,6 +14,7 @@
 #include "scm/control_plane.h"
 #include "scm/controller.h"
 #include "scm/events.h"
+#include "scm/fleet.h"
 #include "scm/operator.h"
 #include "scm/persistence.h"
 #include "scm/publishers.h"
@@ -57,6 +58,7 @@ struct CommandContext {
   DeviceSupervisor& supervisor;
   ScmPublishers& publishers;
   const LightCommander& lights;
+  const FleetRegistry& fleet;
   Persistence& persistence;
   ConfigService& config;
   const ControlPlane& control;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "common/config.h"
@@ -78,11 +79,17 @@ class OperatorCommandsTest : public ::testing::Test {
     cmd.name = name;
     cmd.args = std::move(args);
     cmd.intersection = cmd.Arg("intersection");
-    CommandContext ctx{*bundle_->runtime, *bundle_->supervisor,
-                       *publishers_,      *bundle_->lights,
-                       *persistence_,     *service_,
-                       *control_,         figures_,
-                       events_,           DayClock::At(std::chrono::hours(12))};
+    CommandContext ctx{*bundle_->runtime,
+                       *bundle_->supervisor,
+                       *publishers_,
+                       *bundle_->lights,
+                       *bundle_->fleet,
+                       *persistence_,
+                       *service_,
+                       *control_,
+                       figures_,
+                       events_,
+                       DayClock::At(std::chrono::hours(12))};
     std::optional<Reply> later;
     auto reply = RunOperatorCommand(cmd, now_, ctx, [&](Reply r) { later = std::move(r); });
     if (reply) return *reply;
@@ -212,6 +219,44 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
   persistence_->Flush();
   const auto states = persistence_->store().LoadIntersectionStates();
   ASSERT_EQ(states.size(), 2u);
+}
+
+TEST_F(OperatorCommandsTest, StatusAndShowCountTheBackgroundTrafficPerApproach) {
+  RunFor(seconds(1));
+  const maps::Map& map = bundle_->city().map;
+  const maps::Intersection& centre =
+      *std::ranges::find(map.intersections, "centre", &maps::Intersection::name);
+  ASSERT_EQ(centre.name, "centre");
+  // Two SUMO cars on the centre's east approach (one waiting, one entering the box), one on
+  // its north approach and one leaving it westwards.
+  const maps::Lane& east = map.lane(centre.approaches.at(0).ingress.at(0));
+  const maps::Lane& north = map.lane(centre.approaches.at(1).ingress.at(0));
+  const maps::Lane& leaving = map.lane(centre.approaches.at(2).egress.at(0));
+  const maps::Movement& turning = map.movement(east.movements_out.at(0));
+  const std::vector<TrafficObservation> cars = {
+      {"a", east.name, east.centreline[east.centreline.size() - 5], 0.25},
+      {"b", turning.name, turning.path[3], 0.25},
+      {"c", north.name, north.centreline[10], 0.25},
+      {"d", leaving.name, leaving.centreline[10], 0.25},
+  };
+  ASSERT_EQ(bundle_->fleet->ObserveTraffic(now_.wire, cars).recorded, 4u);
+  const auto value = [](const Reply& r, const std::string& key) {
+    for (const auto& [k, v] : r.values) {
+      if (k == key) return v;
+    }
+    return std::string("(no ") + key + ")";
+  };
+  EXPECT_EQ(value(Run("status"), "background_vehicles"), "4");
+  const Reply show = Run("show", {{"intersection", "centre"}});
+  EXPECT_EQ(value(show, "approach east"), "0 lab, 2 background vehicles");
+  EXPECT_EQ(value(show, "approach north"), "0 lab, 1 background vehicles");
+  EXPECT_EQ(value(show, "approach west"), "0 lab, 0 background vehicles");
+  EXPECT_EQ(value(show, "approach south"), "0 lab, 0 background vehicles");
+  // Not refreshed: stale after the fleet's staleness (1 s).
+  RunFor(milliseconds(1100));
+  EXPECT_EQ(value(Run("status"), "background_vehicles"), "0");
+  EXPECT_EQ(value(Run("show", {{"intersection", "centre"}}), "approach east"),
+            "0 lab, 0 background vehicles");
 }
 
 TEST_F(OperatorCommandsTest, AResetClearsTheLatchAndAsksOnlyThatIntersectionsMonitorToReset) {

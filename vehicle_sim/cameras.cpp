@@ -91,7 +91,8 @@ void SimCameras::Due(Duration now, std::vector<std::size_t>& due) {
 }
 
 void SimCameras::Snapshot(const World& world, std::span<const CarLights> lights,
-                          std::span<const HeadLamps> lamps) {
+                          std::span<const HeadLamps> lamps,
+                          std::span<const RenderTraffic> traffic) {
   if (cameras_.empty()) return;
   time_s_ = ToSeconds(world.time());
   vehicles_.resize(looks_.size());
@@ -110,6 +111,7 @@ void SimCameras::Snapshot(const World& world, std::span<const CarLights> lights,
     car.right_indicator = l.indicators == 2 || l.indicators == 3;
   }
   lamps_.assign(lamps.begin(), lamps.end());
+  traffic_.assign(traffic.begin(), traffic.end());
 }
 
 Eigen::Isometry3d SimCameras::CameraPose(std::size_t k) const {
@@ -122,6 +124,7 @@ void SimCameras::MakeJob(std::size_t k, std::uint64_t noise_seed, Job& job) cons
   const SimCamera& cam = cameras_.at(k);
   job.vehicles.assign(vehicles_.begin(), vehicles_.end());
   job.lamps.assign(lamps_.begin(), lamps_.end());
+  job.traffic.assign(traffic_.begin(), traffic_.end());
   job.time_s = time_s_;
   job.X_MC = CameraPose(k);
   job.v_M.setZero();
@@ -140,6 +143,7 @@ void SimCameras::Render(std::size_t k, const Job& job, Image& out) {
   frame.time_s = job.time_s;
   frame.vehicles = job.vehicles;
   frame.lamps = job.lamps;
+  frame.traffic = job.traffic;
   renderers_.at(k)->Render(job.X_MC, frame, out, cameras_.at(k).vehicle, job.v_M, job.w_M,
                            job.noise_seed);
 }

@@ -74,10 +74,10 @@ class SimCameras {
   void Due(Duration now, std::vector<std::size_t>& due);
 
   /// The world's moving parts now, for `Render`: every car with its look, velocity and lights
-  /// (`lights[i]` for car i; missing ones are off), and the lamps (`lamps(head)`: 0 off,
-  /// 1 red, 2 yellow, 3 green; heads not in the map are ignored).
+  /// (`lights[i]` for car i; missing ones are off), the lamps (`lamps(head)`: 0 off,
+  /// 1 red, 2 yellow, 3 green; heads not in the map are ignored), and the background traffic.
   void Snapshot(const World& world, std::span<const CarLights> lights,
-                std::span<const HeadLamps> lamps);
+                std::span<const HeadLamps> lamps, std::span<const RenderTraffic> traffic = {});
 
   /// Renders camera `k` from the last `Snapshot` into `out`. `noise_seed`: this frame's noise.
   void Render(std::size_t k, Image& out, std::uint64_t noise_seed);
@@ -87,6 +87,7 @@ class SimCameras {
   struct Job {
     std::vector<RenderVehicle> vehicles;
     std::vector<HeadLamps> lamps;
+    std::vector<RenderTraffic> traffic;
     double time_s = 0.0;
     Eigen::Isometry3d X_MC = Eigen::Isometry3d::Identity();
     Eigen::Vector3d v_M = Eigen::Vector3d::Zero(), w_M = Eigen::Vector3d::Zero();
@@ -111,6 +112,7 @@ class SimCameras {
   std::vector<VehicleLook> looks_;
   std::vector<RenderVehicle> vehicles_;
   std::vector<HeadLamps> lamps_;
+  std::vector<RenderTraffic> traffic_;
   double time_s_ = 0.0;
   Job scratch_;
 };

@@ -18,8 +18,8 @@
 ///   neighbouring tiles at different heights meet in vertical steps), and the plane z = 0
 ///   outside the map. A ray hits the terrain where it first reaches or goes below the ground;
 ///   a ray whose origin is at or below the ground hits it at range 0;
-/// - dynamic oriented boxes (vehicles), given anew for every cast; one of them (the vehicle
-///   carrying the sensor) can be excluded.
+/// - dynamic oriented boxes (vehicles and background traffic), given anew for every cast; one
+///   of them (the vehicle carrying the sensor) can be excluded.
 /// Prisms, cylinders and boxes are closed surfaces: a ray is stopped by any of their faces,
 /// including, for a ray that starts inside one, the face where it leaves.
 ///

@@ -64,6 +64,7 @@ enum class Decal : std::uint8_t {
   kVehicleFront,  ///< headlights and front indicators (+x face)
   kVehicleRear,   ///< tail lights and rear indicators (-x face)
   kSign,          ///< a sign's disc (+x face)
+  kTrafficEnds,   ///< a background object's lamps: front (+x face) and rear (-x face)
 };
 
 /// A solid part: a box (half extents) or a vertical cylinder (radius, half height) in its own
@@ -76,9 +77,10 @@ struct RenderPart {
   Rgb colour;
   Decal decal = Decal::kNone;
   const TagBitmap* tag = nullptr;
-  int head = -1;            ///< kLamps: index of the head in the map
-  Rgb decal_colour;         ///< kSign: the disc's colour
-  std::uint8_t lights = 0;  ///< vehicles: bit 0 headlights, 1 left, 2 right indicator lit now
+  int head = -1;     ///< kLamps: index of the head in the map
+  Rgb decal_colour;  ///< kSign: the disc's colour
+  /// Vehicles: bit 0 headlights, 1 left, 2 right indicator lit now, 3 brake lights.
+  std::uint8_t lights = 0;
   std::array<double, 3> lamp_z{};  ///< kLamps: heights of red, yellow, green in B
   double lamp_radius = 0.0;
   /// A tile of raised or sloping ground: the plane z' = a x' + b y' + c in B (axes along the
@@ -108,6 +110,7 @@ constexpr Rgb kLidarColour{40, 40, 45};
 constexpr Rgb kPlateColour{255, 255, 255};
 constexpr Rgb kTagBlack{0, 0, 0};
 constexpr Rgb kTerrainSide{150, 160, 140};
+constexpr Rgb kUnderbody{30, 30, 32};  // a background object's wheels and the shade under it
 
 TagBitmap MakeTagBitmap(const TagSpec& spec) {
   const camera::TagFamily family(spec.family);
@@ -458,7 +461,8 @@ struct CameraRenderer::Impl {
   // centre and the tile's corner rays.
   int tw = 0, th = 0;
   std::vector<std::array<Eigen::Vector3f, 4>> tile_planes;
-  std::array<Eigen::Vector3f, 4> image_planes;  ///< the same for the whole image
+  std::array<Eigen::Vector3f, 4> image_planes;       ///< the same for the whole image
+  std::array<Eigen::Vector3d, 4> image_planes_unit;  ///< `image_planes` of unit length
 
   // Buffers.
   std::vector<float> depth;  ///< range of the nearest part, valid inside the parts' rectangles
@@ -472,6 +476,7 @@ struct CameraRenderer::Impl {
   std::vector<std::uint8_t> lamp_state;  ///< per head: bits red, yellow, green
   std::vector<std::uint16_t> accumulator;
   std::vector<RenderVehicle> moved;
+  std::vector<RenderTraffic> moved_traffic;
   RenderStats stats;
   cv::Mat noise;  ///< a block of Gaussian noise (CV_8S), offset at random per frame
   // The ground of a camera that does not move is drawn once: when a frame's pose is the last
@@ -521,6 +526,9 @@ struct CameraRenderer::Impl {
       }
     }
     image_planes = PyramidPlanes(-1.5, -1.5, w + 0.5, h + 0.5);
+    for (std::size_t k = 0; k < 4; ++k) {
+      image_planes_unit[k] = image_planes[k].cast<double>().normalized();
+    }
     depth.resize(n);
     ground_depth.assign(n, std::numeric_limits<float>::infinity());
     colour.resize(n * 3);
@@ -572,6 +580,8 @@ struct CameraRenderer::Impl {
   void DrawGround(const Eigen::Isometry3d& X_MC);
   void BuildParts(const Eigen::Isometry3d& X_MC, const FrameState& frame,
                   std::optional<int> exclude);
+  [[nodiscard]] bool SphereInView(const Eigen::Vector3d& centre_C, double radius) const;
+  void AddTraffic(const RenderTraffic& object, bool blink, bool far);
   void Place(FramePart& fp, const Eigen::Isometry3d& X_MC);
   void DrawPart(const FramePart& fp, float* depth_buffer);
   void DrawPixel(const FramePart& fp, int u, int v, const Eigen::Vector3f& r,
@@ -917,9 +927,46 @@ void AddBox(std::vector<RenderPart>& parts, const Eigen::Isometry3d& X_MV,
 
 }  // namespace
 
+// Whether a sphere (centre in the camera frame) may be seen: in front of the camera and not
+// wholly outside one of the image's planes. As permissive as `Place`'s test of a part's
+// corners, so no part of an object it keeps would have been dropped by that test alone.
+bool CameraRenderer::Impl::SphereInView(const Eigen::Vector3d& centre_C, double radius) const {
+  if (centre_C.z() + radius <= 1e-3) return false;
+  for (const Eigen::Vector3d& n : image_planes_unit) {
+    if (n.dot(centre_C) < -radius) return false;
+  }
+  return true;
+}
+
+// A background object's parts: a dark underbody (its wheels), a body with its lamps at both
+// ends, and for a car a shorter cabin in the roof's colour; they fill the box that the LIDARs
+// and the physics take for it. `far` (a few pixels across): one block in the roof's colour.
+void CameraRenderer::Impl::AddTraffic(const RenderTraffic& o, bool blink, bool far) {
+  const double L = o.size_m.x(), W = o.size_m.y(), H = o.size_m.z();
+  const Eigen::Isometry3d& X = o.X_MO;
+  if (o.shape == TrafficShape::kBlock || far) {
+    AddBox(dynamic_parts, X, {0, 0, H / 2}, {L / 2, W / 2, H / 2}, far ? o.roof : o.body);
+    return;
+  }
+  std::uint8_t lights = o.brake ? 8 : 0;
+  if (o.left_indicator && blink) lights |= 2;
+  if (o.right_indicator && blink) lights |= 4;
+  const double clearance = 0.15 * H;
+  const double top = o.shape == TrafficShape::kCar ? 0.6 * H : H;
+  AddBox(dynamic_parts, X, {0, 0, clearance / 2}, {0.42 * L, 0.46 * W, clearance / 2}, kUnderbody);
+  AddBox(dynamic_parts, X, {0, 0, (clearance + top) / 2}, {L / 2, W / 2, (top - clearance) / 2},
+         o.body, Decal::kTrafficEnds);
+  dynamic_parts.back().lights = lights;
+  if (o.shape == TrafficShape::kCar) {
+    AddBox(dynamic_parts, X, {-0.05 * L, 0, (top + H) / 2}, {0.27 * L, 0.43 * W, (H - top) / 2},
+           o.roof);
+  }
+}
+
 void CameraRenderer::Impl::BuildParts(const Eigen::Isometry3d& X_MC, const FrameState& frame,
                                       std::optional<int> exclude) {
   dynamic_parts.clear();
+  const bool blink = std::fmod(frame.time_s, 1.0 / 1.5) < 0.5 / 1.5;
   for (const RenderVehicle& car : frame.vehicles) {
     if (exclude && car.index == *exclude) continue;
     AUTODRIVE_CHECK(car.params != nullptr, "RenderVehicle without params");
@@ -935,7 +982,6 @@ void CameraRenderer::Impl::BuildParts(const Eigen::Isometry3d& X_MC, const Frame
             (deck - p.body_clearance_m) / 2},
            car.look.colour, Decal::kVehicleFront);
     // The front face carries the headlights; a second, thin box at the back the tail lights.
-    const bool blink = std::fmod(frame.time_s, 1.0 / 1.5) < 0.5 / 1.5;
     std::uint8_t lights = car.headlights ? 1 : 0;
     if (car.left_indicator && blink) lights |= 2;
     if (car.right_indicator && blink) lights |= 4;
@@ -969,6 +1015,22 @@ void CameraRenderer::Impl::BuildParts(const Eigen::Isometry3d& X_MC, const Frame
       part.colour = kPlateColour;
       part.decal = Decal::kTag;
       part.tag = &bitmap;
+    }
+  }
+  // Background traffic: each object's bounding sphere against the view first, so that a
+  // city's thousands of objects out of view cost a few products each and build no parts; one
+  // whose sphere is under kFarPx pixels in radius is a single block.
+  if (!frame.traffic.empty()) {
+    constexpr double kFarPx = 6.0;
+    const Eigen::Matrix3d R_CM = X_MC.linear().transpose();
+    const Eigen::Vector3d p_MC = X_MC.translation();
+    for (const RenderTraffic& o : frame.traffic) {
+      const Eigen::Vector3d centre_M = o.X_MO * Eigen::Vector3d(0, 0, o.size_m.z() / 2);
+      const Eigen::Vector3d centre_C = R_CM * (centre_M - p_MC);
+      const double radius = o.size_m.norm() / 2;
+      if (!SphereInView(centre_C, radius)) continue;
+      AddTraffic(o, blink, f_px * radius < kFarPx * centre_C.z());
+      ++stats.traffic_in_view;
     }
   }
   std::fill(lamp_state.begin(), lamp_state.end(), 0);
@@ -1294,8 +1356,10 @@ void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const Ei
       }
       break;
     case Decal::kVehicleFront:
-    case Decal::kVehicleRear: {
-      const bool front = part.decal == Decal::kVehicleFront;
+    case Decal::kVehicleRear:
+    case Decal::kTrafficEnds: {
+      const bool front =
+          part.decal == Decal::kTrafficEnds ? hit.face == 0 : part.decal == Decal::kVehicleFront;
       if (hit.face != (front ? 0 : 1)) break;
       const float hy = static_cast<float>(part.half.y()), hz = static_cast<float>(part.half.z());
       const float y = hit.p.y(), z = hit.p.z();
@@ -1310,7 +1374,8 @@ void CameraRenderer::Impl::DrawPixel(const FramePart& fp, int u, int v, const Ei
         }
         const float ly = static_cast<float>(side) * (hy - lamp * 3.6f);
         if (std::abs(y - ly) < lamp && std::abs(z - hz * 0.3f) < lamp * 0.8f) {
-          const bool on = part.lights & 1;
+          // At the back: the tail lights, lit with the headlights or as brake lights.
+          const bool on = (part.lights & (front ? 1 : 9)) != 0;
           if (front) {
             c = on ? Rgb{255, 255, 230} : Rgb{190, 190, 180};
           } else {
@@ -1463,6 +1528,7 @@ void CameraRenderer::Render(const Eigen::Isometry3d& X_MC, const FrameState& fra
     m.accumulator.assign(bytes, 0);
     const int n = film.motion_blur_samples;
     m.moved.assign(frame.vehicles.begin(), frame.vehicles.end());
+    m.moved_traffic.assign(frame.traffic.begin(), frame.traffic.end());
     for (int s = 0; s < n; ++s) {
       const double dt = film.exposure_time_s * ((s + 0.5) / n - 0.5);
       const auto shift = [dt](const Eigen::Isometry3d& X, const Eigen::Vector3d& v,
@@ -1478,8 +1544,14 @@ void CameraRenderer::Render(const Eigen::Isometry3d& X_MC, const FrameState& fra
         m.moved[k].X_MV =
             shift(frame.vehicles[k].X_MV, frame.vehicles[k].v_M_mps, frame.vehicles[k].w_M_radps);
       }
+      for (std::size_t k = 0; k < m.moved_traffic.size(); ++k) {
+        const RenderTraffic& o = frame.traffic[k];
+        m.moved_traffic[k].X_MO = o.X_MO;
+        m.moved_traffic[k].X_MO.translation() += o.X_MO.linear().col(0) * (o.speed_mps * dt);
+      }
       FrameState sub = frame;
       sub.vehicles = m.moved;
+      sub.traffic = m.moved_traffic;
       sub.time_s = frame.time_s + dt;
       m.target = m.colour.data();
       m.RenderOnce(shift(X_MC, v_M_mps, w_M_radps), sub, exclude);

@@ -15,7 +15,9 @@
 ///   unmapped obstacle (as the world has them), the poles of lights and signs, each light's head
 ///   with its red, yellow and green lamps lit as `signal_<i>/state` says, each sign's plate, and
 ///   every vehicle (body, wheels, LIDAR, headlights, indicators and tail lights, and its roof
-///   AprilTag on a white plate);
+///   AprilTag on a white plate), and the background traffic (a body and cabin of each object's
+///   size, brake lights and indicators; objects out of view are dropped by their bounding
+///   sphere before any of their parts is built);
 /// - AprilTags are drawn from the AprilTag library's own family bitmaps, on the ground (fixed
 ///   reference tags) and on roofs; every pixel that sees a tag is supersampled (4 x 4 rays), so
 ///   the tag's edges fall where they are to a small fraction of a pixel;
@@ -75,6 +77,28 @@ struct RenderVehicle {
   bool right_indicator = false;  ///< (both on: hazard lights)
 };
 
+/// How a background object (`RenderTraffic`) is drawn.
+enum class TrafficShape : std::uint8_t {
+  kCar,    ///< a body up to 60% of the height and a shorter cabin on it (the roof's colour)
+  kTall,   ///< one body up to the full height in the body's colour (buses, trucks)
+  kBlock,  ///< one block of the whole size (two-wheelers, pedestrians)
+};
+
+/// A background traffic object (a SUMO vehicle) as the cameras see it, now: a box-ish body
+/// that fills its size, standing on the ground.
+struct RenderTraffic {
+  /// Frame O: the centre of its footprint on the ground, x forward, z up (map frame).
+  Eigen::Isometry3d X_MO = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d size_m = Eigen::Vector3d::Zero();  ///< length (along x), width, height
+  double speed_mps = 0.0;                            ///< along O's x: for motion blur
+  TrafficShape shape = TrafficShape::kCar;
+  Rgb body;
+  Rgb roof;
+  bool brake = false;            ///< brake lights lit
+  bool left_indicator = false;   ///< blinking at 1.5 Hz while on
+  bool right_indicator = false;  ///< (both on: hazard lights)
+};
+
 /// Which lamps of a signal head are lit.
 struct HeadLamps {
   SignalHeadId head{1};
@@ -88,6 +112,9 @@ struct FrameState {
   double time_s = 0.0;  ///< simulated time: the indicators blink on it
   std::span<const RenderVehicle> vehicles;
   std::span<const HeadLamps> lamps;  ///< heads not listed are dark
+  /// Background traffic. Each object is first tested by its bounding sphere against the view,
+  /// so objects out of view cost a few multiplications each.
+  std::span<const RenderTraffic> traffic;
 };
 
 /// How the static world is drawn.
@@ -145,10 +172,13 @@ class RenderWorld {
 
 /// Where the last frame's time went (wall time of the rendering thread).
 struct RenderStats {
-  double ground_ms = 0;            ///< the ground (0.0x when a fixed camera's ground was reused)
-  double objects_ms = 0;           ///< solid parts: placing and drawing them
-  double film_ms = 0;              ///< exposure, blur, noise and motion blur's averaging
-  int parts_drawn = 0;             ///< parts whose image rectangle was not empty (per sub-frame)
+  double ground_ms = 0;   ///< the ground (0.0x when a fixed camera's ground was reused)
+  double objects_ms = 0;  ///< solid parts: placing and drawing them
+  double film_ms = 0;     ///< exposure, blur, noise and motion blur's averaging
+  int parts_drawn = 0;    ///< parts whose image rectangle was not empty (per sub-frame)
+  /// Background objects whose bounding sphere met the view, whose parts were built (per
+  /// sub-frame); the others cost their sphere's test only.
+  int traffic_in_view = 0;
   std::int64_t pixels_tested = 0;  ///< pixel-part ray tests
 };
 

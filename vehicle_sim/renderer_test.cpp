@@ -310,7 +310,7 @@ Approaching CarBeforeTheStopLine(double before_m) {
   }
   EXPECT_NE(a.lane, nullptr);
   for (const auto& head : map.signal_heads) {
-    if (head.intersection == *a.lane->ingress_of && head.approach == *a.lane->approach)
+    if (head.intersection == *a.lane->ingress_of && head.approach == *a.lane->ingress_approach)
       a.head = &head;
   }
   EXPECT_NE(a.head, nullptr);

@@ -52,8 +52,47 @@ SensorSuite::SensorSuite(const SensorConfig& config, int vehicle, std::uint64_t 
   scan_.ranges.assign(static_cast<std::size_t>(l.beams), 0.0F);
 }
 
+std::span<const DynamicBox> SensorSuite::ReachableBoxes(const Eigen::Isometry3d& X_ML,
+                                                        std::span<const DynamicBox> boxes,
+                                                        int first, int last) {
+  // A few boxes (the other cars) are cheaper to test with every beam.
+  constexpr std::size_t kFewBoxes = 16;
+  if (boxes.size() <= kFewBoxes) return boxes;
+  const LidarConfig& l = config_.lidar;
+  const Eigen::Vector2d o = X_ML.translation().head<2>();
+  // The ground projections of the first and last beams' directions. The beams between them
+  // turn monotonically from one to the other (the projection of the scan plane keeps its
+  // orientation while the LIDAR is tilted less than 60 degrees: det > 0.5); the wedge test
+  // is used for a sweep of at most 90 degrees, else only the range.
+  const Eigen::Matrix2d A = X_ML.linear().topLeftCorner<2, 2>();
+  const double a0 = scan_.angle_min_rad + first * scan_.angle_increment_rad;
+  const double a1 = scan_.angle_min_rad + (last - 1) * scan_.angle_increment_rad;
+  const bool wedge = a1 - a0 <= std::numbers::pi / 2 && A.determinant() > 0.5;
+  Eigen::Vector2d u0 = A * Eigen::Vector2d(std::cos(a0), std::sin(a0));
+  Eigen::Vector2d u1 = A * Eigen::Vector2d(std::cos(a1), std::sin(a1));
+  u0.normalize();
+  u1.normalize();
+  const Eigen::Vector2d mid = (u0 + u1).normalized();
+  reachable_.clear();
+  for (const DynamicBox& b : boxes) {
+    // A box is kept when its bounding sphere's shadow on the ground may meet the sector:
+    // within range, not wholly clockwise of the first beam's line nor counter-clockwise of the
+    // last's, nor wholly behind the wedge.
+    const Eigen::Vector2d p = b.X_MB.translation().head<2>() - o;
+    const double r = b.half_extents_m.norm();
+    const double reach = l.range_max_m + r;
+    if (p.squaredNorm() > reach * reach) continue;
+    if (wedge && (u0.x() * p.y() - u0.y() * p.x() < -r || p.x() * u1.y() - p.y() * u1.x() < -r ||
+                  p.dot(mid) < -r)) {
+      continue;
+    }
+    reachable_.push_back(b);
+  }
+  return reachable_;
+}
+
 void SensorSuite::CastBeams(const VehicleState& state, const StaticScene& scene,
-                            std::span<const DynamicBox> boxes, int first, int last) {
+                            std::span<const DynamicBox> all_boxes, int first, int last) {
   const LidarConfig& l = config_.lidar;
   const Eigen::Isometry3d X_MV =
       Eigen::Translation3d(state.X_MV.translation()) * state.X_MV.rotation();
@@ -61,6 +100,7 @@ void SensorSuite::CastBeams(const VehicleState& state, const StaticScene& scene,
                                  Eigen::AngleAxisd(l.yaw_rad, Eigen::Vector3d::UnitZ());
   const Eigen::Isometry3d X_ML = X_MV * X_VL;
   const Eigen::Matrix3d R_ML = X_ML.linear();
+  const std::span<const DynamicBox> boxes = ReachableBoxes(X_ML, all_boxes, first, last);
   Ray ray;
   ray.origin_M = X_ML.translation();
   const BoxId self(static_cast<std::uint32_t>(vehicle_));
@@ -156,6 +196,20 @@ void SensorSuite::Sample(const World& world, const StaticScene& scene,
     readings.lidar = scan_;
     beams_done_ = 0;
     ++sweep_;
+  }
+}
+
+void SensorSuite::Reachable(const World& world, std::span<const DynamicBox> candidates,
+                            Duration horizon, std::vector<DynamicBox>& out) const {
+  const LidarConfig& l = config_.lidar;
+  const VehicleParams& p = world.Params(vehicle_);
+  const Eigen::Vector2d at = world.State(vehicle_).X_MV.translation().head<2>();
+  const double reach = l.range_max_m + std::hypot(l.x_m, l.y_m) +
+                       std::max(p.top_speed_mps, p.reverse_top_speed_mps) * ToSeconds(horizon) +
+                       0.05;
+  for (const DynamicBox& b : candidates) {
+    const double r = reach + b.half_extents_m.norm();
+    if ((b.X_MB.translation().head<2>() - at).squaredNorm() <= r * r) out.push_back(b);
   }
 }
 

@@ -23,6 +23,7 @@
 #include "vehicle_sim/cameras.h"
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/sensors.h"
+#include "vehicle_sim/traffic.h"
 #include "vehicle_sim/variability.h"
 #include "vehicle_sim/world.h"
 
@@ -31,6 +32,10 @@ namespace autodrive::vehicle_sim {
 namespace {
 
 namespace topics = dds::topics;
+
+// A car and a background object that have not touched for this long touch anew: a car pressed
+// against one is one collision, not one per step that its contact flickers.
+constexpr Duration kTouchGap = std::chrono::seconds(1);
 
 void SetHeader(std_msgs_msg_dds__Header_& header, Time stamp, const char* frame) {
   header.stamp = dds::ToMsg(stamp);
@@ -162,7 +167,11 @@ struct SimService::Impl {
   std::map<SignalHeadId, LampState> lamps;
   Time origin;  // the ROS time of simulated time 0
   std::int64_t steps_per_period = 1;
-  std::vector<DynamicBox> boxes;
+  std::vector<DynamicBox> car_boxes;  // every car's box after a step (id: its index)
+  // What car i's LIDAR sees: the background boxes it may reach in this period (the head,
+  // `lidar_traffic[i]` of them, chosen at the period's start), then `car_boxes` (each step).
+  std::vector<std::vector<DynamicBox>> lidar_boxes;
+  std::vector<std::size_t> lidar_traffic;
   SensorReadings readings;
   std::ostream* log = nullptr;
   // Cameras: one writer per camera, in `cameras`' order.
@@ -174,6 +183,22 @@ struct SimService::Impl {
   Image image;
   std::uint64_t seed = 1;
   std::vector<std::unique_ptr<CameraWorker>> workers;  ///< real-time mode: one per camera
+  // Background traffic (`options.traffic`): the newest TrafficObjects (`traffic_newest`;
+  // `traffic_incoming` takes, so that a failed take never spoils the newest), its objects as
+  // it gave them, and where they are this period: boxes for the LIDARs and the physics (ids
+  // after the cars'), looks for the cameras.
+  std::unique_ptr<dds::Reader<msg::TrafficObjects>> traffic_reader;
+  dds::Message<msg::TrafficObjects> traffic_newest, traffic_incoming;
+  std::vector<TrafficObject> traffic;
+  Time traffic_stamp;
+  std::optional<Duration> traffic_placed_after;  // the extrapolation the placed poses have
+  std::vector<DynamicBox> traffic_boxes;
+  std::vector<RenderTraffic> traffic_looks;
+  std::int64_t traffic_messages = 0;
+  std::int64_t traffic_bad_messages = 0;
+  // Car and object (its id) touching: when they last touched.
+  std::map<std::pair<int, std::string>, Duration> touching;
+  std::atomic<std::int64_t> traffic_collisions{0};
   // Lockstep only.
   std::unique_ptr<dds::Writer<msg::Header>> step_writer;
   std::unique_ptr<dds::Reader<msg::Header>> done_reader;
@@ -227,6 +252,10 @@ struct SimService::Impl {
       lamp_readers.emplace_back(head.id, std::make_unique<dds::Reader<msg::Int32>>(
                                              participant, topics::SignalState(head.id)));
     }
+    if (o.traffic) {
+      traffic_reader =
+          std::make_unique<dds::Reader<msg::TrafficObjects>>(participant, topics::Traffic());
+    }
     if (o.mode == SimMode::kLockstep) {
       step_writer = std::make_unique<dds::Writer<msg::Header>>(participant, topics::SimStep());
       done_reader = std::make_unique<dds::Reader<msg::Header>>(participant, topics::SimStepDone());
@@ -277,6 +306,94 @@ struct SimService::Impl {
       if (car.timed_out) applied.throttle = 0.0;
       world.SetCommand(static_cast<int>(i), applied);
     }
+  }
+
+  // The newest background traffic, placed for this period: as the message has it in lockstep
+  // and fast mode (reproducible), moved along its heading by its speed for the message's age
+  // in real time (at most kMaxTrafficExtrapolation). Nothing changes while no message came and
+  // the poses stay where they are.
+  void TakeTraffic() {
+    if (!traffic_reader) return;
+    bool fresh = false;
+    while (traffic_reader->TakeOne(traffic_incoming)) {
+      std::swap(traffic_newest, traffic_incoming);
+      fresh = true;
+    }
+    const Time now = Stamp(world.time());
+    if (fresh) {
+      ++traffic_messages;
+      const TrafficReadReport report = ReadTrafficObjects(*traffic_newest, traffic);
+      std::string problem = report.first_problem;
+      try {
+        traffic_stamp = dds::FromMsg(traffic_newest->header.stamp);
+      } catch (const InputError& e) {
+        traffic_stamp = now;  // taken as it is
+        if (problem.empty()) problem = std::string("its stamp: ") + e.what();
+      }
+      if (!problem.empty() && ++traffic_bad_messages % 100 == 1) {
+        spdlog::warn("background traffic: message {} ({} bad so far): {} object(s) left out; {}",
+                     traffic_messages, traffic_bad_messages, report.skipped, problem);
+      }
+      if (traffic_messages == 1) {
+        spdlog::info("background traffic: {} object(s) in the first message", traffic.size());
+      }
+    }
+    const Duration after =
+        options.mode == SimMode::kRealTime ? TrafficExtrapolation(traffic_stamp, now) : Duration{0};
+    if (!fresh && traffic_placed_after == after) return;
+    traffic_placed_after = after;
+    const auto first_id = static_cast<std::uint32_t>(cars.size());
+    traffic_boxes.clear();
+    traffic_looks.clear();
+    for (std::size_t k = 0; k < traffic.size(); ++k) {
+      const Eigen::Isometry3d X_MO = TrafficPoseAfter(traffic[k], after);
+      traffic_boxes.push_back(
+          TrafficBox(traffic[k], X_MO, BoxId(first_id + static_cast<std::uint32_t>(k))));
+      if (!cameras->empty()) traffic_looks.push_back(TrafficLook(traffic[k], X_MO));
+    }
+    world.SetTraffic(traffic_boxes);
+  }
+
+  // For each car, the background boxes its LIDAR may reach in this period: a city's objects
+  // far from every car then cost the LIDARs nothing during the period's steps.
+  void ChooseLidarTraffic() {
+    lidar_boxes.resize(cars.size());
+    lidar_traffic.resize(cars.size());
+    for (std::size_t i = 0; i < cars.size(); ++i) {
+      lidar_boxes[i].clear();
+      suites[i].Reachable(world, traffic_boxes, options.control_period, lidar_boxes[i]);
+      lidar_traffic[i] = lidar_boxes[i].size();
+    }
+  }
+
+  // What the LIDARs see after a step: each car's background boxes of the period (kept), then
+  // every car's box.
+  void UpdateBoxes() {
+    VehicleBoxes(world, car_boxes);
+    for (std::size_t i = 0; i < cars.size(); ++i) {
+      std::vector<DynamicBox>& seen = lidar_boxes[i];
+      seen.erase(seen.begin() + static_cast<std::ptrdiff_t>(lidar_traffic[i]), seen.end());
+      seen.insert(seen.end(), car_boxes.begin(), car_boxes.end());
+    }
+  }
+
+  // A car that touches a background object it did not touch within kTouchGap has run into it:
+  // counted and logged.
+  void NoteTrafficContacts() {
+    const Duration now = world.time();
+    for (const TrafficContact& c : world.TrafficContacts()) {
+      const TrafficObject& object = traffic.at(static_cast<std::size_t>(c.traffic));
+      const auto [it, first] = touching.try_emplace({c.vehicle, object.id}, now);
+      if (first || now - it->second > kTouchGap) {
+        traffic_collisions.fetch_add(1);
+        spdlog::warn("{} ran into background {} '{}' at t = {:.3f} s",
+                     cars.at(static_cast<std::size_t>(c.vehicle))->name,
+                     ToString(object.object_class), object.id, ToSeconds(now));
+      }
+      it->second = now;
+    }
+    if (touching.empty()) return;
+    std::erase_if(touching, [&](const auto& entry) { return now - entry.second > kTouchGap; });
   }
 
   void Publish(std::size_t i) {
@@ -368,7 +485,7 @@ struct SimService::Impl {
         head_lamps.push_back({id, state == 1, state == 2, state == 3});
       }
     }
-    cameras->Snapshot(world, lights, head_lamps);
+    cameras->Snapshot(world, lights, head_lamps, traffic_looks);
     for (const std::size_t k : due) {
       // Each frame's noise from the seed, the camera and the frame's time.
       const auto stamp_ns = static_cast<std::uint64_t>(world.time().count());
@@ -406,11 +523,14 @@ struct SimService::Impl {
   void Period() {
     TakeCommands();
     TakeLamps();
+    TakeTraffic();
+    ChooseLidarTraffic();
     for (std::int64_t k = 0; k < steps_per_period; ++k) {
       world.Step();
-      VehicleBoxes(world, boxes);
+      NoteTrafficContacts();
+      UpdateBoxes();
       for (std::size_t i = 0; i < cars.size(); ++i) {
-        suites[i].Sample(world, world.Scene(), boxes, readings);
+        suites[i].Sample(world, world.Scene(), lidar_boxes[i], readings);
         Publish(i);
       }
       PublishCameras();
@@ -562,6 +682,8 @@ std::map<SignalHeadId, LampState> SimService::Lamps() const {
 }
 
 Duration SimService::time() const { return impl_->world.time(); }
+
+std::int64_t SimService::traffic_collisions() const { return impl_->traffic_collisions.load(); }
 
 std::int64_t SimService::steps() const { return impl_->world.steps(); }
 

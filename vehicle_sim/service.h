@@ -5,8 +5,10 @@
 /// (docs/messaging.md), plus its ground truth; the simulator publishes `/clock`; the lamp states
 /// of the city's traffic lights (`signal_<i>/state`) are part of the world's state.
 ///
-/// Each control period (10 ms by default) the service takes the newest command of every car,
-/// advances the physics by whole steps, publishes every sensor reading that fell due and
+/// Each control period (10 ms by default) the service takes the newest command of every car
+/// and the newest background traffic (`/autodrive/scm/traffic`, traffic.h: SUMO's vehicles
+/// become boxes that the LIDARs see, the cameras draw and the cars collide with), advances
+/// the physics by whole steps, publishes every sensor reading that fell due and
 /// `/clock`, and in real-time mode sleeps until the wall clock catches up. In lockstep it
 /// then waits until every reader acknowledged the step's messages, announces the step on
 /// `/autodrive/sim/step` and waits for every configured controller's `step_done` before the
@@ -60,6 +62,9 @@ class SimService {
   [[nodiscard]] std::map<SignalHeadId, LampState> Lamps() const;
   [[nodiscard]] Duration time() const;
   [[nodiscard]] std::int64_t steps() const;
+  /// Times a car ran into a background object so far (a car and an object touching after
+  /// not touching for a second or more; each is logged). Thread-safe.
+  [[nodiscard]] std::int64_t traffic_collisions() const;
 
  private:
   struct Impl;

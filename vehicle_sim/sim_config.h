@@ -98,6 +98,9 @@ struct ServiceOptions {
   std::optional<Duration> duration;  ///< stop after this much simulated time
   /// Lockstep: the controllers that must answer every step (their `step_done` frame ids).
   std::vector<std::string> controllers;
+  /// SUMO's background traffic (`/autodrive/scm/traffic`) in the world: seen, drawn and
+  /// collided with (traffic.h). Off: the topic is not read.
+  bool traffic = true;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -110,6 +113,7 @@ struct ServiceOptions {
     a.Optional("duration_s", duration,
                config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
     a.Optional("controllers", controllers);
+    a.Optional("traffic", traffic);
   }
   /// Lockstep needs at least one controller; names are unique and not empty.
   void Validate() const;

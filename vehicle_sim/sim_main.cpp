@@ -157,6 +157,7 @@ struct ServiceOverrides {
   std::optional<double> command_timeout_s;
   std::optional<double> control_period_s;
   std::vector<std::string> controllers;
+  std::optional<bool> traffic;
 };
 
 int Serve(const std::string& city_path, const ServiceOverrides& overrides,
@@ -179,6 +180,7 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
   if (overrides.command_timeout_s)
     options.command_timeout = FromSeconds(*overrides.command_timeout_s);
   if (overrides.control_period_s) options.control_period = FromSeconds(*overrides.control_period_s);
+  if (overrides.traffic) options.traffic = *overrides.traffic;
   if (!overrides.controllers.empty()) {
     // A controller named for a mode that waits for none would be silently ignored.
     AUTODRIVE_THROW_UNLESS(options.mode == SimMode::kLockstep,
@@ -263,6 +265,9 @@ int main(int argc, char** argv) {
                  "seconds without a throttle or steering command after which a car holds still "
                  "(default 0.5)")
       ->check(CLI::Range(0.01, 3600.0));
+  app.add_option("--traffic", overrides.traffic,
+                 "true: SUMO's background traffic (/autodrive/scm/traffic) is part of the world; "
+                 "false: the topic is not read (default: sim.service.traffic, else true)");
   app.add_option("--log", log_path,
                  "write every car's ground truth after each control period to this CSV file");
   app.add_option("--partition", partition,

@@ -3,9 +3,11 @@
 #include <ode/ode.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <deque>
 #include <limits>
 #include <mutex>
 #include <sstream>
@@ -56,6 +58,11 @@ void InitOde() {
 }
 
 constexpr int kMaxContacts = 8;  // per pair of geoms
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Background traffic is given to ODE only within this distance of a car (between bounding
+// circles, m), chosen again when a car has moved half of it: no car reaches a box left out
+// before the boxes are chosen again.
+constexpr double kTrafficReach = 0.5;
 // How far the lab's floor (z = 0) reaches beyond a map with terrain (m).
 constexpr double kFloorMargin = 50.0;
 
@@ -70,14 +77,30 @@ struct World::Impl {
   dJointGroupID contacts = nullptr;
   std::vector<std::unique_ptr<internal::OdeVehicle>> vehicles;
   std::vector<std::unique_ptr<GeomTag>> static_tags;
-  GeomTag terrain_tag{GeomTag::Kind::kTerrain, -1, -1};
-  GeomTag obstacle_tag{GeomTag::Kind::kObstacle, -1, -1};
+  GeomTag terrain_tag{GeomTag::Kind::kTerrain, -1, -1, -1};
+  GeomTag obstacle_tag{GeomTag::Kind::kObstacle, -1, -1, -1};
   // Terrain mesh (kept alive for ODE), or none on flat ground.
   std::vector<double> terrain_vertices;
   std::vector<dTriIndex> terrain_indices;
   dTriMeshDataID terrain_data = nullptr;
-  StaticGeometry geometry;                   // what is static: the ODE geoms and the scene
-  mutable std::optional<StaticScene> scene;  // built from `geometry` on demand
+  // Background traffic (`SetTraffic`): every box, and a pool of ODE boxes without a body
+  // (fixed, of infinite mass), in a simple space of their own (pairs in insertion order), for
+  // the boxes within reach of a car: the first `traffic_enabled` of the pool, the rest
+  // disabled.
+  dSpaceID traffic_space = nullptr;
+  std::vector<DynamicBox> traffic;
+  struct TrafficGeom {
+    dGeomID geom = nullptr;
+    GeomTag tag{GeomTag::Kind::kTraffic, -1, -1, -1};
+  };
+  std::deque<TrafficGeom> traffic_geoms;  // a deque: ODE holds pointers to the tags
+  std::size_t traffic_enabled = 0;
+  bool traffic_dirty = false;
+  std::vector<Eigen::Vector2d> traffic_chosen_at;  // each car's centre when they were chosen
+  std::vector<double> car_radius;                  // scratch: each car's bounding circle
+  std::vector<TrafficContact> traffic_contacts;    // of the last step
+  StaticGeometry geometry;                         // what is static: the ODE geoms and the scene
+  mutable std::optional<StaticScene> scene;        // built from `geometry` on demand
   std::int64_t steps = 0;
   std::string failure;  // set when a step went non-finite
 
@@ -90,6 +113,7 @@ struct World::Impl {
     dWorldSetCFM(world, 1e-9);
     static_space = dHashSpaceCreate(nullptr);
     vehicle_space = dSimpleSpaceCreate(nullptr);
+    traffic_space = dSimpleSpaceCreate(nullptr);
     contacts = dJointGroupCreate(0);
   }
 
@@ -97,7 +121,8 @@ struct World::Impl {
     vehicles.clear();
     dJointGroupDestroy(contacts);
     dSpaceDestroy(vehicle_space);
-    dSpaceDestroy(static_space);  // destroys its geoms (cleanup mode on by default)
+    dSpaceDestroy(traffic_space);  // and its geoms
+    dSpaceDestroy(static_space);   // destroys its geoms (cleanup mode on by default)
     if (terrain_data != nullptr) dGeomTriMeshDataDestroy(terrain_data);
     dWorldDestroy(world);
   }
@@ -197,6 +222,66 @@ struct World::Impl {
     Tag(mesh, &terrain_tag, internal::kTerrainBit, internal::kWheelBit | internal::kChassisBit);
   }
 
+  // Gives ODE the traffic boxes within reach of a car, when the boxes changed or a car moved
+  // half the reach since they were last chosen.
+  void ChooseTraffic() {
+    if (traffic.empty() && traffic_enabled == 0) return;
+    bool choose = traffic_dirty || traffic_chosen_at.size() != vehicles.size();
+    Eigen::Isometry3d X_MB;
+    Eigen::Vector3d half;
+    for (std::size_t i = 0; i < vehicles.size() && !choose; ++i) {
+      vehicles[i]->Box(X_MB, half);
+      choose = (X_MB.translation().head<2>() - traffic_chosen_at[i]).norm() > kTrafficReach / 2;
+    }
+    if (!choose) return;
+    traffic_dirty = false;
+    traffic_chosen_at.resize(vehicles.size());
+    car_radius.resize(vehicles.size());
+    // The cars' bounding rectangle, grown by the reach, rejects most of a city's boxes at once.
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(kInf), hi = -lo;
+    for (std::size_t i = 0; i < vehicles.size(); ++i) {
+      vehicles[i]->Box(X_MB, half);
+      traffic_chosen_at[i] = X_MB.translation().head<2>();
+      car_radius[i] = half.norm();
+      lo = lo.cwiseMin(traffic_chosen_at[i] - Eigen::Vector2d::Constant(car_radius[i]));
+      hi = hi.cwiseMax(traffic_chosen_at[i] + Eigen::Vector2d::Constant(car_radius[i]));
+    }
+    std::size_t used = 0;
+    for (std::size_t k = 0; k < traffic.size(); ++k) {
+      const DynamicBox& b = traffic[k];
+      const Eigen::Vector2d c = b.X_MB.translation().head<2>();
+      const double grow = b.half_extents_m.norm() + kTrafficReach;
+      if ((c.array() < lo.array() - grow).any() || (c.array() > hi.array() + grow).any()) continue;
+      bool near = false;
+      for (std::size_t i = 0; i < vehicles.size() && !near; ++i) {
+        const double reach = b.half_extents_m.norm() + car_radius[i] + kTrafficReach;
+        near = (c - traffic_chosen_at[i]).squaredNorm() <= reach * reach;
+      }
+      if (!near) continue;
+      if (used == traffic_geoms.size()) {
+        TrafficGeom& g = traffic_geoms.emplace_back();
+        g.geom = dCreateBox(traffic_space, 1, 1, 1);
+        Tag(g.geom, &g.tag, internal::kTrafficBit, internal::kChassisBit);
+      }
+      TrafficGeom& g = traffic_geoms[used++];
+      g.tag.traffic = static_cast<int>(k);
+      const Eigen::Vector3d lengths = 2 * b.half_extents_m;
+      dGeomBoxSetLengths(g.geom, lengths.x(), lengths.y(), lengths.z());
+      const Eigen::Vector3d p = b.X_MB.translation();
+      dGeomSetPosition(g.geom, p.x(), p.y(), p.z());
+      const Eigen::Matrix3d m = b.X_MB.linear();
+      dMatrix3 R;
+      for (int r = 0; r < 3; ++r) {
+        for (int col = 0; col < 3; ++col) R[4 * r + col] = m(r, col);
+        R[4 * r + 3] = 0;
+      }
+      dGeomSetRotation(g.geom, R);
+      dGeomEnable(g.geom);
+    }
+    for (std::size_t k = used; k < traffic_enabled; ++k) dGeomDisable(traffic_geoms[k].geom);
+    traffic_enabled = used;
+  }
+
   // The collision callback: tyres for wheel-ground pairs, plain contacts for bodies.
   static void NearCallback(void* data, dGeomID g1, dGeomID g2) {
     auto* self = static_cast<Impl*>(data);
@@ -232,6 +317,15 @@ struct World::Impl {
                    dGeomGetBody(first_is_wheel ? g2 : g1));
       v.AttachFeedback(wheel->wheel, j, c.geom.normal);
       return;
+    }
+    if (t1->kind == GeomTag::Kind::kTraffic || t2->kind == GeomTag::Kind::kTraffic) {
+      const bool first_is_traffic = t1->kind == GeomTag::Kind::kTraffic;
+      const TrafficContact touch{(first_is_traffic ? t2 : t1)->vehicle,
+                                 (first_is_traffic ? t1 : t2)->traffic};
+      auto& touches = self->traffic_contacts;
+      if (std::find(touches.begin(), touches.end(), touch) == touches.end()) {
+        touches.push_back(touch);
+      }
     }
     for (int i = 0; i < n; ++i) {
       dContact& c = contact[i];
@@ -275,6 +369,21 @@ void World::AddStaticBox(const StaticBox& box) {
   impl_->scene.reset();
 }
 
+void World::SetTraffic(std::span<const DynamicBox> boxes) {
+  for (const DynamicBox& b : boxes) {
+    const Eigen::Vector3d& half = b.half_extents_m;
+    AUTODRIVE_THROW_UNLESS(b.X_MB.matrix().allFinite() && half.allFinite() && half.minCoeff() > 0,
+                           "background object " << b.id.value() << ": a pose of "
+                                                << b.X_MB.translation().transpose()
+                                                << " and half extents of " << half.transpose()
+                                                << " m: both must be finite, extents positive");
+  }
+  impl_->traffic.assign(boxes.begin(), boxes.end());
+  impl_->traffic_dirty = true;
+}
+
+std::span<const TrafficContact> World::TrafficContacts() const { return impl_->traffic_contacts; }
+
 int World::AddVehicle(const VehicleParams& params, const RigidTransform2& X_MV) {
   const int index = static_cast<int>(impl_->vehicles.size());
   const Eigen::Vector2d p = X_MV.translation();
@@ -312,9 +421,15 @@ void World::Step() {
     }
   }
   for (auto& v : w.vehicles) v->PrepareStep();
+  w.ChooseTraffic();
+  w.traffic_contacts.clear();
   dSpaceCollide(w.vehicle_space, &w, &Impl::NearCallback);
   dSpaceCollide2(reinterpret_cast<dGeomID>(w.vehicle_space),
                  reinterpret_cast<dGeomID>(w.static_space), &w, &Impl::NearCallback);
+  if (w.traffic_enabled > 0) {
+    dSpaceCollide2(reinterpret_cast<dGeomID>(w.vehicle_space),
+                   reinterpret_cast<dGeomID>(w.traffic_space), &w, &Impl::NearCallback);
+  }
   dWorldStep(w.world, w.step_s);
   ++w.steps;
   for (std::size_t i = 0; i < w.vehicles.size(); ++i) {

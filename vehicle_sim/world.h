@@ -1,8 +1,9 @@
 #pragma once
 /// @file
 /// The simulated world on ODE: the ground (and the terrain of a map, with its ramps), the map's
-/// walls, boxes, light poles and signs as static obstacles, and the vehicles, stepped together
-/// at a fixed physics step. See docs/vehicle_sim.md for the model and how the tyre curve meets
+/// walls, boxes, light poles and signs as static obstacles, the background traffic as fixed
+/// boxes that the caller moves (`SetTraffic`), and the vehicles, stepped together at a fixed
+/// physics step. See docs/vehicle_sim.md for the model and how the tyre curve meets
 /// ODE's contacts.
 ///
 /// Copy: no (it owns an ODE world). Move: no. One thread steps a World at a time; several
@@ -13,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -72,6 +74,13 @@ struct StaticBox {
   Eigen::Vector3d size_m{0.1, 0.1, 0.1};  ///< length (along B's x), width, height
 };
 
+/// A car's body touching a background object in a step.
+struct TrafficContact {
+  int vehicle = 0;  ///< the car's index
+  int traffic = 0;  ///< the object's index in the boxes of the last `World::SetTraffic`
+  bool operator==(const TrafficContact&) const = default;
+};
+
 class World {
  public:
   /// A world on flat ground (z = 0 everywhere), with nothing on it.
@@ -88,6 +97,18 @@ class World {
 
   /// Adds an unmapped obstacle (standing at z = 0 on flat ground, or on the terrain).
   void AddStaticBox(const StaticBox& box);
+
+  /// The background traffic from the next step on, replacing the last call's: each box (map
+  /// frame: centre, axes, half extents, as the LIDAR takes it) a fixed obstacle for the cars'
+  /// bodies, of infinite mass (a car that drives into one stops against it and does not push
+  /// it). Boxes do not touch the static world or each other. Only the boxes within reach of a
+  /// car are given to ODE, chosen again when the boxes change or a car has moved 0.25 m, so
+  /// that thousands of them cost little. @throws InputError for a non-finite pose or a
+  /// half extent that is not positive and finite.
+  void SetTraffic(std::span<const DynamicBox> boxes);
+  /// The cars and background objects whose bodies touched in the last step, each pair once,
+  /// in a deterministic order.
+  [[nodiscard]] std::span<const TrafficContact> TrafficContacts() const;
 
   /// Adds a vehicle at rest at `X_MV` (its rear axle's middle; z from the terrain), wheels on
   /// the ground, springs at their static deflection. Returns its index (0, 1, ...).

@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/benchmarks/cpu_time.h"
 #include "common/camera/camera_model.h"
 #include "common/dds/conversions.h"
 #include "common/dds/messages.h"
@@ -35,13 +36,8 @@
 namespace {
 
 using namespace autodrive;
+using bench::ThreadCpuSeconds;
 using namespace autodrive::eye;
-
-double ThreadCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
 struct Scene {
   camera::Camera camera;

@@ -129,10 +129,10 @@ OdeVehicle::OdeVehicle(const VehicleParams& params, int index, dWorldID world, d
   const Eigen::Vector3d box_offset =
       Eigen::Vector3d(p.body_centre_ahead_of_rear_axle_m, 0, p.body_clearance_m + bh / 2) - p_VC_;
   dGeomSetOffsetPosition(chassis_geom_, box_offset.x(), box_offset.y(), box_offset.z());
-  chassis_tag_ = {GeomTag::Kind::kChassis, index, -1};
+  chassis_tag_ = {GeomTag::Kind::kChassis, index, -1, -1};
   dGeomSetData(chassis_geom_, &chassis_tag_);
   dGeomSetCategoryBits(chassis_geom_, kChassisBit);
-  dGeomSetCollideBits(chassis_geom_, kTerrainBit | kObstacleBit | kChassisBit);
+  dGeomSetCollideBits(chassis_geom_, kTerrainBit | kObstacleBit | kChassisBit | kTrafficBit);
 
   const double inner_limit = AckermannAngles(p.steering_limit_rad, L, p.track_width_m)[0] + 0.05;
   for (int i = 0; i < kWheels; ++i) {
@@ -146,7 +146,7 @@ OdeVehicle::OdeVehicle(const VehicleParams& params, int index, dWorldID world, d
     // A sphere touches the ground at one point below the axle whatever the wheel's spin.
     wheel_geoms_[ui] = dCreateSphere(space, r);
     dGeomSetBody(wheel_geoms_[ui], wheels_[ui]);
-    wheel_tags_[ui] = {GeomTag::Kind::kWheel, index, i};
+    wheel_tags_[ui] = {GeomTag::Kind::kWheel, index, i, -1};
     dGeomSetData(wheel_geoms_[ui], &wheel_tags_[ui]);
     dGeomSetCategoryBits(wheel_geoms_[ui], kWheelBit);
     dGeomSetCollideBits(wheel_geoms_[ui], kTerrainBit);

@@ -24,13 +24,15 @@ enum GeomCategory : unsigned long {
   kObstacleBit = 1UL << 1,
   kChassisBit = 1UL << 2,
   kWheelBit = 1UL << 3,
+  kTrafficBit = 1UL << 4,  ///< background traffic (fixed boxes moved each control period)
 };
 
 /// What a geom is, kept as its ODE user data.
 struct GeomTag {
-  enum class Kind { kTerrain, kObstacle, kChassis, kWheel } kind = Kind::kObstacle;
+  enum class Kind { kTerrain, kObstacle, kChassis, kWheel, kTraffic } kind = Kind::kObstacle;
   int vehicle = -1;  ///< for chassis and wheels
   int wheel = -1;    ///< for wheels: index of `Wheel`
+  int traffic = -1;  ///< for background traffic: its index in `World::SetTraffic`'s boxes
 };
 
 /// The tyre of one wheel for the coming step: the force-dependent-slip coefficients and

@@ -1,0 +1,157 @@
+// autodrive-bench-traffic: the co-simulation's real-time factor on one core with N SUMO cars on
+// an n x n grid city (with the SCM running its intersections in another process), and its
+// overhead over libsumo alone stepping the same network and demand.
+#include <fmt/format.h>
+#include <libsumo/libsumo.h>
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "common/benchmarks/cpu_time.h"
+#include "common/dds/participant.h"
+#include "common/dds/topics.h"
+#include "common/dds/writer.h"
+#include "common/logging.h"
+#include "common/process.h"
+#include "scm/benchmarks/bench_support.h"
+#include "scm/city.h"
+#include "scm/traffic/cosim.h"
+#include "scm/traffic/service.h"
+#include "scm/traffic/standalone.h"
+
+namespace {
+
+using namespace autodrive;
+using namespace autodrive::traffic;
+using bench::ThreadCpuSeconds;
+
+// The SCM's day plan of the grid city (bench_support.h), as lamps: per intersection each
+// approach in turn green 8 s, then yellow and red clearance (the defaults: 3 s and 2 s).
+int GridLamp(const maps::Map& map, SignalHeadId h, double t) {
+  const maps::SignalHead& head = map.signal_heads.at(h.value() - 1);
+  const maps::Intersection& x = map.intersection(head.intersection);
+  const double phase = 13.0;
+  const double in_cycle = std::fmod(t, phase * static_cast<double>(x.approaches.size()));
+  const auto k = static_cast<std::size_t>(in_cycle / phase);
+  if (x.approaches[k].id != head.approach) return 1;
+  const double in_phase = in_cycle - phase * static_cast<double>(k);
+  return in_phase < 8.0 ? 3 : in_phase < 11.0 ? 2 : 1;
+}
+
+struct Result {
+  int vehicles = 0;
+  double cosim_cpu_s = 0, alone_cpu_s = 0, simulated_s = 0;
+  std::int64_t collisions = 0, teleports = 0, lost = 0;
+};
+
+Result Run(const scm::City& city, int cars, double seconds, const std::filesystem::path& dir,
+           const dds::Participant& participant) {
+  Result r;
+  TrafficConfig config;
+  config.vehicles = cars;
+  const double warmup = 10.0;
+  {
+    CoSimulation sim(
+        city, config,
+        CoSimulation::Options{
+            dir / fmt::format("cosim_{}", cars), nullptr, true, {}, std::chrono::seconds(5)});
+    dds::Writer<msg::TrafficObjects> writer(participant, dds::topics::Traffic());
+    std::vector<msg::TrafficObject> buffer;
+    const auto step = [&](double t) {
+      for (const maps::SignalHead& h : city.map.signal_heads) {
+        sim.ReportLamp(h.id, GridLamp(city.map, h.id, t), MonoTime{} + FromSeconds(t));
+      }
+      sim.Step({}, MonoTime{} + FromSeconds(t));
+      msg::TrafficObjects m{};
+      FillTrafficObjects(sim.vehicles(), Time{} + FromSeconds(sim.time_s()), buffer, m);
+      writer.Write(m);
+    };
+    while (sim.time_s() < warmup) step(sim.time_s());
+    r.vehicles = static_cast<int>(sim.vehicles().size());
+    const double t0 = ThreadCpuSeconds();
+    const double s0 = sim.time_s();
+    while (sim.time_s() < warmup + seconds - 1e-9) step(sim.time_s());
+    r.cosim_cpu_s = ThreadCpuSeconds() - t0;
+    r.simulated_s = sim.time_s() - s0;
+    r.collisions = sim.stats().collisions;
+    r.teleports = sim.stats().teleports;
+    r.lost = sim.stats().arrived_unplanned;
+  }
+  {
+    // libsumo alone: the same network and demand (SUMO's fixed programs instead of lamps).
+    const StandaloneFiles f = ExportStandalone(city, config, dir / fmt::format("alone_{}", cars),
+                                               FromSeconds(warmup + seconds + 60));
+    libsumo::Simulation::start({"sumo", "-c", f.config_file.string(), "--step-length", "0.05",
+                                "--no-step-log", "true", "--no-warnings", "true"});
+    while (libsumo::Simulation::getTime() < warmup) libsumo::Simulation::step();
+    const double t0 = ThreadCpuSeconds();
+    while (libsumo::Simulation::getTime() < warmup + seconds - 1e-9) libsumo::Simulation::step();
+    r.alone_cpu_s = ThreadCpuSeconds() - t0;
+    libsumo::Simulation::close();
+  }
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "autodrive-bench-traffic: the SUMO co-simulation on one core: real-time factor with N "
+      "SUMO cars on an n x n grid city (each step: lamps to SUMO's lights, SUMO's step, the cars "
+      "read back and published as TrafficObjects on DDS), with the SCM running the city's "
+      "intersections in its own process, and the overhead over libsumo alone on the same "
+      "network and demand. Goals: >= 1,000 cars at >= 1x real time, overhead <= 1.5x."};
+  std::vector<int> cars{100, 1000, 5000};
+  int grid = 32;
+  double seconds = 60;
+  bool with_scm = true;
+  app.add_option("--cars", cars, "SUMO cars (repeat or comma-separate)")->delimiter(',');
+  app.add_option("--grid", grid, "intersections per side")->check(CLI::Range(2, 64));
+  app.add_option("--seconds", seconds, "simulated seconds measured (after 10 s of warm-up)")
+      ->check(CLI::Range(1.0, 3600.0));
+  app.add_flag("!--no-scm", with_scm, "do not run the SCM beside it");
+  CLI11_PARSE(app, argc, argv);
+  InitLogging("autodrive-bench-traffic", spdlog::level::warn);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    fmt::format("autodrive_bench_traffic_{}", ::getpid());
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path city_file = bench::WriteGridCity(grid, dir);
+  std::printf("building the %d x %d grid city...\n", grid, grid);
+  std::fflush(stdout);
+  const scm::City city = scm::LoadCity(city_file);
+  const std::string partition = fmt::format("bench_traffic_{}", ::getpid());
+  std::unique_ptr<ChildProcess> scm;
+  if (with_scm) {
+    scm = std::make_unique<ChildProcess>(std::vector<std::string>{
+        bench::Bin("autodrive-scm"), "--config", city_file.string(), "--db",
+        (dir / "scm.db").string(), "--partition", partition, "--log-level", "warn"});
+  }
+  dds::Participant participant(dds::ParticipantOptions{{}, partition, {}});
+  std::printf("grid %dx%d (%zu intersections, %zu lanes), %.0f simulated s per run, SCM %s\n", grid,
+              grid, city.map.intersections.size(), city.map.lanes.size(), seconds,
+              with_scm ? "running" : "not running");
+  std::printf("%8s %10s %12s %12s %10s %s\n", "cars", "co-sim RTF", "libsumo RTF", "overhead",
+              "ms/step", "collisions/teleports/lost");
+  for (const int n : cars) {
+    const double scm_cpu0 = scm ? bench::CpuSeconds(scm->pid()) : 0.0;
+    const Result r = Run(city, n, seconds, dir, participant);
+    const double scm_cpu = scm ? bench::CpuSeconds(scm->pid()) - scm_cpu0 : 0.0;
+    std::printf("%8d %9.2fx %11.2fx %11.2fx %10.2f %lld/%lld/%lld%s\n", r.vehicles,
+                r.simulated_s / r.cosim_cpu_s, r.simulated_s / r.alone_cpu_s,
+                r.cosim_cpu_s / r.alone_cpu_s, 1000 * r.cosim_cpu_s / (r.simulated_s / 0.05),
+                static_cast<long long>(r.collisions), static_cast<long long>(r.teleports),
+                static_cast<long long>(r.lost),
+                r.vehicles < n ? fmt::format(" (room for {} of {})", r.vehicles, n).c_str() : "");
+    if (scm) std::printf("         (the SCM used %.2f s of CPU meanwhile)\n", scm_cpu);
+    std::fflush(stdout);
+  }
+  if (scm) scm->Stop();
+  std::filesystem::remove_all(dir);
+  return 0;
+}

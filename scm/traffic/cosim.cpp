@@ -1,0 +1,560 @@
+#include "scm/traffic/cosim.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <set>
+#include <unordered_set>
+
+#include "common/error.h"
+#include "scm/city.h"
+
+namespace autodrive::traffic {
+
+namespace {
+
+// Edges a circulating vehicle's route holds ahead of it after an extension.
+constexpr std::size_t kWalkEdges = 16;
+// A route is extended when it has this many edges left.
+constexpr std::size_t kExtendAt = 4;
+
+std::uint8_t ObjectClass(const std::string& vclass) {
+  if (vclass == "bus" || vclass == "coach") return 2;
+  if (vclass == "truck" || vclass == "trailer" || vclass == "delivery") return 3;
+  if (vclass == "motorcycle" || vclass == "moped") return 4;
+  if (vclass == "bicycle") return 5;
+  if (vclass == "pedestrian") return 6;
+  if (vclass == "emergency") return 7;
+  return 1;
+}
+
+// SUMO's signal bits (0 right blinker, 1 left blinker, 3 brake light) as TrafficObject's (0
+// left, 1 right, 2 brake).
+std::uint8_t Signals(int sumo) {
+  std::uint8_t out = 0;
+  if ((sumo & 2) != 0) out |= 1U;
+  if ((sumo & 1) != 0) out |= 2U;
+  if ((sumo & 8) != 0) out |= 4U;
+  return out;
+}
+
+std::string Seconds(double s) { return fmt::format("{:.6f}", s); }
+
+}  // namespace
+
+double YawFromSumoAngle(double angle_deg) {
+  return std::remainder(std::numbers::pi / 2 - angle_deg * std::numbers::pi / 180,
+                        2 * std::numbers::pi);
+}
+
+double SumoAngleFromYaw(double yaw_rad) {
+  const double a = 90.0 - yaw_rad * 180 / std::numbers::pi;
+  return a - 360.0 * std::floor(a / 360.0);
+}
+
+CoSimulation::CoSimulation(const scm::City& city, const TrafficConfig& config, Options options)
+    : city_(city),
+      config_(config),
+      lights_(city),
+      rng_(config.seed),
+      step_s_(ToSeconds(config.step_s)),
+      expected_lab_cars_(options.expected_lab_cars),
+      lab_car_wait_s_(ToSeconds(options.lab_car_wait)) {
+  std::filesystem::create_directories(options.work_dir);
+  network_ =
+      std::make_unique<TrafficNetwork>(city.map, options.work_dir / "network", config.speed_mps);
+  index_ = std::make_unique<maps::MapIndex>(city.map);
+  heads_.resize(city.map.signal_heads.size() + 1);
+  for (const TypeShare& t : config_.mix) {
+    AUTODRIVE_THROW_UNLESS(!t.type.empty(), "traffic.mix: a type without a name");
+  }
+  for (const FlowConfig& f : config_.flows) {
+    Flow flow{f, network_->EdgeOfLane(f.from), "", 0};
+    if (!f.to.empty()) {
+      flow.to_edge = network_->EdgeOfLane(f.to);
+      AUTODRIVE_THROW_UNLESS(!network_->Route(flow.from_edge, flow.to_edge).empty(),
+                             "traffic.flows: no route from " << f.from << " to " << f.to);
+    }
+    flows_.push_back(std::move(flow));
+  }
+  StartSumo(options);
+  network_->LearnInternalLanes(*api_);
+  light_states_.resize(lights_.lights().size());
+  IndexStopLanes();
+  // Before any report every light is dark: all-way stops.
+  UpdateLights(MonoTime{});
+  for (const TypeShare& t : config_.mix) (void)TypeSize(t.type);  // an unknown type throws here
+}
+
+CoSimulation::~CoSimulation() {
+  try {
+    api_->Close();
+  } catch (const std::exception& e) {
+    spdlog::warn("traffic: closing SUMO: {}", e.what());
+  }
+}
+
+void CoSimulation::StartSumo(Options& options) {
+  const maps::SumoExport& files = network_->files();
+  std::vector<std::string> args = {config_.sumo.binary,
+                                   "-c",
+                                   files.config_file.string(),
+                                   "--step-length",
+                                   Seconds(step_s_),
+                                   "--seed",
+                                   std::to_string(config_.seed % 2147483647),
+                                   "--no-step-log",
+                                   "true",
+                                   "--time-to-teleport",
+                                   "-1",
+                                   "--collision.check-junctions",
+                                   options.check_junction_collisions ? "true" : "false",
+                                   "--collision.action",
+                                   "warn",
+                                   "--log",
+                                   (options.work_dir / "sumo.log").string()};
+  if (!config_.route_files.empty()) {
+    std::string joined;
+    for (const std::string& f : config_.route_files) joined += (joined.empty() ? "" : ",") + f;
+    args.insert(args.end(), {"--route-files", joined});
+  }
+  args.insert(args.end(), config_.sumo.args.begin(), config_.sumo.args.end());
+  api_ = std::move(options.api);
+  if (!api_) api_ = config_.sumo.traci_port != 0 ? MakeTraciApi() : MakeLibsumoApi();
+  api_->Start(args, config_.sumo.traci_port, config_.sumo.clients);
+}
+
+const SumoTypeSize& CoSimulation::TypeSize(const std::string& type) {
+  auto it = type_sizes_.find(type);
+  if (it == type_sizes_.end()) it = type_sizes_.emplace(type, api_->TypeSize(type)).first;
+  return it->second;
+}
+
+const std::string& CoSimulation::PickType() {
+  double total = 0;
+  for (const TypeShare& t : config_.mix) total += t.weight;
+  if (total <= 0) return config_.mix.front().type;
+  double r = std::uniform_real_distribution<double>(0.0, total)(rng_);
+  for (const TypeShare& t : config_.mix) {
+    if (r < t.weight) return t.type;
+    r -= t.weight;
+  }
+  return config_.mix.back().type;
+}
+
+void CoSimulation::AddVehicle(const std::string& id, const std::string& type,
+                              std::vector<std::string> route, bool circulating,
+                              const std::string& depart_pos) {
+  const std::string route_id = "r_" + id;
+  api_->AddRoute(route_id, route);
+  api_->AddVehicle(id, route_id, type, "now", "best", depart_pos, "0");
+  if (circulating) circulating_[id].route_length = route.size();
+}
+
+void CoSimulation::InsertRandomVehicles() {
+  const double gap = network_->scale() * 0.05;
+  // Clear of the lab's cars, in SUMO since the first step.
+  std::vector<std::tuple<std::string, double, double>> lab;
+  for (const SumoVehicleState& v : states_) {
+    if (lab_ids_.count(v.id) == 0 || v.lane.empty() || v.lane.front() == ':') continue;
+    const double length = TypeSize(v.type).length;
+    lab.emplace_back(v.lane.substr(0, v.lane.rfind('_')), v.lane_pos - length - gap,
+                     v.lane_pos + gap);
+  }
+  const std::vector<Placement> placed = network_->PlaceVehicles(
+      config_.vehicles, kWalkEdges, gap, rng_,
+      [this]() -> const std::string& { return PickType(); },
+      [this](const std::string& type) { return TypeSize(type).length; }, lab);
+  if (placed.size() < static_cast<std::size_t>(config_.vehicles)) {
+    spdlog::warn("traffic: room for {} of the {} vehicles only", placed.size(), config_.vehicles);
+  }
+  for (const Placement& p : placed) {
+    AddVehicle("bg_" + std::to_string(next_id_++), p.type, p.route, true,
+               fmt::format("{:.3f}", p.pos));
+  }
+}
+
+void CoSimulation::ReportLamp(SignalHeadId head, int lamp, MonoTime now) {
+  if (head.value() >= heads_.size() || !heads_[head.value()].Report(lamp, now)) return;
+  // A head's aspect may change until a flash window after its last change.
+  for (const std::size_t light : lights_of_head_[head.value()]) {
+    recheck_until_[light] = now + config_.lights.flash_window_s + config_.step_s;
+  }
+}
+
+void CoSimulation::UpdateLights(MonoTime now) {
+  for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
+    // Only where a lamp changed lately, or an all-way stop is being run.
+    const bool all_way = aspect_states_[i].find('s') != std::string::npos;
+    if (!all_way && now > recheck_until_[i] && !light_states_[i].empty()) continue;
+    aspect_states_[i] = lights_.State(i, heads_, now, config_.lights.flash_window_s);
+    // All-way stop links: red, but green for the vehicles granted (ArbitrateAllWayStops).
+    std::string state = aspect_states_[i];
+    for (char& c : state) {
+      if (c == 's') c = 'r';
+    }
+    for (const Grant& g : grants_[i]) {
+      if (aspect_states_[i][g.link] == 's') state[g.link] = 'G';
+    }
+    if (state == light_states_[i]) continue;
+    api_->SetLightState(lights_.lights()[i].tls, state);
+    light_states_[i] = std::move(state);
+  }
+}
+
+void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now) {
+  const double s = network_->scale();
+  const SumoTypeSize& nigel = TypeSize(network_->files().vehicle_type);
+  for (const LabCarPose& car : cars) {
+    LabCar& lab = lab_cars_[car.name];
+    lab.last_seen = now;
+    const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
+    // SUMO's position is the front bumper's middle.
+    const Eigen::Vector2d front =
+        car.position + heading * (config_.lab_cars.body_centre_ahead_m + nigel.length / s / 2);
+    const auto match =
+        index_->NearestLane(car.position + heading * config_.lab_cars.body_centre_ahead_m,
+                            config_.lab_cars.max_lane_distance_m);
+    if (!match) {
+      if (lab.in_sumo) {
+        api_->Remove(lab.sumo_id);
+        lab.in_sumo = false;
+      }
+      continue;
+    }
+    if (!lab.in_sumo) {
+      lab.sumo_id = car.name + (lab.entries == 0 ? "" : "#" + std::to_string(lab.entries));
+      ++lab.entries;
+      lab_ids_.insert(lab.sumo_id);
+      const std::string& edge = network_->EdgeOfLane(city_.map.lane(match->lane).name);
+      const std::string route_id = "r_" + lab.sumo_id;
+      api_->AddRoute(route_id, {edge});
+      api_->AddVehicle(lab.sumo_id, route_id, network_->files().vehicle_type, "now", "best", "base",
+                       "0");
+      api_->SetSpeedMode(lab.sumo_id, 0);
+      lab.in_sumo = true;
+    }
+    try {
+      api_->MoveToXY(lab.sumo_id, "", -1, front.x() * s, front.y() * s,
+                     SumoAngleFromYaw(car.yaw_rad));
+    } catch (const SumoError& e) {
+      ++stats_.lab_car_misses;
+      spdlog::warn("traffic: {} could not be placed in SUMO: {}", car.name, e.what());
+    }
+  }
+  // Cars not heard from for too long leave SUMO.
+  for (auto& [name, lab] : lab_cars_) {
+    if (lab.in_sumo && now - lab.last_seen > config_.lab_cars.staleness_s) {
+      api_->Remove(lab.sumo_id);
+      lab.in_sumo = false;
+      spdlog::info("traffic: {} is stale: removed from SUMO until it is heard again", name);
+    }
+  }
+  stats_.lab_cars_placed = std::count_if(lab_cars_.begin(), lab_cars_.end(),
+                                         [](const auto& kv) { return kv.second.in_sumo; });
+}
+
+void CoSimulation::DepartFlows() {
+  for (std::size_t i = 0; i < flows_.size(); ++i) {
+    Flow& f = flows_[i];
+    const double period = 3600.0 / f.config.per_hour;
+    while ((f.config.count == 0 || f.sent < f.config.count) &&
+           ToSeconds(f.config.begin_s) + f.sent * period <= time_s_ + 1e-9) {
+      const bool circulating = f.to_edge.empty();
+      std::vector<std::string> route = circulating ? std::vector<std::string>{f.from_edge}
+                                                   : network_->Route(f.from_edge, f.to_edge);
+      if (circulating) {
+        for (std::string& e : network_->RandomWalk(f.from_edge, kWalkEdges, rng_))
+          route.push_back(std::move(e));
+      }
+      AddVehicle("flow" + std::to_string(i) + "_" + std::to_string(f.sent), f.config.type,
+                 std::move(route), circulating, "base");
+      ++f.sent;
+    }
+  }
+}
+
+void CoSimulation::ExtendRoutes() {
+  // Routes hold four edges ahead at least when extended: checking twice a second is enough.
+  if (stats_.steps % 10 != 0) return;
+  for (SumoVehicleState& v : states_) {
+    const auto it = circulating_.find(v.id);
+    if (it == circulating_.end()) continue;
+    // Inside a junction SUMO's route index still names the edge before it: extend once the
+    // vehicle is on an edge again.
+    if (!v.lane.empty() && v.lane.front() == ':') continue;
+    v.route_index = api_->RouteIndex(v.id);
+    std::size_t& length = it->second.route_length;
+    const auto index = static_cast<std::size_t>(std::max(0, v.route_index));
+    if (length > index + kExtendAt) continue;
+    // SUMO's own route (it is the truth; a replacement restarts its index).
+    const std::vector<std::string> route = api_->Route(v.id);
+    if (index >= route.size()) continue;
+    std::vector<std::string> ahead(route.begin() + static_cast<std::ptrdiff_t>(index), route.end());
+    const std::size_t before = ahead.size();
+    for (std::string& e : network_->RandomWalk(ahead.back(), kWalkEdges, rng_)) {
+      ahead.push_back(std::move(e));
+    }
+    if (ahead.size() == before) continue;  // a road out of the map: it will arrive there
+    api_->SetRoute(v.id, ahead);
+    length = ahead.size();
+    ++stats_.route_extensions;
+  }
+}
+
+void CoSimulation::IndexStopLanes() {
+  std::unordered_map<std::string, std::size_t> light_of;
+  for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
+    light_of.emplace(lights_.lights()[i].tls, i);
+  }
+  for (const maps::Intersection& x : city_.map.intersections) {
+    if (x.control != maps::Control::kSignal && x.control != maps::Control::kStop) continue;
+    for (const MovementId mid : x.movements) {
+      const maps::SumoMovement& sm = network_->files().movement(mid);
+      const std::size_t light = light_of.at(sm.junction);
+      const auto link = static_cast<std::size_t>(sm.tls_link_index.value_or(0));
+      StopLane& lane = stop_lanes_[sm.from.id()];
+      lane.light = light;
+      lane.links.push_back(StopLane::Link{sm.to.edge, sm.to.id(), link});
+      exit_of_link_.resize(std::max(exit_of_link_.size(), light + 1));
+      auto& exits = exit_of_link_[light];
+      exits.resize(std::max(exits.size(), link + 1));
+      exits[link] = sm.to.id();
+      exit_lanes_.insert(sm.to.id());
+      for (const std::string& internal : network_->InternalLanes(mid)) {
+        link_of_lane_.emplace(internal, std::pair{light, link});
+      }
+    }
+  }
+  for (auto& [id, lane] : stop_lanes_) lane.length = api_->LaneLength(id);
+  aspect_states_.resize(lights_.lights().size());
+  grants_.resize(lights_.lights().size());
+  recheck_until_.assign(lights_.lights().size(), MonoTime{});
+  lights_of_head_.resize(heads_.size());
+  for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
+    for (const auto& link : lights_.lights()[i].heads) {
+      for (const SignalHeadId h : link) {
+        auto& of = lights_of_head_.at(h.value());
+        if (std::find(of.begin(), of.end(), i) == of.end()) of.push_back(i);
+      }
+    }
+  }
+}
+
+// SUMO's own all-way stop (`s` links, or an allway_stop junction) lets a left turn with a
+// waiting point inside the junction roll through without stopping, and lets vehicles on
+// crossing paths of these small junctions (a 1:14 box at 14x) into the box together. So a
+// flashing or dark light is arbitrated here, as drivers do at an all-way stop: every vehicle
+// stops at the line (its link is red until then); the one that has stood longest (at least
+// half a second) goes, with any others whose movements conflict with no movement granted or
+// occupied; its link turns green until it is in the junction, then red again.
+void CoSimulation::ArbitrateAllWayStops() {
+  constexpr double kStand_s = 0.5;
+  constexpr double kRoomShare = 0.5;
+  constexpr double kGrant_s = 5.0;
+  const double s = network_->scale();
+  for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
+    if (aspect_states_[i].find('s') == std::string::npos) grants_[i].clear();
+  }
+  // Occupied links (a vehicle on their internal lanes) and vehicles standing at a line.
+  std::vector<std::vector<bool>> occupied(lights_.lights().size());
+  for (std::size_t i = 0; i < occupied.size(); ++i) {
+    occupied[i].assign(lights_.lights()[i].heads.size(), false);
+  }
+  struct Waiting {
+    double since;
+    std::string vehicle;
+    const StopLane* lane;
+    int route_index;
+    std::string type;
+  };
+  std::vector<Waiting> waiting;
+  std::unordered_map<std::string, std::string> lane_of;
+  // Room at the start of each lane (SUMO metres up to the last vehicle's back), less what the
+  // vehicles in a box or let through on their way into it take.
+  std::unordered_map<std::string, double> room;
+  const auto take_room = [&](const std::string& lane, double length) {
+    auto it = room.find(lane);
+    if (it == room.end()) it = room.emplace(lane, api_->LaneLength(lane)).first;
+    it->second -= length;
+  };
+  const double gap = network_->files().scale * 0.05;  // the vehicle types' min gap
+  for (const SumoVehicleState& v : states_) {
+    lane_of.emplace(v.id, v.lane);
+    const double length = TypeSize(v.type).length;
+    if (const auto it = link_of_lane_.find(v.lane); it != link_of_lane_.end()) {
+      occupied[it->second.first][it->second.second] = true;
+      take_room(exit_of_link_[it->second.first][it->second.second], length + gap);
+      continue;
+    }
+    if (!v.lane.empty() && v.lane.front() != ':') {
+      auto r = room.find(v.lane);
+      if (r == room.end()) r = room.emplace(v.lane, api_->LaneLength(v.lane)).first;
+      r->second = std::min(r->second, v.lane_pos - length - gap);
+    }
+    const auto lane = stop_lanes_.find(v.lane);
+    // A lab car near the line may go in whenever its driver decides: nothing that conflicts
+    // with any movement from its lane is let through meanwhile.
+    if (lab_ids_.count(v.id) != 0) {
+      if (lane != stop_lanes_.end() && v.lane_pos > lane->second.length - 2 * length) {
+        for (const auto& l : lane->second.links) occupied[lane->second.light][l.index] = true;
+      }
+      continue;
+    }
+    const bool at_line = lane != stop_lanes_.end() && v.speed_mps < 0.01 * s &&
+                         v.lane_pos > lane->second.length - 0.1 * s;
+    if (!at_line) {
+      standing_since_.erase(v.id);
+      continue;
+    }
+    const auto since = standing_since_.try_emplace(v.id, time_s_).first;
+    if (aspect_states_[lane->second.light].find('s') != std::string::npos) {
+      waiting.push_back(
+          Waiting{since->second, v.id, &lane->second, api_->RouteIndex(v.id), v.type});
+    }
+  }
+  // Grants end once the vehicle is in the junction (or gone), or when it did not take its
+  // turn within a few seconds (blocked by a vehicle SUMO put in the box: the next one goes).
+  for (auto& grants : grants_) {
+    std::erase_if(grants, [&](const Grant& g) {
+      const auto it = lane_of.find(g.vehicle);
+      if (it == lane_of.end() || stop_lanes_.count(it->second) == 0) return true;
+      // It did not go (no room beyond, as SUMO sees it): the next one may.
+      return time_s_ - g.since > kGrant_s;
+    });
+  }
+  for (std::size_t i = 0; i < grants_.size(); ++i) {
+    for (const Grant& g : grants_[i]) take_room(exit_of_link_[i][g.link], g.room);
+  }
+  std::sort(waiting.begin(), waiting.end(), [](const Waiting& a, const Waiting& b) {
+    return a.since != b.since ? a.since < b.since : a.vehicle < b.vehicle;
+  });
+  for (const Waiting& w : waiting) {
+    if (time_s_ - w.since < kStand_s - 1e-9) continue;
+    const std::size_t light = w.lane->light;
+    auto& grants = grants_[light];
+    if (std::any_of(grants.begin(), grants.end(),
+                    [&](const Grant& g) { return g.vehicle == w.vehicle; })) {
+      continue;
+    }
+    // Its movement: the link to the next edge of its route.
+    const std::vector<std::string> route = api_->Route(w.vehicle);
+    const auto next = static_cast<std::size_t>(w.route_index) + 1;
+    if (w.route_index < 0 || next >= route.size()) continue;
+    const auto link = std::find_if(w.lane->links.begin(), w.lane->links.end(),
+                                   [&](const auto& l) { return l.edge == route[next]; });
+    if (link == w.lane->links.end()) continue;
+    const std::size_t k = link->index;
+    // Only into a lane with room for it: a vehicle waiting in the box for room would hold up
+    // every movement it conflicts with (and a grid of all-way stops would lock up).
+    const double length = TypeSize(w.type).length;
+    take_room(link->lane, 0.0);
+    if (room.at(link->lane) < kRoomShare * length) continue;
+    if (aspect_states_[light][k] != 's') continue;
+    const auto& foes = lights_.lights()[light].foes[k];
+    const bool clear = std::none_of(foes.begin(), foes.end(), [&](std::size_t f) {
+      return occupied[light][f] ||
+             std::any_of(grants.begin(), grants.end(), [&](const Grant& g) { return g.link == f; });
+    });
+    if (!clear) continue;
+    grants.push_back(Grant{w.vehicle, k, time_s_, length + gap});
+    room.at(link->lane) -= length + gap;
+    ++stats_.all_way_grants;
+  }
+}
+
+void CoSimulation::ReadVehicles() {
+  api_->ReadVehicles(states_);
+  // Lane positions where they matter: the lab's cars, and lanes into or out of an all-way stop.
+  for (SumoVehicleState& v : states_) {
+    if (lab_ids_.count(v.id) != 0 || stop_lanes_.count(v.lane) != 0 ||
+        exit_lanes_.count(v.lane) != 0) {
+      v.lane_pos = api_->LanePosition(v.id);
+    }
+  }
+  const double s = network_->scale();
+  vehicles_.clear();
+  for (const SumoVehicleState& v : states_) {
+    if (lab_ids_.count(v.id) != 0) continue;
+    const SumoTypeSize& size = TypeSize(v.type);
+    TrafficVehicle out;
+    out.id = v.id;
+    out.object_class = ObjectClass(size.vclass);
+    out.yaw_rad = YawFromSumoAngle(v.angle_deg);
+    const Eigen::Vector2d heading(std::cos(out.yaw_rad), std::sin(out.yaw_rad));
+    out.centre = (Eigen::Vector2d(v.x, v.y) - heading * (size.length / 2)) / s;
+    out.length_m = size.length / s;
+    out.width_m = size.width / s;
+    out.height_m = size.height / s;
+    out.speed_mps = v.speed_mps / s;
+    out.map_lane = network_->MapName(v.lane);
+    out.signals = Signals(v.signals);
+    vehicles_.push_back(std::move(out));
+  }
+}
+
+const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPose>& lab_cars,
+                                                      MonoTime now) {
+  UpdateLights(now);
+  PlaceLabCars(lab_cars, now);
+  // The random vehicles go in once the lab's cars are in the network (placed in the last
+  // step), so that none is put where a lab car stands.
+  if (!inserted_ && stats_.steps >= 1) {
+    // Each expected car in the network as SUMO reported it after the last step.
+    const bool all_here =
+        std::all_of(expected_lab_cars_.begin(), expected_lab_cars_.end(), [&](const auto& n) {
+          const auto it = lab_cars_.find(n);
+          return it != lab_cars_.end() && it->second.in_sumo &&
+                 std::any_of(states_.begin(), states_.end(),
+                             [&](const SumoVehicleState& v) { return v.id == it->second.sumo_id; });
+        });
+    if (all_here || time_s_ >= lab_car_wait_s_) {
+      if (!all_here) {
+        spdlog::warn(
+            "traffic: not every lab car was heard from in {:.1f} s: the background "
+            "vehicles go in now",
+            time_s_);
+      }
+      InsertRandomVehicles();
+      inserted_ = true;
+    }
+  }
+  DepartFlows();
+  api_->Step(0.0);
+  time_s_ = api_->Time();
+  ++stats_.steps;
+  const SumoStepEvents events = api_->Events();
+  for (const std::string& id : events.departed) {
+    if (lab_ids_.count(id) == 0) ++stats_.departed;
+  }
+  for (const std::string& id : events.arrived) {
+    if (circulating_.erase(id) != 0) {
+      ++stats_.arrived_unplanned;
+      spdlog::error("traffic: circulating vehicle {} left the network at {:.2f} s", id, time_s_);
+    } else if (lab_ids_.count(id) == 0) {
+      ++stats_.arrived_planned;
+    }
+  }
+  for (const std::string& id : events.teleported) {
+    ++stats_.teleports;
+    spdlog::error("traffic: SUMO teleported {} at {:.2f} s", id, time_s_);
+  }
+  // A collision counts once, when the two start to overlap.
+  std::set<std::pair<std::string, std::string>> colliding;
+  for (const SumoStepEvents::Collision& c : events.collisions) {
+    const auto pair = std::minmax(c.collider, c.victim);
+    colliding.emplace(pair.first, pair.second);
+    if (colliding_.count({pair.first, pair.second}) != 0) continue;
+    ++stats_.collisions;
+    spdlog::warn("traffic: collision at {:.2f} s: {}", time_s_, c.description);
+  }
+  colliding_ = std::move(colliding);
+  ReadVehicles();
+  ArbitrateAllWayStops();
+  ExtendRoutes();
+  return vehicles_;
+}
+
+}  // namespace autodrive::traffic

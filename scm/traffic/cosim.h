@@ -1,0 +1,209 @@
+#pragma once
+/// @file
+/// The co-simulation: SUMO on the city's network with the city's demand, stepped with what the
+/// lab reports (the lamps its lights show, where its own cars are), giving back SUMO's vehicles
+/// in the lab's frame. No DDS here (service.h carries it), so that tests and benchmarks drive
+/// it directly.
+///
+/// Each `Step`:
+/// 1. the lamps become SUMO's link states (lights.h) where they changed;
+/// 2. every lab car is placed in SUMO as an externally moved vehicle (moveToXY, SUMO's
+///    keepRoute 2) at its pose, so that SUMO's cars follow it, stop behind it and yield to it;
+///    a car that goes stale or leaves the road network leaves SUMO;
+/// 3. the demand's departures due are added (flows);
+/// 4. SUMO steps;
+/// 5. a traffic light that flashes red or is dark is an all-way stop, arbitrated here (see
+///    `ArbitrateAllWayStops`): its links stay red for a vehicle until it has stood at the stop
+///    line, then open, first come first served, for movements that conflict with none inside;
+/// 6. circulating vehicles whose route is running out get a longer one (a seeded random walk
+///    over the lane graph), so that they never arrive; departures, arrivals, teleports and
+///    collisions are counted (and logged);
+/// 7. every SUMO vehicle but the lab's is read and mapped to the lab's frame.
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "common/time.h"
+#include "maps/query.h"
+#include "scm/traffic/lights.h"
+#include "scm/traffic/network.h"
+#include "scm/traffic/sumo_api.h"
+#include "scm/traffic/traffic_config.h"
+
+namespace autodrive::scm {
+struct City;
+}
+
+namespace autodrive::traffic {
+
+/// A lab car's pose for SUMO: its origin (the middle of its rear axle) in the map frame.
+struct LabCarPose {
+  std::string name;  ///< "nigel_1": also its SUMO id
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();
+  double yaw_rad = 0.0;
+  double speed_mps = 0.0;
+};
+
+/// One of SUMO's vehicles in the lab's frame (see autodrive_msgs/TrafficObject).
+struct TrafficVehicle {
+  std::string id;
+  std::uint8_t object_class = 1;  ///< TrafficObject_Constants (CAR 1, BUS 2, EMERGENCY 7)
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  ///< footprint centre, map frame
+  double yaw_rad = 0.0;
+  double length_m = 0.0, width_m = 0.0, height_m = 0.0;
+  double speed_mps = 0.0;
+  std::string map_lane;      ///< map lane or movement name; empty on neither
+  std::uint8_t signals = 0;  ///< bit 0 left, 1 right, 2 brake
+};
+
+/// Counts since the start.
+struct CoSimStats {
+  std::int64_t steps = 0;
+  std::int64_t departed = 0;         ///< background vehicles that entered the network
+  std::int64_t arrived_planned = 0;  ///< left where their route ends (route files, flows with `to`)
+  std::int64_t arrived_unplanned = 0;  ///< circulating vehicles that left: must stay 0
+  std::int64_t teleports = 0;          ///< must stay 0 (SUMO runs with teleports off)
+  std::int64_t collisions = 0;         ///< pairs of vehicles that started to overlap
+  std::int64_t lab_cars_placed = 0;    ///< lab cars in SUMO now
+  std::int64_t lab_car_misses = 0;     ///< placements SUMO refused (car off the roads)
+  std::int64_t route_extensions = 0;
+  std::int64_t all_way_grants = 0;  ///< vehicles let through flashing or dark lights
+};
+
+class CoSimulation {
+ public:
+  struct Options {
+    std::filesystem::path work_dir;  ///< where the network and logs go (created)
+    /// The SUMO backend (libsumo when null, or TraCI when the config asks for a port).
+    std::unique_ptr<SumoApi> api;
+    /// SUMO runs with junction collision checks (SUMO's `collision.check-junctions`).
+    bool check_junction_collisions = true;
+    /// The lab cars expected: the random vehicles go in once each is placed (so that none is
+    /// put where a lab car stands), or after `lab_car_wait` at the latest.
+    std::vector<std::string> expected_lab_cars;
+    Duration lab_car_wait = std::chrono::seconds(5);
+  };
+
+  /// Exports the network, starts SUMO and inserts the demand. `city` must outlive this.
+  /// @throws InputError for a bad demand (unknown lane, type), SumoError when SUMO fails.
+  CoSimulation(const scm::City& city, const TrafficConfig& config, Options options);
+  ~CoSimulation();
+  CoSimulation(const CoSimulation&) = delete;
+  CoSimulation& operator=(const CoSimulation&) = delete;
+
+  /// A head's lamp report (`signal_<i>/state`) at control time `now`.
+  void ReportLamp(SignalHeadId head, int lamp, MonoTime now);
+  /// Advances SUMO by one step (`config.step_s`), with the lab cars where `lab_cars` says
+  /// (the cars not listed are stale once `staleness_s` passed since they were) and the lamps at
+  /// `now`. Returns the background vehicles after the step.
+  const std::vector<TrafficVehicle>& Step(const std::vector<LabCarPose>& lab_cars, MonoTime now);
+
+  /// SUMO's time after the last step (s since the start).
+  [[nodiscard]] double time_s() const { return time_s_; }
+  [[nodiscard]] const std::vector<TrafficVehicle>& vehicles() const { return vehicles_; }
+  [[nodiscard]] const CoSimStats& stats() const { return stats_; }
+  [[nodiscard]] const TrafficNetwork& network() const { return *network_; }
+  [[nodiscard]] SumoApi& api() { return *api_; }
+  /// The link states last set on SUMO's traffic lights, by light (LightBinding order).
+  [[nodiscard]] const std::vector<std::string>& light_states() const { return light_states_; }
+  [[nodiscard]] const LightBinding& lights() const { return lights_; }
+
+ private:
+  struct Circulating {
+    std::size_t route_length = 0;  // edges in its route (SUMO's index restarts with a new one)
+  };
+  struct LabCar {
+    MonoTime last_seen{};
+    bool in_sumo = false;
+    std::string sumo_id;  // the name, then name#k after the k-th re-entry
+    int entries = 0;
+  };
+  struct Flow {
+    FlowConfig config;
+    std::string from_edge, to_edge;
+    int sent = 0;
+  };
+
+  void StartSumo(Options& options);
+  void InsertRandomVehicles();
+  const std::string& PickType();
+  void AddVehicle(const std::string& id, const std::string& type, std::vector<std::string> route,
+                  bool circulating, const std::string& depart_pos);
+  void UpdateLights(MonoTime now);
+  void PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now);
+  void DepartFlows();
+  void ExtendRoutes();
+  void ReadVehicles();
+  void IndexStopLanes();
+  void ArbitrateAllWayStops();
+  const SumoTypeSize& TypeSize(const std::string& type);
+
+  const scm::City& city_;
+  TrafficConfig config_;
+  std::unique_ptr<TrafficNetwork> network_;
+  std::unique_ptr<SumoApi> api_;
+  LightBinding lights_;
+  std::vector<HeadReading> heads_;         // by head id
+  std::vector<std::string> light_states_;  // by light
+  std::mt19937_64 rng_;
+  double time_s_ = 0.0;
+  double step_s_ = 0.05;
+  std::int64_t next_id_ = 0;
+  bool inserted_ = false;  // the random vehicles
+  std::vector<std::string> expected_lab_cars_;
+  double lab_car_wait_s_ = 5.0;
+  std::unordered_map<std::string, Circulating> circulating_;
+  std::unordered_map<std::string, LabCar> lab_cars_;
+  std::unordered_set<std::string> lab_ids_;  // every SUMO id a lab car had
+  std::unique_ptr<maps::MapIndex> index_;
+  // The all-way stops of flashing or dark traffic lights.
+  struct StopLane {  // an ingress lane of a traffic light
+    std::size_t light = 0;
+    double length = 0;  // SUMO metres
+    struct Link {
+      std::string edge;  // the next edge
+      std::string lane;  // the SUMO lane it enters
+      std::size_t index = 0;
+    };
+    std::vector<Link> links;
+  };
+  struct Grant {
+    std::string vehicle;
+    std::size_t link = 0;
+    double since = 0;  // SUMO time of the grant (s)
+    double room = 0;   // what it takes of its exit lane (SUMO metres)
+  };
+  std::unordered_map<std::string, StopLane> stop_lanes_;  // by SUMO lane id
+  // Internal lanes of the traffic lights' links: (light, link).
+  std::unordered_map<std::string, std::pair<std::size_t, std::size_t>> link_of_lane_;
+  std::vector<std::vector<std::string>> exit_of_link_;
+  std::unordered_set<std::string> exit_lanes_;  // every lane an all-way stop's link enters      //
+                                                // by light and link: the lane it enters
+  std::vector<std::string> aspect_states_;      // by light: 's' where all-way stop
+  std::vector<MonoTime> recheck_until_;         // by light: a lamp changed lately
+  std::vector<std::vector<std::size_t>> lights_of_head_;    // by head id
+  std::vector<std::vector<Grant>> grants_;                  // by light
+  std::unordered_map<std::string, double> standing_since_;  // vehicle: s, at a stop line
+  std::vector<Flow> flows_;
+  std::unordered_map<std::string, SumoTypeSize> type_sizes_;
+  std::vector<SumoVehicleState> states_;
+  std::vector<TrafficVehicle> vehicles_;
+  CoSimStats stats_;
+  std::set<std::pair<std::string, std::string>> colliding_;  // in the last step
+};
+
+/// SUMO's navigational angle (degrees, 0 north, clockwise) as a map yaw (rad, 0 east, CCW).
+[[nodiscard]] double YawFromSumoAngle(double angle_deg);
+/// A map yaw as SUMO's navigational angle.
+[[nodiscard]] double SumoAngleFromYaw(double yaw_rad);
+
+}  // namespace autodrive::traffic

@@ -1,0 +1,311 @@
+// SUMO co-simulation as real processes over DDS: autodrive-traffic with the simulator, the SCM
+// and its lights, checked only from the wire (TrafficObjects, signal_<i>/state, /clock) and the
+// map, not from SUMO's state or the co-simulation's code.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "common/config.h"
+#include "common/dds/conversions.h"
+#include "common/dds/messages.h"
+#include "common/ids.h"
+#include "maps/map.h"
+#include "maps/map_io.h"
+#include "tests/scm_processes.h"
+
+namespace autodrive::test {
+namespace {
+
+using std::chrono::seconds;
+
+class TrafficSystem : public ScmProcesses {};
+
+// Every message's objects, as the test saw them.
+struct Seen {
+  double t = 0;  // the message's stamp (simulated s)
+  std::string id, lane;
+  double x = 0, y = 0, yaw = 0, speed = 0;
+};
+
+// The lamp a head showed over simulated time: (time it came on, lamp).
+using LampHistory = std::vector<std::pair<double, int>>;
+
+int LampAt(const LampHistory& h, double t) {
+  int lamp = -1;
+  for (const auto& [since, l] : h) {
+    if (since > t) break;
+    lamp = l;
+  }
+  return lamp;
+}
+
+// True when the head showed steady red over [t - before, t]: red throughout, and not dark
+// in the second before (a flashing head goes dark every half second).
+bool SteadyRed(const LampHistory& h, double t, double before) {
+  for (const auto& [since, l] : h) {
+    if (since > t) break;
+    if (since > t - before - 1.0 && l != 1) return false;
+  }
+  return LampAt(h, t - before) == 1 && LampAt(h, t) == 1;
+}
+
+// The small town as shipped, but its overhead camera nearly off (nobody looks at it here), the
+// lab's cars left out of SUMO (`lab_cars.source: none`) and SUMO's out of the simulator: the
+// lab's cars stand at their spawns, and the lights are the subject. Lab cars in SUMO:
+// CoSim.ASumoCarStopsBehindAStandingLabCar.
+std::string TestCity(const std::filesystem::path& dir) {
+  std::string text = config::internal::ReadFile(Config("config/cities/small_town.yaml"));
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    if (at == std::string::npos) throw std::runtime_error("small_town.yaml: no " + from);
+    text.replace(at, from.size(), to);
+  };
+  replace("../maps/", Config("config/maps") + "/");
+  replace("../cameras/", Config("config/cameras") + "/");
+  replace("rate_hz: 30", "rate_hz: 1");
+  replace("traffic:\n", "traffic:\n  lab_cars: {source: none}\n");
+  // ... and the SUMO cars out of the simulator's world, or they would drive through them.
+  replace("sim:\n", "sim:\n  service: {traffic: false}\n");
+  const std::string city = (dir / "city.yaml").string();
+  std::ofstream(city) << text;
+  return city;
+}
+
+TEST_F(TrafficSystem, SumoCarsNeverCrossOnRedGoOnGreenAndStopAtAFlashingIntersection) {
+  const std::string city = TestCity(dir_);
+  const maps::Map map = maps::LoadMapOrLayout(Config("config/maps/small_town.yaml"));
+  dds::Reader<msg::TrafficObjects> traffic(*participant_, dds::topics::Traffic().name,
+                                           dds::Qos::Stream(64));
+  dds::Reader<msg::Clock> clock(*participant_, dds::topics::Clock());
+  std::map<int, std::unique_ptr<dds::Reader<msg::Int32>>> lamps;
+  std::map<int, LampHistory> history;
+  for (const maps::SignalHead& h : map.signal_heads) {
+    lamps[static_cast<int>(h.id.value())] =
+        std::make_unique<dds::Reader<msg::Int32>>(*participant_, dds::topics::SignalState(h.id));
+  }
+  StartInfra("small_town", {"--clock", "sim"});
+  StartScm(city, {"--clock", "sim"});
+  // Ten simulated minutes in lockstep with the traffic as the controller.
+  ChildProcess sim({Bin("autodrive-sim"), "--city", city, "--partition", partition_, "--mode",
+                    "lockstep", "--controller", "traffic", "--duration", "600", "--log-level",
+                    "warn"});
+  ChildProcess cosim({Bin("autodrive-traffic"), "--city", city, "--partition", partition_,
+                      "--lockstep", "traffic", "--work-dir", (dir_ / "traffic").string(),
+                      "--log-level", "warn"});
+  std::vector<Seen> seen;
+  std::set<std::size_t> counts;  // vehicles per message, once all are in
+  double now = 0, flash_at = -1;
+  const auto deadline = SteadyClock::now() + std::chrono::minutes(12);
+  bool ended = false;
+  while (SteadyClock::now() < deadline && !ended) {
+    traffic.WaitForData(std::chrono::milliseconds(5));
+    while (auto c = clock.TakeOne())
+      now = std::max(now, ToSeconds(dds::FromMsg((*c)->clock) - Time{}));
+    for (auto& [head, reader] : lamps) {
+      while (auto m = reader->TakeOne()) history[head].emplace_back(now, (*m)->data);
+    }
+    while (auto m = traffic.TakeOne()) {
+      const double t = ToSeconds(dds::FromMsg((*m)->header.stamp) - Time{});
+      const auto objects = dds::Elements((*m)->objects);
+      if (t > 5) counts.insert(objects.size());
+      for (const auto& o : objects) {
+        const auto& q = o.pose.orientation;
+        seen.push_back(Seen{
+            t, std::string(dds::View(o.object_id)), std::string(dds::View(o.map_lane_id)),
+            o.pose.position.x, o.pose.position.y,
+            std::atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)), o.speed_mps});
+      }
+    }
+    if (flash_at < 0 && now >= 420) {
+      // The last three minutes with the centre in flash.
+      const Output r = Lab({"mode", "centre", "flash"});
+      ASSERT_EQ(r.code, 0) << r.text;
+      flash_at = now;
+    }
+    ended = sim.Wait(std::chrono::milliseconds(0)).has_value();
+  }
+  ASSERT_TRUE(ended) << "the simulator did not finish 600 simulated seconds in 12 minutes";
+  EXPECT_EQ(cosim.Wait(seconds(30)), 0) << "autodrive-traffic saw a collision, a teleport or a "
+                                           "vehicle lost (its exit code)";
+  ASSERT_GT(flash_at, 0);
+  // No vehicle lost: 30 in every message once they are in.
+  EXPECT_EQ(counts, (std::set<std::size_t>{30})) << "vehicles per message changed";
+
+  // Crossings: a vehicle's lane goes from an ingress lane of a signalised intersection to one of
+  // its movements between two messages.
+  std::map<std::string, const maps::Lane*> lanes;
+  std::map<std::string, const maps::Movement*> movements;
+  for (const maps::Lane& l : map.lanes) lanes.emplace(l.name, &l);
+  for (const maps::Movement& m : map.movements) movements.emplace(m.name, &m);
+  std::map<std::string, Seen> last;
+  std::map<std::string, double> stood;  // last time each vehicle stood still
+  int on_green = 0, on_red = 0, in_flash = 0, flash_without_stop = 0;
+  std::map<int, int> per_minute;  // crossings at every intersection
+  for (const Seen& s : seen) {
+    if (s.speed < 0.01) stood[s.id] = s.t;
+    const auto before = last.find(s.id);
+    const auto m = movements.find(s.lane);
+    if (before != last.end() && m != movements.end() && lanes.count(before->second.lane) != 0) {
+      ++per_minute[static_cast<int>(s.t / 60)];
+      const maps::Intersection& x = map.intersection(m->second->intersection);
+      if (x.control == maps::Control::kSignal && s.t > 15) {
+        // The head of this intersection that faces the movement's approach.
+        const maps::SignalHead* head = nullptr;
+        for (const maps::SignalHead& h : map.signal_heads) {
+          if (h.intersection == x.id && h.approach == m->second->from_approach) head = &h;
+        }
+        ASSERT_NE(head, nullptr) << s.lane;
+        const LampHistory& h = history[static_cast<int>(head->id.value())];
+        if (x.name == "centre" && s.t > flash_at + 5) {
+          ++in_flash;
+          const auto st = stood.find(s.id);
+          if (st == stood.end() || s.t - st->second > 1.5) {
+            ++flash_without_stop;
+            ADD_FAILURE() << s.id << " entered " << s.lane << " at " << s.t
+                          << " s in flash without stopping";
+          }
+        } else if (x.name != "centre" || s.t < flash_at) {
+          if (SteadyRed(h, s.t, 0.3)) {
+            ++on_red;
+            ADD_FAILURE() << s.id << " entered " << s.lane << " at " << s.t << " s on red (head "
+                          << head->id.value() << ")";
+          }
+          if (LampAt(h, s.t) == 3) ++on_green;
+        }
+      }
+    }
+    last[s.id] = s;
+  }
+  for (const auto& [minute, n] : per_minute) std::printf("minute %d: %d crossings\n", minute, n);
+  std::printf(
+      "crossings: %d on green, %d on red, %d at the flashing centre (%d without stopping)\n",
+      on_green, on_red, in_flash, flash_without_stop);
+  EXPECT_GT(on_green, 50);
+  EXPECT_EQ(on_red, 0);
+  // Every car that entered the flashing centre stopped first. How many did is not asserted: run
+  // over DDS with the SCM's lamps, the town's traffic slows to a jam by its fifth minute
+  // (crossings a minute, printed above), which is issue 12's open problem; in process the
+  // flashing lights are shown to work (CoSim.FlashingRedIsAnAllWayStopEveryCarStopsThenCrosses).
+  EXPECT_EQ(flash_without_stop, 0);
+}
+
+// Two lockstep runs with the same seed publish the same objects. The lights are left out (they
+// are not in lockstep): the signalised intersections stay dark, all-way stops.
+TEST_F(TrafficSystem, TwoLockstepRunsWithTheSameSeedPublishTheSameObjects) {
+  const std::string city = Config("config/cities/small_town.yaml");
+  const auto run = [&](const std::string& name) {
+    const std::string log = (dir_ / (name + ".csv")).string();
+    ChildProcess sim({Bin("autodrive-sim"), "--city", city, "--partition", partition_ + name,
+                      "--mode", "lockstep", "--controller", "traffic", "--duration", "60",
+                      "--log-level", "warn"});
+    ChildProcess cosim({Bin("autodrive-traffic"), "--city", city, "--partition", partition_ + name,
+                        "--lockstep", "traffic", "--log", log, "--work-dir", (dir_ / name).string(),
+                        "--log-level", "warn"});
+    EXPECT_EQ(sim.Wait(std::chrono::minutes(5)), 0);
+    EXPECT_EQ(cosim.Wait(seconds(60)), 0);
+    return config::internal::ReadFile(log);
+  };
+  const std::string a = run("a"), b = run("b");
+  EXPECT_GT(std::count(a.begin(), a.end(), '\n'), 25000);  // 30 vehicles, ~1,000 steps
+  EXPECT_TRUE(a == b) << "the two runs differ";
+}
+
+// A free TCP port on localhost.
+int FreePort() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  addr.sin_port = 0;
+  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
+  socklen_t len = sizeof(addr);
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len);
+  ::close(fd);
+  return ntohs(addr.sin_port);
+}
+
+// SUMO as a TraCI server: SUMO's own Python client (Debian's sumo-tools) attaches as a second
+// client and reads the vehicles autodrive-traffic publishes.
+TEST_F(TrafficSystem, ASecondTraciClientAttachesAndReadsTheSameVehicles) {
+  const std::string city = Config("config/cities/small_town.yaml");
+  const int port = FreePort();
+  const std::string script = (dir_ / "client.py").string();
+  std::ofstream(script) << R"(import sys
+sys.path.append('/usr/share/sumo/tools')
+import traci
+traci.init(int(sys.argv[1]), numRetries=100)
+traci.setOrder(2)
+for step in range(1, 201):
+    traci.simulationStep()
+    if step % 50 == 0:
+        t = traci.simulation.getTime()
+        for v in sorted(traci.vehicle.getIDList()):
+            x, y = traci.vehicle.getPosition(v)
+            print('%.2f %s %.4f %.4f %.4f' % (t, v, x, y, traci.vehicle.getLength(v)), flush=True)
+traci.close()
+)";
+  dds::Reader<msg::TrafficObjects> traffic(*participant_, dds::topics::Traffic().name,
+                                           dds::Qos::Stream(512));
+  ChildProcess cosim({Bin("autodrive-traffic"), "--city", city, "--partition", partition_,
+                      "--traci-port", std::to_string(port), "--clients", "2", "--duration", "10",
+                      "--work-dir", (dir_ / "traffic").string(), "--log-level", "warn"});
+  ChildProcess client({"python3", script, std::to_string(port)});
+  std::vector<std::string> lines;
+  while (auto line = client.ReadLine(std::chrono::minutes(2))) lines.push_back(*line);
+  EXPECT_EQ(client.Wait(seconds(30)), 0);
+  EXPECT_EQ(cosim.Wait(seconds(60)), 0);
+  ASSERT_EQ(lines.size(), 4u * 30u)
+      << "the Python client saw " << static_cast<double>(lines.size()) / 4.0 << " vehicles a time";
+  // The same vehicles at the same times. Message k (stamped k steps of 50 ms after the first)
+  // is SUMO's state at (k + 1) x 50 ms; SUMO's position is the front bumper in the 14x frame:
+  // the object's centre plus half its length ahead, times 14.
+  std::map<long, std::map<std::string, std::array<double, 3>>> published;  // step: id: x, y, yaw
+  std::optional<Time> first;
+  for (auto& m : traffic.TakeAll()) {
+    const Time stamp = dds::FromMsg(m->header.stamp);
+    if (!first) first = stamp;
+    const long step = std::lround(ToSeconds(stamp - *first) / 0.05) + 1;
+    for (const auto& o : dds::Elements(m->objects)) {
+      const auto& q = o.pose.orientation;
+      const double yaw = std::atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z));
+      published[step][std::string(dds::View(o.object_id))] = {
+          o.pose.position.x + std::cos(yaw) * o.size.x / 2,
+          o.pose.position.y + std::sin(yaw) * o.size.x / 2, yaw};
+    }
+  }
+  ASSERT_TRUE(first.has_value()) << "no TrafficObjects received";
+  std::size_t matched = 0;
+  for (const std::string& l : lines) {
+    std::istringstream in(l);
+    double t = 0, x = 0, y = 0, length = 0;
+    std::string id;
+    in >> t >> id >> x >> y >> length;
+    EXPECT_NEAR(length / 14.0, 0.318, 1e-6) << l;
+    const auto step = published.find(std::lround(t / 0.05));
+    ASSERT_NE(step, published.end()) << "no message for " << t << " s";
+    const auto o = step->second.find(id);
+    ASSERT_NE(o, step->second.end()) << id << " at " << t << " s is not in TrafficObjects";
+    EXPECT_NEAR(o->second[0] * 14.0, x, 1e-3) << l;
+    EXPECT_NEAR(o->second[1] * 14.0, y, 1e-3) << l;
+    ++matched;
+  }
+  EXPECT_EQ(matched, 120u);
+}
+
+}  // namespace
+}  // namespace autodrive::test
