@@ -268,7 +268,9 @@ void FillTraffic(
     const std::vector<std::pair<std::string, std::pair<std::string, Eigen::Vector2d>>>& cars) {
   m->header.stamp = dds::ToMsg(stamp);
   dds::UpdateString(m->header.frame_id, "map");
-  dds::ResizeSequence(m->objects, static_cast<std::uint32_t>(cars.size()));
+  // In place: ResizeSequence would drop the elements' strings with the old buffer (a leak
+  // LeakSanitizer found in CI's sanitizer leg).
+  dds::SetLengthKeepingCapacity(m->objects, static_cast<std::uint32_t>(cars.size()));
   for (std::size_t i = 0; i < cars.size(); ++i) {
     auto& o = dds::Elements(m->objects)[i];
     dds::UpdateString(o.object_id, cars[i].first);
