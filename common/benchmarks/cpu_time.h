@@ -1,6 +1,7 @@
 #pragma once
 /// @file
-/// CPU time for the benchmark programs (not for tests: tests never measure time).
+/// CPU time, for the benchmark programs and the figures a component keeps on itself (never for
+/// tests: tests never measure time).
 
 #include <time.h>
 

@@ -8,6 +8,7 @@
 #include <set>
 #include <unordered_set>
 
+#include "common/benchmarks/cpu_time.h"
 #include "common/error.h"
 #include "scm/city.h"
 
@@ -177,19 +178,32 @@ void CoSimulation::InsertRandomVehicles() {
 }
 
 void CoSimulation::ReportLamp(SignalHeadId head, int lamp, MonoTime now) {
-  if (head.value() >= heads_.size() || !heads_[head.value()].Report(lamp, now)) return;
-  // A head's aspect may change until a flash window after its last change.
+  if (head.value() >= heads_.size()) return;
+  HeadReading& reading = heads_[head.value()];
+  if (!reading.Report(lamp, now)) return;
+  // The lights it shows are read again now, and, where a flash may be starting or ending, until
+  // a flash window after the change.
+  const MonoTime until =
+      reading.MayFlash() ? now + config_.lights.flash_window_s + config_.step_s : now;
   for (const std::size_t light : lights_of_head_[head.value()]) {
-    recheck_until_[light] = now + config_.lights.flash_window_s + config_.step_s;
+    recheck_until_[light] = std::max(recheck_until_[light], until);
   }
 }
 
 void CoSimulation::UpdateLights(MonoTime now) {
   for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
     // Only where a lamp changed lately, or an all-way stop is being run.
-    const bool all_way = aspect_states_[i].find('s') != std::string::npos;
-    if (!all_way && now > recheck_until_[i] && !light_states_[i].empty()) continue;
+    if (!all_way_[i] && now > recheck_until_[i] && !light_states_[i].empty()) continue;
     aspect_states_[i] = lights_.State(i, heads_, now, config_.lights.flash_window_s);
+    const bool now_all_way = aspect_states_[i].find('s') != std::string::npos;
+    if (now_all_way != all_way_[i]) {
+      all_way_[i] = now_all_way;
+      if (now_all_way) {
+        ++all_way_count_;
+      } else {
+        --all_way_count_;
+      }
+    }
     // All-way stop links: red, but green for the vehicles granted (ArbitrateAllWayStops).
     std::string state = aspect_states_[i];
     for (char& c : state) {
@@ -304,6 +318,82 @@ void CoSimulation::ExtendRoutes() {
   }
 }
 
+// A circulating car has no destination: one that waits at the head of its lane for a road
+// that is full, while another road from the intersection has room, turns there instead, as a
+// driver would. Without it the random walks of a small closed town run into gridlock: rings of
+// full lanes whose first cars each wait for the next full lane of the ring.
+void CoSimulation::RerouteBlocked() {
+  constexpr double kWait_s = 3.0;  // standing this long at the head of its lane
+  if (stats_.steps % 10 != 0) return;
+  const double s = network_->scale();
+  const double gap = network_->files().scale * 0.05;
+  // Circulating vehicles standing on a lane into an intersection, and since when.
+  std::unordered_map<std::string, double> blocked;
+  std::vector<const SumoVehicleState*> waited;  // long enough
+  for (const SumoVehicleState& v : states_) {
+    if (v.speed_mps > 0.01 * s || stop_lanes_.count(v.lane) == 0 || circulating_.count(v.id) == 0) {
+      continue;
+    }
+    const double since = blocked_since_.try_emplace(v.id, time_s_).first->second;
+    blocked.emplace(v.id, since);
+    if (time_s_ - since >= kWait_s - 1e-9) waited.push_back(&v);
+  }
+  blocked_since_ = std::move(blocked);
+  if (waited.empty()) return;
+  // What the vehicles take of each lane: those on it, and those in a junction on their way in.
+  std::unordered_map<std::string, double> taken;
+  for (const SumoVehicleState& v : states_) {
+    const double length = TypeSize(v.type).length + gap;
+    if (const auto link = link_of_lane_.find(v.lane); link != link_of_lane_.end()) {
+      taken[exit_of_link_[link->second.first][link->second.second]] += length;
+    } else {
+      taken[v.lane] += length;
+    }
+  }
+  const auto room = [&](const std::string& lane) {
+    const auto it = taken.find(lane);
+    return LaneLength(lane) - (it == taken.end() ? 0.0 : it->second);
+  };
+  for (const SumoVehicleState* v : waited) {
+    const StopLane& lane = stop_lanes_.at(v->lane);
+    const auto& grants = grants_[lane.light];
+    if (std::any_of(grants.begin(), grants.end(),
+                    [&](const Grant& g) { return g.vehicle == v->id; })) {
+      continue;
+    }
+    const double length = TypeSize(v->type).length + gap;
+    const double waited_s = time_s_ - blocked_since_.at(v->id);
+    if (api_->LanePosition(v->id) < lane.length - 0.1 * s) continue;  // not the first
+    const std::vector<std::string> route = api_->Route(v->id);
+    const int index = api_->RouteIndex(v->id);
+    const auto next = static_cast<std::size_t>(index) + 1;
+    if (index < 0 || next >= route.size()) continue;
+    const auto current = std::find_if(lane.links.begin(), lane.links.end(),
+                                      [&](const auto& l) { return l.edge == route[next]; });
+    if (current == lane.links.end() || room(current->lane) >= length) continue;
+    std::vector<const StopLane::Link*> open;
+    for (const StopLane::Link& l : lane.links) {
+      if (&l != &*current && network_->Circulates(l.edge) && room(l.lane) >= length) {
+        open.push_back(&l);
+      }
+    }
+    if (open.empty()) continue;
+    const StopLane::Link& to =
+        *open[std::uniform_int_distribution<std::size_t>(0, open.size() - 1)(rng_)];
+    std::vector<std::string> ahead{route[static_cast<std::size_t>(index)], to.edge};
+    for (std::string& e : network_->RandomWalk(to.edge, kWalkEdges, rng_)) {
+      ahead.push_back(std::move(e));
+    }
+    api_->SetRoute(v->id, ahead);
+    circulating_[v->id].route_length = ahead.size();
+    taken[to.lane] += length;
+    blocked_since_.erase(v->id);
+    ++stats_.reroutes;
+    spdlog::debug("traffic: {} waited {:.0f} s for {} (full): turns to {} instead", v->id, waited_s,
+                  current->edge, to.edge);
+  }
+}
+
 void CoSimulation::IndexStopLanes() {
   std::unordered_map<std::string, std::size_t> light_of;
   for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
@@ -322,14 +412,20 @@ void CoSimulation::IndexStopLanes() {
       auto& exits = exit_of_link_[light];
       exits.resize(std::max(exits.size(), link + 1));
       exits[link] = sm.to.id();
-      exit_lanes_.insert(sm.to.id());
+      auto& lights = exit_lights_[sm.to.id()];
+      if (std::find(lights.begin(), lights.end(), light) == lights.end()) lights.push_back(light);
       for (const std::string& internal : network_->InternalLanes(mid)) {
         link_of_lane_.emplace(internal, std::pair{light, link});
       }
     }
   }
-  for (auto& [id, lane] : stop_lanes_) lane.length = api_->LaneLength(id);
+  for (auto& [id, lane] : stop_lanes_) lane.length = LaneLength(id);
   aspect_states_.resize(lights_.lights().size());
+  all_way_.assign(lights_.lights().size(), false);
+  occupied_.resize(lights_.lights().size());
+  for (std::size_t i = 0; i < occupied_.size(); ++i) {
+    occupied_[i].assign(lights_.lights()[i].heads.size(), false);
+  }
   grants_.resize(lights_.lights().size());
   recheck_until_.assign(lights_.lights().size(), MonoTime{});
   lights_of_head_.resize(heads_.size());
@@ -343,6 +439,40 @@ void CoSimulation::IndexStopLanes() {
   }
 }
 
+double CoSimulation::LaneLength(const std::string& sumo_lane) {
+  auto it = lane_lengths_.find(sumo_lane);
+  if (it == lane_lengths_.end())
+    it = lane_lengths_.emplace(sumo_lane, api_->LaneLength(sumo_lane)).first;
+  return it->second;
+}
+
+const CoSimulation::LaneInfo& CoSimulation::InfoOf(const std::string& sumo_lane) {
+  auto it = lane_info_.find(sumo_lane);
+  if (it != lane_info_.end()) return it->second;
+  LaneInfo info;
+  info.map_name = &network_->MapName(sumo_lane);
+  const auto add = [&](std::size_t light) {
+    if (std::find(info.lights.begin(), info.lights.end(), light) == info.lights.end()) {
+      info.lights.push_back(light);
+    }
+  };
+  if (const auto stop = stop_lanes_.find(sumo_lane); stop != stop_lanes_.end()) {
+    add(stop->second.light);
+  }
+  if (const auto link = link_of_lane_.find(sumo_lane); link != link_of_lane_.end()) {
+    add(link->second.first);
+  }
+  if (const auto exit = exit_lights_.find(sumo_lane); exit != exit_lights_.end()) {
+    for (const std::size_t light : exit->second) add(light);
+  }
+  return lane_info_.emplace(sumo_lane, std::move(info)).first->second;
+}
+
+bool CoSimulation::AllWayNear(const LaneInfo& info) const {
+  return all_way_count_ != 0 && std::any_of(info.lights.begin(), info.lights.end(),
+                                            [&](std::size_t l) { return all_way_[l]; });
+}
+
 // SUMO's own all-way stop (`s` links, or an allway_stop junction) lets a left turn with a
 // waiting point inside the junction roll through without stopping, and lets vehicles on
 // crossing paths of these small junctions (a 1:14 box at 14x) into the box together. So a
@@ -352,16 +482,20 @@ void CoSimulation::IndexStopLanes() {
 // occupied; its link turns green until it is in the junction, then red again.
 void CoSimulation::ArbitrateAllWayStops() {
   constexpr double kStand_s = 0.5;
-  constexpr double kRoomShare = 0.5;
   constexpr double kGrant_s = 5.0;
   const double s = network_->scale();
   for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
-    if (aspect_states_[i].find('s') == std::string::npos) grants_[i].clear();
+    if (!all_way_[i]) grants_[i].clear();
   }
-  // Occupied links (a vehicle on their internal lanes) and vehicles standing at a line.
-  std::vector<std::vector<bool>> occupied(lights_.lights().size());
+  if (all_way_count_ == 0) {  // no light runs an all-way stop: nothing to arbitrate
+    standing_since_.clear();
+    return;
+  }
+  // Occupied links (a vehicle on their internal lanes) and vehicles standing at a line, of the
+  // lights that run an all-way stop (only theirs are read).
+  std::vector<std::vector<bool>>& occupied = occupied_;
   for (std::size_t i = 0; i < occupied.size(); ++i) {
-    occupied[i].assign(lights_.lights()[i].heads.size(), false);
+    if (all_way_[i]) std::fill(occupied[i].begin(), occupied[i].end(), false);
   }
   struct Waiting {
     double since;
@@ -377,11 +511,17 @@ void CoSimulation::ArbitrateAllWayStops() {
   std::unordered_map<std::string, double> room;
   const auto take_room = [&](const std::string& lane, double length) {
     auto it = room.find(lane);
-    if (it == room.end()) it = room.emplace(lane, api_->LaneLength(lane)).first;
+    if (it == room.end()) it = room.emplace(lane, LaneLength(lane)).first;
     it->second -= length;
   };
   const double gap = network_->files().scale * 0.05;  // the vehicle types' min gap
   for (const SumoVehicleState& v : states_) {
+    // Only the vehicles about the all-way stops running now (and the lab's cars) matter.
+    const bool lab = !lab_ids_.empty() && lab_ids_.count(v.id) != 0;
+    if (!lab && !AllWayNear(InfoOf(v.lane))) {
+      standing_since_.erase(v.id);
+      continue;
+    }
     lane_of.emplace(v.id, v.lane);
     const double length = TypeSize(v.type).length;
     if (const auto it = link_of_lane_.find(v.lane); it != link_of_lane_.end()) {
@@ -391,13 +531,13 @@ void CoSimulation::ArbitrateAllWayStops() {
     }
     if (!v.lane.empty() && v.lane.front() != ':') {
       auto r = room.find(v.lane);
-      if (r == room.end()) r = room.emplace(v.lane, api_->LaneLength(v.lane)).first;
+      if (r == room.end()) r = room.emplace(v.lane, LaneLength(v.lane)).first;
       r->second = std::min(r->second, v.lane_pos - length - gap);
     }
     const auto lane = stop_lanes_.find(v.lane);
     // A lab car near the line may go in whenever its driver decides: nothing that conflicts
     // with any movement from its lane is let through meanwhile.
-    if (lab_ids_.count(v.id) != 0) {
+    if (lab) {
       if (lane != stop_lanes_.end() && v.lane_pos > lane->second.length - 2 * length) {
         for (const auto& l : lane->second.links) occupied[lane->second.light][l.index] = true;
       }
@@ -410,20 +550,32 @@ void CoSimulation::ArbitrateAllWayStops() {
       continue;
     }
     const auto since = standing_since_.try_emplace(v.id, time_s_).first;
-    if (aspect_states_[lane->second.light].find('s') != std::string::npos) {
+    if (all_way_[lane->second.light]) {
       waiting.push_back(
           Waiting{since->second, v.id, &lane->second, api_->RouteIndex(v.id), v.type});
     }
   }
   // Grants end once the vehicle is in the junction (or gone), or when it did not take its
   // turn within a few seconds (blocked by a vehicle SUMO put in the box: the next one goes).
-  for (auto& grants : grants_) {
-    std::erase_if(grants, [&](const Grant& g) {
+  std::vector<std::string> lapsed;
+  for (std::size_t i = 0; i < grants_.size(); ++i) {
+    std::erase_if(grants_[i], [&](const Grant& g) {
       const auto it = lane_of.find(g.vehicle);
       if (it == lane_of.end() || stop_lanes_.count(it->second) == 0) return true;
-      // It did not go (no room beyond, as SUMO sees it): the next one may.
-      return time_s_ - g.since > kGrant_s;
+      // It did not go (SUMO saw no way through): it goes to the back of the queue, and the
+      // others may go first (granted again at once, it would hold the intersection for good).
+      if (time_s_ - g.since <= kGrant_s) return false;
+      lapsed.push_back(g.vehicle);
+      ++stats_.all_way_lapsed;
+      spdlog::debug("traffic: {} did not take its turn at {} in {:.0f} s", g.vehicle,
+                    lights_.lights()[i].tls, kGrant_s);
+      return true;
     });
+  }
+  for (Waiting& w : waiting) {
+    if (std::find(lapsed.begin(), lapsed.end(), w.vehicle) == lapsed.end()) continue;
+    w.since = time_s_;
+    standing_since_[w.vehicle] = time_s_;
   }
   for (std::size_t i = 0; i < grants_.size(); ++i) {
     for (const Grant& g : grants_[i]) take_room(exit_of_link_[i][g.link], g.room);
@@ -451,7 +603,7 @@ void CoSimulation::ArbitrateAllWayStops() {
     // every movement it conflicts with (and a grid of all-way stops would lock up).
     const double length = TypeSize(w.type).length;
     take_room(link->lane, 0.0);
-    if (room.at(link->lane) < kRoomShare * length) continue;
+    if (room.at(link->lane) < length + gap) continue;
     if (aspect_states_[light][k] != 's') continue;
     const auto& foes = lights_.lights()[light].foes[k];
     const bool clear = std::none_of(foes.begin(), foes.end(), [&](std::size_t f) {
@@ -467,19 +619,19 @@ void CoSimulation::ArbitrateAllWayStops() {
 
 void CoSimulation::ReadVehicles() {
   api_->ReadVehicles(states_);
-  // Lane positions where they matter: the lab's cars, and lanes into or out of an all-way stop.
-  for (SumoVehicleState& v : states_) {
-    if (lab_ids_.count(v.id) != 0 || stop_lanes_.count(v.lane) != 0 ||
-        exit_lanes_.count(v.lane) != 0) {
-      v.lane_pos = api_->LanePosition(v.id);
-    }
-  }
   const double s = network_->scale();
-  vehicles_.clear();
-  for (const SumoVehicleState& v : states_) {
-    if (lab_ids_.count(v.id) != 0) continue;
+  std::size_t n = 0;
+  for (SumoVehicleState& v : states_) {
+    const LaneInfo& info = InfoOf(v.lane);
+    const bool lab = !lab_ids_.empty() && lab_ids_.count(v.id) != 0;
+    // Lane positions where they matter: the lab's cars, and lanes into, through or out of an
+    // all-way stop running now.
+    if (lab || AllWayNear(info)) v.lane_pos = api_->LanePosition(v.id);
+    if (lab) continue;
+    // The output's elements are reused (their strings keep their buffers from step to step).
+    if (n == vehicles_.size()) vehicles_.emplace_back();
+    TrafficVehicle& out = vehicles_[n++];
     const SumoTypeSize& size = TypeSize(v.type);
-    TrafficVehicle out;
     out.id = v.id;
     out.object_class = ObjectClass(size.vclass);
     out.yaw_rad = YawFromSumoAngle(v.angle_deg);
@@ -489,10 +641,10 @@ void CoSimulation::ReadVehicles() {
     out.width_m = size.width / s;
     out.height_m = size.height / s;
     out.speed_mps = v.speed_mps / s;
-    out.map_lane = network_->MapName(v.lane);
+    out.map_lane = *info.map_name;
     out.signals = Signals(v.signals);
-    vehicles_.push_back(std::move(out));
   }
+  vehicles_.resize(n);
 }
 
 const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPose>& lab_cars,
@@ -522,7 +674,9 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
     }
   }
   DepartFlows();
+  const double cpu0 = bench::ThreadCpuSeconds();
   api_->Step(0.0);
+  stats_.sumo_step_cpu_s += bench::ThreadCpuSeconds() - cpu0;
   time_s_ = api_->Time();
   ++stats_.steps;
   const SumoStepEvents events = api_->Events();
@@ -554,6 +708,7 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
   ReadVehicles();
   ArbitrateAllWayStops();
   ExtendRoutes();
+  RerouteBlocked();
   return vehicles_;
 }
 

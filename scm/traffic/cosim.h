@@ -76,7 +76,10 @@ struct CoSimStats {
   std::int64_t lab_cars_placed = 0;    ///< lab cars in SUMO now
   std::int64_t lab_car_misses = 0;     ///< placements SUMO refused (car off the roads)
   std::int64_t route_extensions = 0;
+  std::int64_t reroutes = 0;        ///< circulating vehicles that turned elsewhere, their road full
   std::int64_t all_way_grants = 0;  ///< vehicles let through flashing or dark lights
+  std::int64_t all_way_lapsed = 0;  ///< of them, those that did not go in time (SUMO saw no way)
+  double sumo_step_cpu_s = 0.0;     ///< CPU time inside SUMO's own step (for the overhead figure)
 };
 
 class CoSimulation {
@@ -142,6 +145,7 @@ class CoSimulation {
   void PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now);
   void DepartFlows();
   void ExtendRoutes();
+  void RerouteBlocked();
   void ReadVehicles();
   void IndexStopLanes();
   void ArbitrateAllWayStops();
@@ -186,13 +190,29 @@ class CoSimulation {
   // Internal lanes of the traffic lights' links: (light, link).
   std::unordered_map<std::string, std::pair<std::size_t, std::size_t>> link_of_lane_;
   std::vector<std::vector<std::string>> exit_of_link_;
-  std::unordered_set<std::string> exit_lanes_;  // every lane an all-way stop's link enters      //
-                                                // by light and link: the lane it enters
-  std::vector<std::string> aspect_states_;      // by light: 's' where all-way stop
-  std::vector<MonoTime> recheck_until_;         // by light: a lamp changed lately
+  // Every lane a light's link enters: the lights whose links enter it.
+  std::unordered_map<std::string, std::vector<std::size_t>> exit_lights_;
+  std::vector<std::string> aspect_states_;  // by light: 's' where all-way stop
+  std::vector<bool> all_way_;               // by light: its aspect has an all-way stop now
+  std::size_t all_way_count_ = 0;
+  std::vector<std::vector<bool>> occupied_;  // by light and link: a vehicle in its lanes
+  std::unordered_map<std::string, double> lane_lengths_;  // SUMO metres, by SUMO lane id
+  // What a step needs to know of a SUMO lane a vehicle is on, found once (one lookup per
+  // vehicle and step): its name in the map, and the lights whose all-way stop it feeds, crosses
+  // or leaves (its vehicles' lane positions matter while one of them runs an all-way stop).
+  struct LaneInfo {
+    const std::string* map_name = nullptr;
+    std::vector<std::size_t> lights;
+  };
+  const LaneInfo& InfoOf(const std::string& sumo_lane);
+  [[nodiscard]] bool AllWayNear(const LaneInfo& info) const;
+  double LaneLength(const std::string& sumo_lane);
+  std::unordered_map<std::string, LaneInfo> lane_info_;
+  std::vector<MonoTime> recheck_until_;                     // by light: a lamp changed lately
   std::vector<std::vector<std::size_t>> lights_of_head_;    // by head id
   std::vector<std::vector<Grant>> grants_;                  // by light
   std::unordered_map<std::string, double> standing_since_;  // vehicle: s, at a stop line
+  std::unordered_map<std::string, double> blocked_since_;   // circulating vehicle: s, standing
   std::vector<Flow> flows_;
   std::unordered_map<std::string, SumoTypeSize> type_sizes_;
   std::vector<SumoVehicleState> states_;

@@ -59,6 +59,8 @@ bool HeadReading::Report(int lamp, MonoTime now) {
   return true;
 }
 
+bool HeadReading::MayFlash() const { return seen_ && (lamp_ == kOff || before_ == kOff); }
+
 Aspect HeadReading::Read(MonoTime now, Duration flash_window) const {
   if (!seen_) return Aspect::kUnknown;
   const bool recent = now - since_ < flash_window;

@@ -56,6 +56,9 @@ class HeadReading {
   /// (yellow), or that went dark less than `flash_window` after showing red (yellow), is
   /// flashing; dark for longer is dark.
   [[nodiscard]] Aspect Read(MonoTime now, Duration flash_window) const;
+  /// Whether the aspect may change with time alone, within a flash window of the last change
+  /// (only a change from or to dark can be part of a flash).
+  [[nodiscard]] bool MayFlash() const;
 
  private:
   bool seen_ = false;

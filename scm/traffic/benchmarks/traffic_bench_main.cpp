@@ -5,6 +5,7 @@
 #include <libsumo/libsumo.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -19,6 +20,7 @@
 #include "common/dds/writer.h"
 #include "common/logging.h"
 #include "common/process.h"
+#include "maps/sumo.h"
 #include "scm/benchmarks/bench_support.h"
 #include "scm/city.h"
 #include "scm/traffic/cosim.h"
@@ -31,22 +33,28 @@ using namespace autodrive;
 using namespace autodrive::traffic;
 using bench::ThreadCpuSeconds;
 
-// The SCM's day plan of the grid city (bench_support.h), as lamps: per intersection each
-// approach in turn green 8 s, then yellow and red clearance (the defaults: 3 s and 2 s).
+// The lamps of SUMO's own stand-in program (maps::SumoOptions: per intersection each approach
+// in turn green 12 s, yellow 3 s, all red 2 s), so that the co-simulation and libsumo alone run
+// the same signal timing.
 int GridLamp(const maps::Map& map, SignalHeadId h, double t) {
   const maps::SignalHead& head = map.signal_heads.at(h.value() - 1);
   const maps::Intersection& x = map.intersection(head.intersection);
-  const double phase = 13.0;
+  static const maps::SumoOptions kProgram;
+  const double green = ToSeconds(kProgram.green), yellow = ToSeconds(kProgram.yellow);
+  const double phase = green + yellow + ToSeconds(kProgram.all_red);
   const double in_cycle = std::fmod(t, phase * static_cast<double>(x.approaches.size()));
   const auto k = static_cast<std::size_t>(in_cycle / phase);
   if (x.approaches[k].id != head.approach) return 1;
   const double in_phase = in_cycle - phase * static_cast<double>(k);
-  return in_phase < 8.0 ? 3 : in_phase < 11.0 ? 2 : 1;
+  return in_phase < green ? 3 : in_phase < green + yellow ? 2 : 1;
 }
 
 struct Result {
   int vehicles = 0;
   double cosim_cpu_s = 0, alone_cpu_s = 0, simulated_s = 0;
+  // Where the co-simulation's CPU time went: lamps in, SUMO's own step, the rest of the step
+  // (lights to SUMO, vehicles read back, all-way stops, routes), TrafficObjects out.
+  double lamps_cpu_s = 0, sumo_cpu_s = 0, step_cpu_s = 0, publish_cpu_s = 0;
   std::int64_t collisions = 0, teleports = 0, lost = 0;
 };
 
@@ -63,21 +71,36 @@ Result Run(const scm::City& city, int cars, double seconds, const std::filesyste
             dir / fmt::format("cosim_{}", cars), nullptr, true, {}, std::chrono::seconds(5)});
     dds::Writer<msg::TrafficObjects> writer(participant, dds::topics::Traffic());
     std::vector<msg::TrafficObject> buffer;
+    msg::TrafficObjects m{};
+    std::vector<int> lamps(city.map.signal_heads.size());
     const auto step = [&](double t) {
-      for (const maps::SignalHead& h : city.map.signal_heads) {
-        sim.ReportLamp(h.id, GridLamp(city.map, h.id, t), MonoTime{} + FromSeconds(t));
+      // The lights' reports (the plan is the bench's, not the co-simulation's: not counted).
+      for (std::size_t i = 0; i < lamps.size(); ++i) {
+        lamps[i] = GridLamp(city.map, city.map.signal_heads[i].id, t);
       }
+      const double c0 = ThreadCpuSeconds();
+      for (std::size_t i = 0; i < lamps.size(); ++i) {
+        sim.ReportLamp(city.map.signal_heads[i].id, lamps[i], MonoTime{} + FromSeconds(t));
+      }
+      const double c1 = ThreadCpuSeconds();
       sim.Step({}, MonoTime{} + FromSeconds(t));
-      msg::TrafficObjects m{};
+      const double c2 = ThreadCpuSeconds();
       FillTrafficObjects(sim.vehicles(), Time{} + FromSeconds(sim.time_s()), buffer, m);
       writer.Write(m);
+      const double c3 = ThreadCpuSeconds();
+      r.lamps_cpu_s += c1 - c0;
+      r.step_cpu_s += c2 - c1;
+      r.publish_cpu_s += c3 - c2;
     };
     while (sim.time_s() < warmup) step(sim.time_s());
+    r = Result{};
     r.vehicles = static_cast<int>(sim.vehicles().size());
-    const double t0 = ThreadCpuSeconds();
+    const double sumo0 = sim.stats().sumo_step_cpu_s;
     const double s0 = sim.time_s();
     while (sim.time_s() < warmup + seconds - 1e-9) step(sim.time_s());
-    r.cosim_cpu_s = ThreadCpuSeconds() - t0;
+    r.cosim_cpu_s = r.lamps_cpu_s + r.step_cpu_s + r.publish_cpu_s;
+    r.sumo_cpu_s = sim.stats().sumo_step_cpu_s - sumo0;
+    r.step_cpu_s -= r.sumo_cpu_s;
     r.simulated_s = sim.time_s() - s0;
     r.collisions = sim.stats().collisions;
     r.teleports = sim.stats().teleports;
@@ -111,11 +134,14 @@ int main(int argc, char** argv) {
   int grid = 32;
   double seconds = 60;
   bool with_scm = true;
+  int repeat = 3;
   app.add_option("--cars", cars, "SUMO cars (repeat or comma-separate)")->delimiter(',');
   app.add_option("--grid", grid, "intersections per side")->check(CLI::Range(2, 64));
   app.add_option("--seconds", seconds, "simulated seconds measured (after 10 s of warm-up)")
       ->check(CLI::Range(1.0, 3600.0));
   app.add_flag("!--no-scm", with_scm, "do not run the SCM beside it");
+  app.add_option("--repeat", repeat, "runs per size (each figure is their median)")
+      ->check(CLI::Range(1, 99));
   CLI11_PARSE(app, argc, argv);
   InitLogging("autodrive-bench-traffic", spdlog::level::warn);
   const std::filesystem::path dir = std::filesystem::temp_directory_path() /
@@ -139,16 +165,43 @@ int main(int argc, char** argv) {
   std::printf("%8s %10s %12s %12s %10s %s\n", "cars", "co-sim RTF", "libsumo RTF", "overhead",
               "ms/step", "collisions/teleports/lost");
   for (const int n : cars) {
+    // The machine's noise (a shared VM) moves CPU times by tens of percent from run to run:
+    // each figure is the median of `repeat` runs, the co-simulation and libsumo alone in turn.
+    std::vector<Result> runs;
     const double scm_cpu0 = scm ? bench::CpuSeconds(scm->pid()) : 0.0;
-    const Result r = Run(city, n, seconds, dir, participant);
+    for (int k = 0; k < repeat; ++k) runs.push_back(Run(city, n, seconds, dir, participant));
     const double scm_cpu = scm ? bench::CpuSeconds(scm->pid()) - scm_cpu0 : 0.0;
+    const auto median = [&](double Result::*field) {
+      std::vector<double> v;
+      for (const Result& r : runs) v.push_back(r.*field);
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+      return v[v.size() / 2];
+    };
+    Result r = runs.front();
+    for (double Result::*f : {&Result::cosim_cpu_s, &Result::alone_cpu_s, &Result::lamps_cpu_s,
+                              &Result::sumo_cpu_s, &Result::step_cpu_s, &Result::publish_cpu_s}) {
+      r.*f = median(f);
+    }
+    for (const Result& x : runs) {
+      r.collisions = std::max(r.collisions, x.collisions);
+      r.teleports = std::max(r.teleports, x.teleports);
+      r.lost = std::max(r.lost, x.lost);
+    }
     std::printf("%8d %9.2fx %11.2fx %11.2fx %10.2f %lld/%lld/%lld%s\n", r.vehicles,
                 r.simulated_s / r.cosim_cpu_s, r.simulated_s / r.alone_cpu_s,
                 r.cosim_cpu_s / r.alone_cpu_s, 1000 * r.cosim_cpu_s / (r.simulated_s / 0.05),
                 static_cast<long long>(r.collisions), static_cast<long long>(r.teleports),
                 static_cast<long long>(r.lost),
                 r.vehicles < n ? fmt::format(" (room for {} of {})", r.vehicles, n).c_str() : "");
-    if (scm) std::printf("         (the SCM used %.2f s of CPU meanwhile)\n", scm_cpu);
+    const double steps = r.simulated_s / 0.05;
+    std::printf(
+        "         per step: lamps in %.3f ms, SUMO's step %.3f ms (alone %.3f ms), co-sim "
+        "%.3f ms, TrafficObjects out %.3f ms; all of it over SUMO's own step: %.2fx\n",
+        1000 * r.lamps_cpu_s / steps, 1000 * r.sumo_cpu_s / steps, 1000 * r.alone_cpu_s / steps,
+        1000 * r.step_cpu_s / steps, 1000 * r.publish_cpu_s / steps, r.cosim_cpu_s / r.sumo_cpu_s);
+    if (scm) {
+      std::printf("         (the SCM used %.2f s of CPU per run meanwhile)\n", scm_cpu / repeat);
+    }
     std::fflush(stdout);
   }
   if (scm) scm->Stop();
