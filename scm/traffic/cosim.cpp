@@ -228,13 +228,17 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
     // SUMO's position is the front bumper's middle.
     const Eigen::Vector2d front =
         car.position + heading * (config_.lab_cars.body_centre_ahead_m + nigel.length / s / 2);
-    const auto match =
-        index_->NearestLane(car.position + heading * config_.lab_cars.body_centre_ahead_m,
-                            config_.lab_cars.max_lane_distance_m);
-    if (!match) {
+    const Eigen::Vector2d centre = car.position + heading * config_.lab_cars.body_centre_ahead_m;
+    const auto match = index_->NearestLane(centre, config_.lab_cars.max_lane_distance_m);
+    // Inside an intersection's box a car is far from every lane's centreline (its paths there
+    // are movements, not lanes): one in SUMO stays, moved where it is, as long as it is on the
+    // road (out of SUMO, SUMO's cars would drive through it in the box).
+    const bool on_road = match || (lab.in_sumo && index_->IsDrivable(centre));
+    if (!on_road) {
       if (lab.in_sumo) {
         api_->Remove(lab.sumo_id);
         lab.in_sumo = false;
+        spdlog::info("traffic: {} is off the road: removed from SUMO until it is back", car.name);
       }
       continue;
     }

@@ -336,6 +336,83 @@ TEST(CoSim, ASumoCarStopsBehindAStandingLabCar) {
   EXPECT_EQ(sim.stats().collisions, 0);
 }
 
+// The point `along` metres along `line` and the heading there.
+std::pair<Eigen::Vector2d, double> Along(const maps::Polyline& line, double along) {
+  for (std::size_t i = 1; i < line.size(); ++i) {
+    const Eigen::Vector2d d = line[i] - line[i - 1];
+    const double n = d.norm();
+    if (along <= n || i + 1 == line.size()) {
+      return {line[i - 1] + d * std::min(along, n) / n, std::atan2(d.y(), d.x())};
+    }
+    along -= n;
+  }
+  return {line.back(), 0.0};
+}
+
+TEST(CoSim, ALabCarCrossingAnIntersectionStaysInSumoAndItsCarsWaitForIt) {
+  const TempDir dir;
+  const scm::City& city = SmallTown();
+  // The lab car drives straight through the centre from the west (0.15 m/s); SUMO's cars
+  // come from the south.
+  const maps::Intersection& centre = city.map.intersections.at(static_cast<std::size_t>(
+      std::find_if(city.map.intersections.begin(), city.map.intersections.end(),
+                   [](const auto& x) { return x.name == "centre"; }) -
+      city.map.intersections.begin()));
+  const maps::Movement* through = nullptr;
+  ApproachId south{0};
+  for (const maps::Approach& a : centre.approaches) {
+    if (a.side == maps::Side::kSouth) south = a.id;
+  }
+  for (const MovementId m : centre.movements) {
+    const maps::Movement& mv = city.map.movement(m);
+    const maps::Approach& from = centre.approaches.at(static_cast<std::size_t>(
+        std::find_if(centre.approaches.begin(), centre.approaches.end(),
+                     [&](const auto& a) { return a.id == mv.from_approach; }) -
+        centre.approaches.begin()));
+    if (from.side == maps::Side::kWest && mv.turn == maps::Turn::kStraight) through = &mv;
+  }
+  ASSERT_NE(through, nullptr);
+  const maps::Lane& from = city.map.lane(through->from);
+  const maps::Lane& to = city.map.lane(through->to);
+  maps::Polyline path(from.centreline.begin(), from.centreline.end());
+  path.insert(path.end(), through->path.begin() + 1, through->path.end());
+  path.insert(path.end(), to.centreline.begin() + 1, to.centreline.end());
+  const double start = from.length_m - 0.45;  // its origin 0.45 m before the line
+  // SUMO's cars: a flow from the south approach's lane, through the centre.
+  const maps::Lane& south_in = city.map.lane([&] {
+    for (const maps::Approach& a : centre.approaches) {
+      if (a.id == south) return a.ingress.at(0);
+    }
+    return LaneId{0};
+  }());
+  TrafficConfig config;
+  config.flows.push_back(FlowConfig{south_in.name, "", 1800.0, "nigel", 4, nanoseconds(0)});
+  CoSimulation sim(city, config, InProcess(dir));
+  // Red for all until the lab car is a second into the box (at 10 s), then green for the
+  // south: the SUMO cars waiting there must let it leave first.
+  const auto lamp = [&](SignalHeadId h, double t) {
+    const maps::SignalHead& head = city.map.signal_heads.at(h.value() - 1);
+    return head.intersection == centre.id && head.approach == south && t >= 10.0 ? 3 : 1;
+  };
+  int in_box_steps = 0, in_box_out_of_sumo = 0;
+  while (sim.time_s() < 20.0) {
+    const double t = sim.time_s();
+    const double along = start + 0.15 * std::max(0.0, t - 6.0);  // it sets off at 6 s
+    const auto [p, yaw] = Along(path, along);
+    ReportAll(sim, city, t, lamp);
+    sim.Step({LabCarPose{"nigel_1", p, yaw, 0.15}}, At(t));
+    const bool in_box = along > from.length_m && along < from.length_m + through->length_m;
+    if (in_box && t > 0.1) {
+      ++in_box_steps;
+      if (sim.stats().lab_cars_placed != 1) ++in_box_out_of_sumo;
+    }
+  }
+  EXPECT_GT(in_box_steps, 20);
+  EXPECT_EQ(in_box_out_of_sumo, 0) << "the lab car left SUMO in the box";
+  EXPECT_GT(sim.stats().departed, 0);
+  EXPECT_EQ(sim.stats().collisions, 0) << "a SUMO car drove into the lab car";
+}
+
 TEST(CoSim, ThirtyCarsCirculateTenMinutesWithNoCarLostNoTeleportNoCollision) {
   const TempDir dir;
   const scm::City& city = SmallTown();
