@@ -115,6 +115,22 @@ double LaneDriver::Project(const Eigen::Vector2d& q) const {
   return best_s;
 }
 
+bool LaneDriver::BoxClear(const maps::Intersection& x, const RigidTransform2& X_MV,
+                          std::span<const float> lidar) const {
+  const double half = map_->tile_size_m / 2 - options_.box_margin_m;
+  const auto beams = static_cast<double>(lidar.size());
+  for (std::size_t i = 0; i < lidar.size(); ++i) {
+    const double r = lidar[i];
+    if (!std::isfinite(r) || r > 2 * map_->tile_size_m) continue;
+    const double a = 2 * std::numbers::pi * static_cast<double>(i) / beams;
+    const Eigen::Vector2d p =
+        X_MV * Eigen::Vector2d(options_.lidar_x_m + r * std::cos(a), r * std::sin(a));
+    const Eigen::Vector2d d = p - x.centre;
+    if (std::abs(d.x()) < half && std::abs(d.y()) < half) return false;
+  }
+  return true;
+}
+
 DriverDecision LaneDriver::Step(
     const RigidTransform2& X_MV,
     const std::function<std::optional<std::int32_t>(SignalHeadId)>& lamp,
@@ -160,7 +176,7 @@ DriverDecision LaneDriver::Step(
     } else if (x.control == maps::Control::kStop && sign_done_for_ != piece.lane) {
       if (to_line <= options_.stop_gap_m + 0.02) {
         if (!stopped_at_sign_since_) stopped_at_sign_since_ = now;
-        if (now - *stopped_at_sign_since_ >= options_.stop_sign_wait) {
+        if (now - *stopped_at_sign_since_ >= options_.stop_sign_wait && BoxClear(x, X_MV, lidar)) {
           sign_done_for_ = piece.lane;
           stopped_at_sign_since_.reset();
         }

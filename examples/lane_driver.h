@@ -2,8 +2,9 @@
 /// @file
 /// A small driver that keeps a car moving on the map's lanes: pure pursuit along the lane
 /// centrelines and the movements through intersections (a random choice at each, from a seeded
-/// engine), stopping at the stop line when its light is red or yellow, stopping and going on at
-/// stop signs, and stopping for whatever its LIDAR sees close ahead. It knows only what a user's
+/// engine), stopping at the stop line when its light is red or yellow, stopping at stop signs
+/// and going on once nothing is in the intersection's box, and stopping for whatever its LIDAR
+/// sees close ahead. It knows only what a user's
 /// code on the real car would: the map, its pose (IPS position and IMU heading), the lamps'
 /// states and its LIDAR scan. `autodrive-example-driver` runs it over DDS for every car of a
 /// city; the main job (`scripts/run-city`) uses it so that the simulated city is alive with no
@@ -35,6 +36,10 @@ struct DriverOptions {
   double obstacle_stop_m = 0.4;      ///< LIDAR range ahead (from the LIDAR) under which it stops
   double obstacle_cone_rad = 0.3;    ///< half-angle of the LIDAR's "ahead"
   Duration stop_sign_wait = std::chrono::seconds(1);
+  /// At a stop sign it goes only when its LIDAR sees nothing in the intersection's box (its
+  /// tile, less this margin): a vehicle crossing has the right of way.
+  double box_margin_m = 0.03;
+  double lidar_x_m = 0.1445;  ///< the LIDAR ahead of the rear axle (NIGEL.md)
   std::uint64_t seed = 1;
 };
 
@@ -74,6 +79,8 @@ class LaneDriver {
   [[nodiscard]] Eigen::Vector2d PointAt(double s) const;
   [[nodiscard]] double Project(const Eigen::Vector2d& p) const;
   [[nodiscard]] double PieceLength(const Piece& piece) const;
+  [[nodiscard]] bool BoxClear(const maps::Intersection& x, const RigidTransform2& X_MV,
+                              std::span<const float> lidar) const;
 
   const maps::Map* map_;
   DriverOptions options_;

@@ -142,6 +142,54 @@ TEST(LaneDriver, StopsAtTheLineOnRedAndGoesOnGreen) {
   EXPECT_GT(town.world.State(0).X_MV.translation().x() + 0.2297, line.x() + 0.2);  // through
 }
 
+TEST(LaneDriver, AtAStopSignWaitsWhileSomethingIsInTheBoxThenGoes) {
+  // The car stands at the stop line of a stop-controlled T-junction.
+  const maps::Map& map = SmallTown();
+  const maps::Lane* lane = nullptr;
+  for (const auto& l : map.lanes) {
+    if (l.stop_line && l.ingress_of &&
+        map.intersection(*l.ingress_of).control == maps::Control::kStop) {
+      lane = &l;
+      break;
+    }
+  }
+  ASSERT_NE(lane, nullptr);
+  const DriverOptions options;
+  const Eigen::Vector2d line = 0.5 * (lane->stop_line->left + lane->stop_line->right);
+  const Eigen::Vector2d heading =
+      (lane->centreline.back() - lane->centreline[lane->centreline.size() - 2]).normalized();
+  const Eigen::Vector2d rear = line - heading * (options.front_overhang_m + options.stop_gap_m);
+  const RigidTransform2 X_MV =
+      RigidTransform2::FromXyYaw(rear.x(), rear.y(), std::atan2(heading.y(), heading.x()));
+  const auto no_lamps = [](SignalHeadId) -> std::optional<std::int32_t> { return std::nullopt; };
+  // A scan with one return straight ahead, `r` from the LIDAR (all else: nothing).
+  const auto scan = [](double r) {
+    std::vector<float> s(360, std::numeric_limits<float>::infinity());
+    if (r > 0) s[0] = static_cast<float>(r);
+    return s;
+  };
+  // Something 0.4 m into the box (a car crossing it): it waits, however long.
+  const double to_box = options.front_overhang_m + options.stop_gap_m - options.lidar_x_m;
+  LaneDriver driver(map, options);
+  DriverDecision d;
+  for (int i = 0; i <= 100; ++i) {
+    d = driver.Step(X_MV, no_lamps, scan(to_box + 0.4), FromSeconds(0.05 * i));
+  }
+  EXPECT_EQ(d.reason, DriverDecision::Reason::kStopSign) << "5 s with the box taken";
+  EXPECT_EQ(d.throttle, 0.0);
+  // The box clears (the return now beyond it, 1.5 m on): it goes.
+  for (int i = 101; i <= 110; ++i) {
+    d = driver.Step(X_MV, no_lamps, scan(to_box + 1.5), FromSeconds(0.05 * i));
+  }
+  EXPECT_GT(d.throttle, 0.0) << "the box is clear";
+  // A fresh driver with the box clear goes after its stop (1 s), not before.
+  LaneDriver fresh(map, options);
+  d = fresh.Step(X_MV, no_lamps, scan(0), FromSeconds(0));
+  EXPECT_EQ(d.reason, DriverDecision::Reason::kStopSign);
+  for (int i = 1; i <= 25; ++i) d = fresh.Step(X_MV, no_lamps, scan(0), FromSeconds(0.05 * i));
+  EXPECT_GT(d.throttle, 0.0);
+}
+
 TEST(LaneDriver, AFollowingCarKeepsItsDistanceFromAStoppedOne) {
   Town town;
   town.SetAll(1);
