@@ -73,6 +73,7 @@ struct CoSimStats {
   std::int64_t arrived_unplanned = 0;  ///< circulating vehicles that left: must stay 0
   std::int64_t teleports = 0;          ///< must stay 0 (SUMO runs with teleports off)
   std::int64_t collisions = 0;         ///< pairs of vehicles that started to overlap
+  std::int64_t lab_overlaps = 0;       ///< of two lab cars as SUMO placed them (not collisions)
   std::int64_t lab_cars_placed = 0;    ///< lab cars in SUMO now
   std::int64_t lab_car_misses = 0;     ///< placements SUMO refused (car off the roads)
   std::int64_t route_extensions = 0;
