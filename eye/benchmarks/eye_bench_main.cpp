@@ -20,8 +20,8 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "common/benchmarks/cpu_time.h"
 #include "common/camera/camera_model.h"
+#include "common/cpu_time.h"
 #include "common/dds/conversions.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
@@ -36,7 +36,6 @@
 namespace {
 
 using namespace autodrive;
-using bench::ThreadCpuSeconds;
 using namespace autodrive::eye;
 
 struct Scene {

@@ -8,7 +8,7 @@
 #include <set>
 #include <unordered_set>
 
-#include "common/benchmarks/cpu_time.h"
+#include "common/cpu_time.h"
 #include "common/error.h"
 #include "scm/city.h"
 
@@ -181,19 +181,24 @@ void CoSimulation::ReportLamp(SignalHeadId head, int lamp, MonoTime now) {
   if (head.value() >= heads_.size()) return;
   HeadReading& reading = heads_[head.value()];
   if (!reading.Report(lamp, now)) return;
-  // The lights it shows are read again now, and, where a flash may be starting or ending, until
-  // a flash window after the change.
-  const MonoTime until =
-      reading.MayFlash() ? now + config_.lights.flash_window_s + config_.step_s : now;
+  // The lights it shows are read again at the next step, and, where a flash may be starting or
+  // ending, until a flash window after the change.
   for (const std::size_t light : lights_of_head_[head.value()]) {
-    recheck_until_[light] = std::max(recheck_until_[light], until);
+    relight_[light] = true;
+    if (reading.MayFlash()) {
+      recheck_until_[light] =
+          std::max(recheck_until_[light], now + config_.lights.flash_window_s + config_.step_s);
+    }
   }
 }
 
 void CoSimulation::UpdateLights(MonoTime now) {
   for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
     // Only where a lamp changed lately, or an all-way stop is being run.
-    if (!all_way_[i] && now > recheck_until_[i] && !light_states_[i].empty()) continue;
+    if (!all_way_[i] && !relight_[i] && now > recheck_until_[i] && !light_states_[i].empty()) {
+      continue;
+    }
+    relight_[i] = false;
     aspect_states_[i] = lights_.State(i, heads_, now, config_.lights.flash_window_s);
     const bool now_all_way = aspect_states_[i].find('s') != std::string::npos;
     if (now_all_way != all_way_[i]) {
@@ -432,6 +437,7 @@ void CoSimulation::IndexStopLanes() {
   }
   grants_.resize(lights_.lights().size());
   recheck_until_.assign(lights_.lights().size(), MonoTime{});
+  relight_.assign(lights_.lights().size(), false);
   lights_of_head_.resize(heads_.size());
   for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
     for (const auto& link : lights_.lights()[i].heads) {
@@ -678,9 +684,9 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
     }
   }
   DepartFlows();
-  const double cpu0 = bench::ThreadCpuSeconds();
+  const double cpu0 = ThreadCpuSeconds();
   api_->Step(0.0);
-  stats_.sumo_step_cpu_s += bench::ThreadCpuSeconds() - cpu0;
+  stats_.sumo_step_cpu_s += ThreadCpuSeconds() - cpu0;
   time_s_ = api_->Time();
   ++stats_.steps;
   const SumoStepEvents events = api_->Events();

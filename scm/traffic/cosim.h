@@ -209,7 +209,8 @@ class CoSimulation {
   [[nodiscard]] bool AllWayNear(const LaneInfo& info) const;
   double LaneLength(const std::string& sumo_lane);
   std::unordered_map<std::string, LaneInfo> lane_info_;
-  std::vector<MonoTime> recheck_until_;                     // by light: a lamp changed lately
+  std::vector<MonoTime> recheck_until_;  // by light: a lamp went to or from dark lately
+  std::vector<bool> relight_;            // by light: a lamp changed since the last step
   std::vector<std::vector<std::size_t>> lights_of_head_;    // by head id
   std::vector<std::vector<Grant>> grants_;                  // by light
   std::unordered_map<std::string, double> standing_since_;  // vehicle: s, at a stop line

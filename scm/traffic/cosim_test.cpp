@@ -261,6 +261,27 @@ TEST(CoSim, CarsStopAtRedAndCrossOnGreen) {
   EXPECT_EQ(sim.stats().teleports, 0);
 }
 
+TEST(CoSim, ALampReportedBeforeTheStepsTimeReachesSumoAtThatStep) {
+  const TempDir dir;
+  const scm::City& city = SmallTown();
+  CoSimulation sim(city, TrafficConfig{}, InProcess(dir));
+  const auto any_green = [&] {
+    return std::any_of(
+        sim.light_states().begin(), sim.light_states().end(),
+        [](const std::string& st) { return st.find_first_of("Gg") != std::string::npos; });
+  };
+  // Lamps arrive between steps (the service stamps them when it takes them, before the step).
+  ReportAll(sim, city, 0.0, [](SignalHeadId, double) { return 1; });
+  sim.Step({}, At(0.03));
+  EXPECT_FALSE(any_green());
+  ReportAll(sim, city, 1.0, [](SignalHeadId, double) { return 3; });
+  sim.Step({}, At(1.04));
+  EXPECT_TRUE(any_green()) << "the green reported at 1.00 s is in SUMO at the step of 1.04 s";
+  ReportAll(sim, city, 2.0, [](SignalHeadId, double) { return 2; });
+  sim.Step({}, At(2.04));
+  EXPECT_FALSE(any_green()) << "yellow";
+}
+
 TEST(CoSim, FlashingRedIsAnAllWayStopEveryCarStopsThenCrosses) {
   const TempDir dir;
   const scm::City& city = SmallTown();

@@ -22,8 +22,8 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/core/utility.hpp>
 
-#include "common/benchmarks/cpu_time.h"
 #include "common/camera/camera_model.h"
+#include "common/cpu_time.h"
 #include "common/time.h"
 #include "maps/map.h"
 #include "maps/map_io.h"
@@ -36,7 +36,6 @@
 namespace {
 
 using namespace autodrive;
-using bench::ThreadCpuSeconds;
 using namespace autodrive::vehicle_sim;
 
 double WallSeconds() {

@@ -14,7 +14,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "common/benchmarks/cpu_time.h"
+#include "common/cpu_time.h"
 #include "common/dds/participant.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
@@ -31,7 +31,6 @@ namespace {
 
 using namespace autodrive;
 using namespace autodrive::traffic;
-using bench::ThreadCpuSeconds;
 
 // The lamps of SUMO's own stand-in program (maps::SumoOptions: per intersection each approach
 // in turn green 12 s, yellow 3 s, all red 2 s), so that the co-simulation and libsumo alone run

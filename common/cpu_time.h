@@ -5,7 +5,7 @@
 
 #include <time.h>
 
-namespace autodrive::bench {
+namespace autodrive {
 
 /// CPU seconds the calling thread has used.
 inline double ThreadCpuSeconds() {
@@ -14,4 +14,4 @@ inline double ThreadCpuSeconds() {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-}  // namespace autodrive::bench
+}  // namespace autodrive
