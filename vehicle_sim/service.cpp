@@ -386,9 +386,13 @@ struct SimService::Impl {
       const auto [it, first] = touching.try_emplace({c.vehicle, object.id}, now);
       if (first || now - it->second > kTouchGap) {
         traffic_collisions.fetch_add(1);
-        spdlog::warn("{} ran into background {} '{}' at t = {:.3f} s",
-                     cars.at(static_cast<std::size_t>(c.vehicle))->name,
-                     ToString(object.object_class), object.id, ToSeconds(now));
+        const Eigen::Vector3d car = world.State(c.vehicle).X_MV.translation();
+        const Eigen::Vector3d box = object.X_MO.translation();
+        spdlog::warn(
+            "{} (at {:.3f}, {:.3f}) ran into background {} '{}' (at {:.3f}, {:.3f}) at t = {:.3f} "
+            "s",
+            cars.at(static_cast<std::size_t>(c.vehicle))->name, car.x(), car.y(),
+            ToString(object.object_class), object.id, box.x(), box.y(), ToSeconds(now));
       }
       it->second = now;
     }

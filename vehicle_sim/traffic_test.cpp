@@ -238,6 +238,38 @@ TEST(TrafficWorld, ACarDrivenIntoABackgroundCarStopsAgainstItAndTheContactIsRepo
   EXPECT_LT(std::abs(s.v_V_mps.x()), 0.01);
 }
 
+// A background car that was within reach and then left it (its ODE box is disabled, where it
+// stood) is not there any more: a car driving through where it stood touches nothing. ODE
+// collides two spaces by walking the one with fewer geoms, disabled ones included: with fewer
+// background boxes than cars (each car is a space of its own), a disabled box used to collide
+// where it last stood. So: three cars, and two boxes, one of them staying within reach (so that
+// the world collides its boxes at all).
+TEST(TrafficWorld, ABackgroundCarThatLeftIsNotThereAnyMore) {
+  World world;
+  const int car = world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, 0, 0));
+  world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, -5, 0));
+  world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, -10, 0));
+  const Eigen::Vector3d size(0.32, 0.13, 0.11);
+  DynamicBox ahead{BoxId(1), Eigen::Isometry3d::Identity(), size / 2};
+  ahead.X_MB.translation() = Eigen::Vector3d(0.6 + size.x() / 2, 0.0, size.z() / 2);
+  DynamicBox beside = ahead;  // parked beside the car's path, for the whole run
+  beside.id = BoxId(2);
+  beside.X_MB.translation() = Eigen::Vector3d(0.5, 0.35, size.z() / 2);
+  world.SetTraffic(std::vector<DynamicBox>{beside, ahead});
+  world.Step();  // both chosen: within reach of the car
+  // The one ahead drives on, 20 m away (out of reach: its ODE box is disabled, not moved).
+  ahead.X_MB.translation().x() = 20.0;
+  world.SetTraffic(std::vector<DynamicBox>{beside, ahead});
+  world.SetCommand(car, {1.0, 0.0});
+  std::vector<TrafficContact> contacts;
+  while (world.time() < std::chrono::seconds(5)) {
+    world.Step();
+    contacts.insert(contacts.end(), world.TrafficContacts().begin(), world.TrafficContacts().end());
+  }
+  EXPECT_TRUE(contacts.empty()) << contacts.size() << " contacts with a car that left";
+  EXPECT_GT(world.State(car).X_MV.translation().x(), 1.0) << "it drove through where it stood";
+}
+
 // Randomised cross-check: a car's LIDAR among thousands of boxes (where the sensor tests each
 // step's beams only against the boxes in their wedge) sees what every beam testing every box
 // sees. Seeded; AUTODRIVE_SOAK_FACTOR multiplies the cases.

@@ -289,6 +289,10 @@ struct World::Impl {
       dSpaceCollide2(g1, g2, data, &NearCallback);
       return;
     }
+    // ODE collides two spaces by walking the one with fewer geoms, disabled ones included
+    // (dSpaceCollide2): a background box out of reach (disabled where it last stood) would still
+    // be hit there.
+    if (dGeomIsEnabled(g1) == 0 || dGeomIsEnabled(g2) == 0) return;
     const auto* t1 = static_cast<const GeomTag*>(dGeomGetData(g1));
     const auto* t2 = static_cast<const GeomTag*>(dGeomGetData(g2));
     if (t1 == nullptr || t2 == nullptr) return;
