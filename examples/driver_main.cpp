@@ -62,6 +62,8 @@ const char* ToString(examples::DriverDecision::Reason r) {
       return "stopping at a red light";
     case examples::DriverDecision::Reason::kStopSign:
       return "stopping at a stop sign";
+    case examples::DriverDecision::Reason::kGiveWay:
+      return "giving way to a vehicle in the intersection";
     case examples::DriverDecision::Reason::kObstacle:
       return "stopping for something ahead";
     case examples::DriverDecision::Reason::kLost:
@@ -168,6 +170,7 @@ int main(int argc, char** argv) {
       options.wheelbase_m = p.wheelbase_m;
       options.steering_limit_rad = p.steering_limit_rad;
       options.front_overhang_m = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
+      options.half_width_m = p.body_width_m / 2;
       cars.push_back(std::make_unique<Car>(participant, ParseVehicleName(city.sim.vehicles[i].name),
                                            map, options));
     }

@@ -15,6 +15,17 @@ double PolylineLength(const maps::Polyline& p) {
   return length;
 }
 
+double DistanceToPolyline(const maps::Polyline& p, const Eigen::Vector2d& q) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < p.size(); ++i) {
+    const Eigen::Vector2d d = p[i + 1] - p[i];
+    const double n2 = d.squaredNorm();
+    const double t = n2 > 0 ? std::clamp((q - p[i]).dot(d) / n2, 0.0, 1.0) : 0.0;
+    best = std::min(best, (p[i] + t * d - q).norm());
+  }
+  return best;
+}
+
 }  // namespace
 
 LaneDriver::LaneDriver(const maps::Map& map, const DriverOptions& options)
@@ -126,9 +137,47 @@ bool LaneDriver::BoxClear(const maps::Intersection& x, const RigidTransform2& X_
     const Eigen::Vector2d p =
         X_MV * Eigen::Vector2d(options_.lidar_x_m + r * std::cos(a), r * std::sin(a));
     const Eigen::Vector2d d = p - x.centre;
-    if (std::abs(d.x()) < half && std::abs(d.y()) < half) return false;
+    if (std::abs(d.x()) >= half || std::abs(d.y()) >= half) continue;
+    // On a path through the box (the poles of its lights and signs stand beside them).
+    for (const MovementId m : x.movements) {
+      if (DistanceToPolyline(map_->movement(m).path, p) < options_.half_width_m + 0.05) {
+        return false;
+      }
+    }
   }
   return true;
+}
+
+double LaneDriver::GapAhead(const RigidTransform2& X_MV, std::span<const float> lidar,
+                            double front_s, double range) const {
+  const double corridor = options_.half_width_m + options_.path_margin_m;
+  const auto beams = static_cast<double>(lidar.size());
+  double gap = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < lidar.size(); ++i) {
+    const double r = lidar[i];
+    if (!std::isfinite(r) || r > range + options_.front_overhang_m) continue;
+    const double a = 2 * std::numbers::pi * static_cast<double>(i) / beams;
+    const Eigen::Vector2d q =
+        X_MV * Eigen::Vector2d(options_.lidar_x_m + r * std::cos(a), r * std::sin(a));
+    // The nearest point of the route ahead of the front (up to `range`), within the corridor.
+    for (const Piece& piece : route_) {
+      const maps::Polyline& p = *piece.path;
+      double at = piece.start_s;
+      for (std::size_t k = 0; k + 1 < p.size(); ++k) {
+        const Eigen::Vector2d d = p[k + 1] - p[k];
+        const double n = d.norm();
+        if (n > 0 && at + n >= front_s && at <= front_s + range) {
+          const double t = std::clamp((q - p[k]).dot(d) / (n * n), 0.0, 1.0);
+          const double s = at + t * n;
+          if (s >= front_s && (p[k] + t * d - q).norm() < corridor) {
+            gap = std::min(gap, s - front_s);
+          }
+        }
+        at += n;
+      }
+    }
+  }
+  return gap;
 }
 
 DriverDecision LaneDriver::Step(
@@ -172,7 +221,13 @@ DriverDecision LaneDriver::Step(
       const bool green = shown && *shown == 3;
       const bool yellow = shown && *shown == 2;
       stop = !green && !(yellow && to_line < options_.stop_gap_m + 0.02) && to_line > 0;
-      if (stop) decision.reason = DriverDecision::Reason::kRedLight;
+      if (stop) {
+        decision.reason = DriverDecision::Reason::kRedLight;
+      } else if (to_line > 0 && !BoxClear(x, X_MV, lidar)) {
+        // Not over the line yet: a vehicle in the box has the right of way.
+        stop = true;
+        decision.reason = DriverDecision::Reason::kGiveWay;
+      }
     } else if (x.control == maps::Control::kStop && sign_done_for_ != piece.lane) {
       if (to_line <= options_.stop_gap_m + 0.02) {
         if (!stopped_at_sign_since_) stopped_at_sign_since_ = now;
@@ -193,20 +248,14 @@ DriverDecision LaneDriver::Step(
     }
     break;  // only the next stop line matters
   }
-  // Something close ahead (a car, a box): slow down, then stop.
+  // Something on its path close ahead (a car, a box): slow down, then stop. Only what is on
+  // its own path counts: in an intersection's box, vehicles waiting at the other stop lines
+  // are close, and often straight ahead, but not in its way.
   if (!lidar.empty()) {
-    double nearest = std::numeric_limits<double>::infinity();
-    const auto beams = static_cast<double>(lidar.size());
-    for (std::size_t i = 0; i < lidar.size(); ++i) {
-      const double a = WrapAngle(2 * std::numbers::pi * static_cast<double>(i) / beams);
-      // Look along the steering too: the cone turns with the wheels.
-      if (std::abs(WrapAngle(a - 0.5 * delta)) <= options_.obstacle_cone_rad) {
-        nearest = std::min(nearest, static_cast<double>(lidar[i]));
-      }
-    }
-    if (nearest < 2 * options_.obstacle_stop_m) {
+    const double gap = GapAhead(X_MV, lidar, front_s, 2 * options_.obstacle_stop_m);
+    if (std::isfinite(gap)) {
       const double scale =
-          std::clamp((nearest - options_.obstacle_stop_m) / options_.obstacle_stop_m, 0.0, 1.0);
+          std::clamp((gap - options_.obstacle_stop_m) / options_.obstacle_stop_m, 0.0, 1.0);
       if (options_.cruise_throttle * scale < throttle) {
         throttle = options_.cruise_throttle * scale;
         decision.reason = DriverDecision::Reason::kObstacle;

@@ -33,11 +33,16 @@ struct DriverOptions {
   double front_overhang_m = 0.2297;  ///< rear axle to the front of the body
   double stop_gap_m = 0.03;          ///< the front stops this far before a stop line
   double slow_down_m = 0.3;          ///< throttle falls linearly over this distance to a stop
-  double obstacle_stop_m = 0.4;      ///< LIDAR range ahead (from the LIDAR) under which it stops
-  double obstacle_cone_rad = 0.3;    ///< half-angle of the LIDAR's "ahead"
+  /// What its LIDAR sees on its own path ahead (within its half width plus `path_margin_m` of
+  /// the route it drives): it slows down from twice this gap (front bumper to the obstacle,
+  /// along the path) and stops under it.
+  double obstacle_stop_m = 0.15;
+  double half_width_m = 0.0875;  ///< half the body's width
+  double path_margin_m = 0.04;
   Duration stop_sign_wait = std::chrono::seconds(1);
   /// At a stop sign it goes only when its LIDAR sees nothing in the intersection's box (its
-  /// tile, less this margin): a vehicle crossing has the right of way.
+  /// tile, less this margin): a vehicle crossing has the right of way. At a green light it
+  /// gives way the same way to what is in the box before it crosses the stop line.
   double box_margin_m = 0.03;
   double lidar_x_m = 0.1445;  ///< the LIDAR ahead of the rear axle (NIGEL.md)
   std::uint64_t seed = 1;
@@ -47,7 +52,14 @@ struct DriverOptions {
 struct DriverDecision {
   double throttle = 0.0;  ///< normalised
   double steering = 0.0;  ///< normalised, positive left
-  enum class Reason { kCruise, kRedLight, kStopSign, kObstacle, kLost } reason = Reason::kCruise;
+  enum class Reason {
+    kCruise,
+    kRedLight,
+    kStopSign,
+    kGiveWay,  ///< at a green light, for what is in the intersection's box
+    kObstacle,
+    kLost
+  } reason = Reason::kCruise;
 };
 
 /// One car's driver. Copy: yes (value type over a borrowed map); the map must outlive it.
@@ -81,6 +93,10 @@ class LaneDriver {
   [[nodiscard]] double PieceLength(const Piece& piece) const;
   [[nodiscard]] bool BoxClear(const maps::Intersection& x, const RigidTransform2& X_MV,
                               std::span<const float> lidar) const;
+  // The gap from its front bumper, along its route, to the nearest LIDAR point on its path
+  // within `range` of it (infinity when there is none).
+  [[nodiscard]] double GapAhead(const RigidTransform2& X_MV, std::span<const float> lidar,
+                                double front_s, double range) const;
 
   const maps::Map* map_;
   DriverOptions options_;

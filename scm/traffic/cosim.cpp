@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <set>
 #include <unordered_set>
@@ -15,6 +16,9 @@
 namespace autodrive::traffic {
 
 namespace {
+
+// A movement of no traffic light (link_of_movement_).
+constexpr std::size_t kNoLight = std::numeric_limits<std::size_t>::max();
 
 // Edges a circulating vehicle's route holds ahead of it after an extension.
 constexpr std::size_t kWalkEdges = 16;
@@ -84,6 +88,10 @@ CoSimulation::CoSimulation(const scm::City& city, const TrafficConfig& config, O
   network_->LearnInternalLanes(*api_);
   light_states_.resize(lights_.lights().size());
   IndexStopLanes();
+  LabCarClaims::Options claims;
+  claims.length_m = TypeSize(network_->files().vehicle_type).length / network_->scale();
+  claims.body_centre_ahead_m = config_.lab_cars.body_centre_ahead_m;
+  claims_ = std::make_unique<LabCarClaims>(city.map, *index_, claims);
   // Before any report every light is dark: all-way stops.
   UpdateLights(MonoTime{});
   for (const TypeShare& t : config_.mix) (void)TypeSize(t.type);  // an unknown type throws here
@@ -217,10 +225,55 @@ void CoSimulation::UpdateLights(MonoTime now) {
     for (const Grant& g : grants_[i]) {
       if (aspect_states_[i][g.link] == 's') state[g.link] = 'G';
     }
+    for (std::size_t k = 0; k < state.size(); ++k) {
+      if (held_[i][k]) state[k] = 'r';
+    }
     if (state == light_states_[i]) continue;
     api_->SetLightState(lights_.lights()[i].tls, state);
     light_states_[i] = std::move(state);
   }
+}
+
+void CoSimulation::HoldForLabCars() {
+  // Every lab car in SUMO, where it was last heard of (the Eye or the fleet may skip a step).
+  std::vector<LabCarPose>& cars = held_for_;
+  cars.clear();
+  for (const auto& [name, lab] : lab_cars_) {
+    if (lab.in_sumo) cars.push_back(lab.pose);
+  }
+  if (cars.empty() && held_lights_.empty()) return;
+  std::sort(cars.begin(), cars.end(),
+            [](const LabCarPose& a, const LabCarPose& b) { return a.name < b.name; });
+  claims_->Update(cars, [&](MovementId m) {
+    if (m.value() >= link_of_movement_.size()) return false;
+    const auto [light, link] = link_of_movement_[m.value()];
+    if (light == kNoLight) return false;
+    const std::string& aspect = aspect_states_[light];
+    return aspect.empty() || aspect[link] != 'r';
+  });
+  std::vector<std::vector<bool>> before;
+  for (const std::size_t i : held_lights_) {
+    before.push_back(held_[i]);
+    std::fill(held_[i].begin(), held_[i].end(), false);
+  }
+  std::vector<std::size_t> lights;
+  for (const MovementId m : claims_->held()) {
+    if (m.value() >= link_of_movement_.size()) continue;
+    const auto [light, link] = link_of_movement_[m.value()];
+    if (light == kNoLight) continue;
+    held_[light][link] = true;
+    if (std::find(lights.begin(), lights.end(), light) == lights.end()) lights.push_back(light);
+  }
+  // A light whose held links changed is set again at once.
+  for (std::size_t j = 0; j < held_lights_.size(); ++j) {
+    if (held_[held_lights_[j]] != before[j]) relight_[held_lights_[j]] = true;
+  }
+  for (const std::size_t i : lights) {
+    if (std::find(held_lights_.begin(), held_lights_.end(), i) == held_lights_.end()) {
+      relight_[i] = true;
+    }
+  }
+  held_lights_ = std::move(lights);
 }
 
 void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now) {
@@ -229,6 +282,7 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
   for (const LabCarPose& car : cars) {
     LabCar& lab = lab_cars_[car.name];
     lab.last_seen = now;
+    lab.pose = car;
     const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
     // SUMO's position is the front bumper's middle.
     const Eigen::Vector2d front =
@@ -259,8 +313,31 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
       api_->SetSpeedMode(lab.sumo_id, 0);
       lab.in_sumo = true;
     }
+    // Where SUMO should map it, as a hint (SUMO weighs the lane named much higher than the
+    // nearest): in a box, the internal lane of the movement under it (its lane would otherwise
+    // jump between the box's crossing internal lanes, and SUMO would see it across a path it
+    // is not on); elsewhere, its lane.
+    std::string hint_edge;
+    int hint_lane = -1;
+    const auto split = [&](const std::string& sumo_lane) {
+      const auto at = sumo_lane.rfind('_');
+      hint_edge = sumo_lane.substr(0, at);
+      hint_lane = std::stoi(sumo_lane.substr(at + 1));
+    };
+    if (const auto under = claims_->Under(car.name)) {
+      const std::vector<std::string>& internal = network_->InternalLanes(under->first);
+      if (!internal.empty()) {
+        const auto k = std::min(
+            internal.size() - 1,
+            static_cast<std::size_t>(under->second * static_cast<double>(internal.size())));
+        split(internal[k]);
+      }
+    } else if (match) {
+      hint_edge = network_->EdgeOfLane(city_.map.lane(match->lane).name);
+      hint_lane = 0;
+    }
     try {
-      api_->MoveToXY(lab.sumo_id, "", -1, front.x() * s, front.y() * s,
+      api_->MoveToXY(lab.sumo_id, hint_edge, hint_lane, front.x() * s, front.y() * s,
                      SumoAngleFromYaw(car.yaw_rad));
     } catch (const SumoError& e) {
       ++stats_.lab_car_misses;
@@ -277,6 +354,26 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
   }
   stats_.lab_cars_placed = std::count_if(lab_cars_.begin(), lab_cars_.end(),
                                          [](const auto& kv) { return kv.second.in_sumo; });
+}
+
+std::string CoSimulation::DescribeLabCars(const std::string& a, const std::string& b) const {
+  std::string out;
+  for (const auto& [name, lab] : lab_cars_) {
+    if (lab.sumo_id != a && lab.sumo_id != b) continue;
+    out +=
+        fmt::format("; {} was at ({:.3f}, {:.3f}) heading {:.2f} rad, on {} in SUMO before", name,
+                    lab.pose.position.x(), lab.pose.position.y(), lab.pose.yaw_rad, lab.lane);
+    if (claims_->InBox(name)) out += fmt::format(", in a box");
+  }
+  return out;
+}
+
+void CoSimulation::NoteLabLane(const SumoVehicleState& v) {
+  for (auto& [name, lab] : lab_cars_) {
+    if (lab.sumo_id != v.id || lab.lane == v.lane) continue;
+    spdlog::debug("traffic: {:.2f} s: {} is on {} in SUMO", time_s_, name, v.lane);
+    lab.lane = v.lane;
+  }
 }
 
 void CoSimulation::DepartFlows() {
@@ -404,6 +501,7 @@ void CoSimulation::RerouteBlocked() {
 }
 
 void CoSimulation::IndexStopLanes() {
+  link_of_movement_.assign(city_.map.movements.size() + 1, {kNoLight, 0});
   std::unordered_map<std::string, std::size_t> light_of;
   for (std::size_t i = 0; i < lights_.lights().size(); ++i) {
     light_of.emplace(lights_.lights()[i].tls, i);
@@ -414,6 +512,7 @@ void CoSimulation::IndexStopLanes() {
       const maps::SumoMovement& sm = network_->files().movement(mid);
       const std::size_t light = light_of.at(sm.junction);
       const auto link = static_cast<std::size_t>(sm.tls_link_index.value_or(0));
+      link_of_movement_[mid.value()] = {light, link};
       StopLane& lane = stop_lanes_[sm.from.id()];
       lane.light = light;
       lane.links.push_back(StopLane::Link{sm.to.edge, sm.to.id(), link});
@@ -432,8 +531,10 @@ void CoSimulation::IndexStopLanes() {
   aspect_states_.resize(lights_.lights().size());
   all_way_.assign(lights_.lights().size(), false);
   occupied_.resize(lights_.lights().size());
+  held_.resize(lights_.lights().size());
   for (std::size_t i = 0; i < occupied_.size(); ++i) {
     occupied_[i].assign(lights_.lights()[i].heads.size(), false);
+    held_[i].assign(lights_.lights()[i].heads.size(), false);
   }
   grants_.resize(lights_.lights().size());
   recheck_until_.assign(lights_.lights().size(), MonoTime{});
@@ -544,15 +645,10 @@ void CoSimulation::ArbitrateAllWayStops() {
       if (r == room.end()) r = room.emplace(v.lane, LaneLength(v.lane)).first;
       r->second = std::min(r->second, v.lane_pos - length - gap);
     }
+    // A lab car goes whenever its driver decides: what SUMO's vehicles must not start
+    // meanwhile is held (HoldForLabCars).
+    if (lab) continue;
     const auto lane = stop_lanes_.find(v.lane);
-    // A lab car near the line may go in whenever its driver decides: nothing that conflicts
-    // with any movement from its lane is let through meanwhile.
-    if (lab) {
-      if (lane != stop_lanes_.end() && v.lane_pos > lane->second.length - 2 * length) {
-        for (const auto& l : lane->second.links) occupied[lane->second.light][l.index] = true;
-      }
-      continue;
-    }
     const bool at_line = lane != stop_lanes_.end() && v.speed_mps < 0.01 * s &&
                          v.lane_pos > lane->second.length - 0.1 * s;
     if (!at_line) {
@@ -609,6 +705,7 @@ void CoSimulation::ArbitrateAllWayStops() {
                                    [&](const auto& l) { return l.edge == route[next]; });
     if (link == w.lane->links.end()) continue;
     const std::size_t k = link->index;
+    if (held_[light][k]) continue;  // a lab car is on its way
     // Only into a lane with room for it: a vehicle waiting in the box for room would hold up
     // every movement it conflicts with (and a grid of all-way stops would lock up).
     const double length = TypeSize(w.type).length;
@@ -622,6 +719,8 @@ void CoSimulation::ArbitrateAllWayStops() {
     });
     if (!clear) continue;
     grants.push_back(Grant{w.vehicle, k, time_s_, length + gap});
+    spdlog::debug("traffic: {:.2f} s: {} may go at {} (link {})", time_s_, w.vehicle,
+                  lights_.lights()[light].tls, k);
     room.at(link->lane) -= length + gap;
     ++stats_.all_way_grants;
   }
@@ -637,7 +736,10 @@ void CoSimulation::ReadVehicles() {
     // Lane positions where they matter: the lab's cars, and lanes into, through or out of an
     // all-way stop running now.
     if (lab || AllWayNear(info)) v.lane_pos = api_->LanePosition(v.id);
-    if (lab) continue;
+    if (lab) {
+      NoteLabLane(v);
+      continue;
+    }
     // The output's elements are reused (their strings keep their buffers from step to step).
     if (n == vehicles_.size()) vehicles_.emplace_back();
     TrafficVehicle& out = vehicles_[n++];
@@ -659,8 +761,9 @@ void CoSimulation::ReadVehicles() {
 
 const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPose>& lab_cars,
                                                       MonoTime now) {
-  UpdateLights(now);
   PlaceLabCars(lab_cars, now);
+  HoldForLabCars();
+  UpdateLights(now);
   // The random vehicles go in once the lab's cars are in the network (placed in the last
   // step), so that none is put where a lab car stands.
   if (!inserted_ && stats_.steps >= 1) {
@@ -720,7 +823,8 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
       continue;
     }
     ++stats_.collisions;
-    spdlog::warn("traffic: collision at {:.2f} s: {}", time_s_, c.description);
+    spdlog::warn("traffic: collision at {:.2f} s: {}{}", time_s_, c.description,
+                 DescribeLabCars(c.collider, c.victim));
   }
   colliding_ = std::move(colliding);
   ReadVehicles();

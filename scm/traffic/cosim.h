@@ -34,6 +34,7 @@
 
 #include "common/time.h"
 #include "maps/query.h"
+#include "scm/traffic/lab_claims.h"
 #include "scm/traffic/lights.h"
 #include "scm/traffic/network.h"
 #include "scm/traffic/sumo_api.h"
@@ -44,14 +45,6 @@ struct City;
 }
 
 namespace autodrive::traffic {
-
-/// A lab car's pose for SUMO: its origin (the middle of its rear axle) in the map frame.
-struct LabCarPose {
-  std::string name;  ///< "nigel_1": also its SUMO id
-  Eigen::Vector2d position = Eigen::Vector2d::Zero();
-  double yaw_rad = 0.0;
-  double speed_mps = 0.0;
-};
 
 /// One of SUMO's vehicles in the lab's frame (see autodrive_msgs/TrafficObject).
 struct TrafficVehicle {
@@ -130,6 +123,8 @@ class CoSimulation {
     bool in_sumo = false;
     std::string sumo_id;  // the name, then name#k after the k-th re-entry
     int entries = 0;
+    std::string lane;  // SUMO's lane for it after the last step (for logs)
+    LabCarPose pose;   // the last heard
   };
   struct Flow {
     FlowConfig config;
@@ -144,6 +139,9 @@ class CoSimulation {
                   bool circulating, const std::string& depart_pos);
   void UpdateLights(MonoTime now);
   void PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now);
+  void NoteLabLane(const SumoVehicleState& v);
+  // For a collision's log line: where the lab cars among `a` and `b` were.
+  [[nodiscard]] std::string DescribeLabCars(const std::string& a, const std::string& b) const;
   void DepartFlows();
   void ExtendRoutes();
   void RerouteBlocked();
@@ -197,6 +195,13 @@ class CoSimulation {
   std::vector<bool> all_way_;               // by light: its aspect has an all-way stop now
   std::size_t all_way_count_ = 0;
   std::vector<std::vector<bool>> occupied_;  // by light and link: a vehicle in its lanes
+  // The lab cars' claims (lab_claims.h): by light and link, SUMO's vehicles may not start it.
+  std::unique_ptr<LabCarClaims> claims_;
+  std::vector<std::pair<std::size_t, std::size_t>> link_of_movement_;  // by movement id
+  std::vector<std::vector<bool>> held_;
+  std::vector<std::size_t> held_lights_;  // the lights with a held link
+  void HoldForLabCars();
+  std::vector<LabCarPose> held_for_;                      // scratch: the lab cars in SUMO
   std::unordered_map<std::string, double> lane_lengths_;  // SUMO metres, by SUMO lane id
   // What a step needs to know of a SUMO lane a vehicle is on, found once (one lookup per
   // vehicle and step): its name in the map, and the lights whose all-way stop it feeds, crosses
