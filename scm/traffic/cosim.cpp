@@ -430,7 +430,9 @@ void CoSimulation::ExtendRoutes() {
 // full lanes whose first cars each wait for the next full lane of the ring.
 void CoSimulation::RerouteBlocked() {
   constexpr double kWait_s = 3.0;  // standing this long at the head of its lane
-  if (stats_.steps % 10 != 0) return;
+  // Once a second: a wait of seconds needs no finer look, and the look costs a lookup by name
+  // per vehicle.
+  if (stats_.steps % 20 != 0) return;
   const double s = network_->scale();
   const double gap = network_->files().scale * 0.05;
   // Circulating vehicles standing on a lane into an intersection, and since when.
@@ -468,6 +470,12 @@ void CoSimulation::RerouteBlocked() {
       continue;
     }
     const double length = TypeSize(v->type).length + gap;
+    // Only a lane with a full exit can hold a vehicle up (most stand at a red light): its
+    // route, a call each, is read only then.
+    if (std::all_of(lane.links.begin(), lane.links.end(),
+                    [&](const StopLane::Link& l) { return room(l.lane) >= length; })) {
+      continue;
+    }
     const double waited_s = time_s_ - blocked_since_.at(v->id);
     if (api_->LanePosition(v->id) < lane.length - 0.1 * s) continue;  // not the first
     const std::vector<std::string> route = api_->Route(v->id);
@@ -730,9 +738,26 @@ void CoSimulation::ReadVehicles() {
   api_->ReadVehicles(states_);
   const double s = network_->scale();
   std::size_t n = 0;
+  read_cache_.resize(std::max(read_cache_.size(), states_.size()));
   for (SumoVehicleState& v : states_) {
-    const LaneInfo& info = InfoOf(v.lane);
+    // The output's nth vehicle is mostly the same as the last step's, often on the same lane:
+    // its lane's and type's entries are then known without hashing their names.
+    // (A lab car leaves the cache alone: it is not in the output.)
     const bool lab = !lab_ids_.empty() && lab_ids_.count(v.id) != 0;
+    ReadCache& cache = read_cache_[n];
+    const bool same = !lab && n < vehicles_.size() && vehicles_[n].id == v.id;
+    if (!lab) {
+      cache.lane_changed = !same || cache.info == nullptr || cache.sumo_lane != v.lane;
+      if (cache.lane_changed) {
+        cache.info = &InfoOf(v.lane);
+        cache.sumo_lane = v.lane;
+      }
+      if (!same || cache.size == nullptr) {
+        cache.size = &TypeSize(v.type);
+        cache.object_class = ObjectClass(cache.size->vclass);
+      }
+    }
+    const LaneInfo& info = lab ? InfoOf(v.lane) : *cache.info;
     // Lane positions where they matter: the lab's cars, and lanes into, through or out of an
     // all-way stop running now.
     if (lab || AllWayNear(info)) v.lane_pos = api_->LanePosition(v.id);
@@ -743,9 +768,9 @@ void CoSimulation::ReadVehicles() {
     // The output's elements are reused (their strings keep their buffers from step to step).
     if (n == vehicles_.size()) vehicles_.emplace_back();
     TrafficVehicle& out = vehicles_[n++];
-    const SumoTypeSize& size = TypeSize(v.type);
-    out.id = v.id;
-    out.object_class = ObjectClass(size.vclass);
+    const SumoTypeSize& size = *cache.size;
+    if (!same) out.id = v.id;
+    out.object_class = cache.object_class;
     out.yaw_rad = YawFromSumoAngle(v.angle_deg);
     const Eigen::Vector2d heading(std::cos(out.yaw_rad), std::sin(out.yaw_rad));
     out.centre = (Eigen::Vector2d(v.x, v.y) - heading * (size.length / 2)) / s;
@@ -753,7 +778,7 @@ void CoSimulation::ReadVehicles() {
     out.width_m = size.width / s;
     out.height_m = size.height / s;
     out.speed_mps = v.speed_mps / s;
-    out.map_lane = *info.map_name;
+    if (!same || cache.lane_changed) out.map_lane = *info.map_name;
     out.signals = Signals(v.signals);
   }
   vehicles_.resize(n);

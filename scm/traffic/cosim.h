@@ -224,6 +224,14 @@ class CoSimulation {
   std::unordered_map<std::string, SumoTypeSize> type_sizes_;
   std::vector<SumoVehicleState> states_;
   std::vector<TrafficVehicle> vehicles_;
+  struct ReadCache {  // by index in vehicles_: what the last step's vehicle there was on
+    std::string sumo_lane;
+    const LaneInfo* info = nullptr;
+    const SumoTypeSize* size = nullptr;
+    std::uint8_t object_class = 0;
+    bool lane_changed = true;
+  };
+  std::vector<ReadCache> read_cache_;
   CoSimStats stats_;
   std::set<std::pair<std::string, std::string>> colliding_;  // in the last step
 };

@@ -16,6 +16,7 @@
 #include "common/error.h"
 #include "common/ids.h"
 #include "scm/city.h"
+#include "scm/traffic/lamp_inbox.h"
 
 namespace autodrive::traffic {
 
@@ -93,7 +94,8 @@ struct TrafficService::Impl {
   CoSimulation cosim;
   std::string source;
   dds::Writer<msg::TrafficObjects> writer;
-  std::vector<std::pair<SignalHeadId, std::unique_ptr<dds::Reader<msg::Int32>>>> lamp_readers;
+  LampInbox lamps;
+  std::vector<LampInbox::Lamp> lamps_taken;
   std::vector<std::unique_ptr<dds::Reader<msg::TrackedVehicle>>> truth_readers;
   std::unique_ptr<dds::Reader<msg::FleetState>> fleet_reader;
   std::map<std::string, LabCarPose> cars;  // newest pose of each car
@@ -109,11 +111,8 @@ struct TrafficService::Impl {
         options(std::move(o)),
         step_s(ToSeconds(config.step_s)),
         cosim(c, config, CosimOptions(c, config, options)),
-        writer(p, topics::Traffic()) {
-    for (const SignalHeadId h : cosim.lights().heads()) {
-      lamp_readers.emplace_back(
-          h, std::make_unique<dds::Reader<msg::Int32>>(participant, topics::SignalState(h)));
-    }
+        writer(p, topics::Traffic()),
+        lamps(p, cosim.lights().heads()) {
     source = config.lab_cars.source;
     if (source == "auto") source = c.config.sim ? "ground_truth" : "fleet";
     if (source == "ground_truth") {
@@ -147,9 +146,8 @@ struct TrafficService::Impl {
 
   // Takes what arrived: lamps (reported at `now`) and lab cars.
   void TakeInputs(MonoTime now) {
-    for (auto& [head, reader] : lamp_readers) {
-      while (auto m = reader->TakeOne()) cosim.ReportLamp(head, (*m)->data, now);
-    }
+    lamps.Take(lamps_taken);
+    for (const LampInbox::Lamp& l : lamps_taken) cosim.ReportLamp(l.head, l.lamp, now);
     fresh.clear();
     for (auto& r : truth_readers) {
       while (r->TakeOne(truth_sample)) Observe(*truth_sample);
