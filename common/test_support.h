@@ -46,6 +46,27 @@ inline int SoakFactor() {
   return factor;
 }
 
+/// How many cases a randomised cross-check of `base` cases runs: `base` times `SoakFactor()`,
+/// times AUTODRIVE_CASES_PERCENT / 100 when that is set (an integer 1..100; anything else is a
+/// test failure). The sanitizer legs of CI set it: under a sanitizer a case costs 20 to 50
+/// times more, and a share of the cases finds memory and race errors in the same code paths
+/// while the full count runs in the plain build. At least one case.
+inline int Cases(int base) {
+  int cases = base * SoakFactor();
+  const char* text = std::getenv("AUTODRIVE_CASES_PERCENT");
+  if (text == nullptr || *text == '\0') return cases;
+  int percent = 0;
+  const char* end = text + std::strlen(text);
+  const auto [ptr, ec] = std::from_chars(text, end, percent);
+  if (ec != std::errc() || ptr != end || percent < 1 || percent > 100) {
+    ADD_FAILURE() << "AUTODRIVE_CASES_PERCENT must be an integer from 1 to 100, got \"" << text
+                  << "\"";
+    return cases;
+  }
+  cases = static_cast<int>(static_cast<long long>(cases) * percent / 100);
+  return cases < 1 ? 1 : cases;
+}
+
 /// The repository root (AUTODRIVE_SOURCE_DIR, which CTest sets). Throws when unset.
 inline std::filesystem::path SourceDir() {
   const char* src = std::getenv("AUTODRIVE_SOURCE_DIR");

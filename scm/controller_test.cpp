@@ -645,11 +645,11 @@ TEST(ControllerProperty, EveryGroupGetsItsGreenWithinACyclePlusClearancesSmallTo
 }
 
 TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDrivingSchool) {
-  RunRandomSequences(DrivingSchool(), 10'000 * test::SoakFactor(), 1);
+  RunRandomSequences(DrivingSchool(), test::Cases(10'000), 1);
 }
 
 TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleSmallTown) {
-  RunRandomSequences(SmallTown(), 10'000 * test::SoakFactor(), 2);
+  RunRandomSequences(SmallTown(), test::Cases(10'000), 2);
 }
 
 }  // namespace
