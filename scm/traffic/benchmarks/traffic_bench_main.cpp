@@ -167,11 +167,14 @@ Result Run(const scm::City& city, int cars, double seconds, const std::filesyste
       for (const std::string& id : libsumo::Vehicle::getIDList()) {
         TrafficVehicle& v = vehicles.emplace_back();
         v.id = id;
+        // As CoSimulation reads its cars: SUMO gives the front bumper; the object is the body.
         const libsumo::TraCIPosition p = libsumo::Vehicle::getPosition(id);
         v.yaw_rad = YawFromSumoAngle(libsumo::Vehicle::getAngle(id));
-        v.centre = Eigen::Vector2d(p.x, p.y) / scale;
-        v.length_m = 0.318;  // Nigel, the default type
-        v.width_m = 0.175;
+        const double length = libsumo::Vehicle::getLength(id);
+        const Eigen::Vector2d heading(std::cos(v.yaw_rad), std::sin(v.yaw_rad));
+        v.centre = (Eigen::Vector2d(p.x, p.y) - heading * (length / 2)) / scale;
+        v.length_m = length / scale;
+        v.width_m = libsumo::Vehicle::getWidth(id) / scale;
         v.speed_mps = libsumo::Vehicle::getSpeed(id) / scale;
         const auto name = lane_names.find(libsumo::Vehicle::getLaneID(id));
         if (name != lane_names.end()) v.map_lane = name->second;
