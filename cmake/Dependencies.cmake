@@ -33,7 +33,6 @@ find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs calib3d videoio)
 find_package(apriltag REQUIRED CONFIG)
 
 # Helper libraries: config, logging, CLI, persistence, JSON, systemd, tests, benchmarks.
-# (cpp-httplib joins when the dashboard does; it is not needed before.)
 find_package(yaml-cpp REQUIRED CONFIG)
 find_package(spdlog REQUIRED CONFIG)
 find_package(fmt REQUIRED CONFIG)
@@ -48,6 +47,8 @@ find_package(SQLite3 REQUIRED)
 find_package(pugixml REQUIRED CONFIG)
 # JSON that programs write and read (scmctl --json, the dashboard): nlohmann-json3-dev.
 find_package(nlohmann_json 3 REQUIRED CONFIG)
+# The dashboard's HTTP server (libcpp-httplib-dev: a compiled library, with its flags).
+pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
 # systemd integration of the daemons (READY, WATCHDOG, STOPPING): libsystemd-dev.
 pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET GLOBAL libsystemd)
 find_package(Threads REQUIRED)

@@ -55,18 +55,41 @@ std::vector<std::string> ChildEnvironment(const char* const* inherited,
 }
 
 ChildProcess::ChildProcess(const std::vector<std::string>& argv,
-                           const std::vector<std::string>& extra_env) {
+                           const std::vector<std::string>& extra_env)
+    : ChildProcess(Tag{}, argv, ChildOptions{extra_env, {}, false}) {}
+
+ChildProcess ChildProcess::Start(const std::vector<std::string>& argv,
+                                 const ChildOptions& options) {
+  return ChildProcess(Tag{}, argv, options);
+}
+
+ChildProcess::ChildProcess(Tag, const std::vector<std::string>& argv, const ChildOptions& options) {
   AUTODRIVE_THROW_UNLESS(!argv.empty(), "ChildProcess needs a program to run");
-  std::vector<std::string> env_strings = ChildEnvironment(environ, extra_env);
-  int in_pipe[2];
-  int out_pipe[2];
-  AUTODRIVE_CHECK(::pipe2(in_pipe, O_CLOEXEC) == 0, std::strerror(errno));
-  AUTODRIVE_CHECK(::pipe2(out_pipe, O_CLOEXEC) == 0, std::strerror(errno));
+  std::vector<std::string> env_strings = ChildEnvironment(environ, options.extra_env);
+  const bool logged = !options.output_file.empty();
+  int in_pipe[2] = {-1, -1};
+  int out_pipe[2] = {-1, -1};
+  if (logged) {
+    in_pipe[0] = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+    AUTODRIVE_CHECK(in_pipe[0] >= 0, "/dev/null: " << std::strerror(errno));
+    out_pipe[1] =
+        ::open(options.output_file.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (out_pipe[1] < 0) {
+      const int error = errno;
+      ::close(in_pipe[0]);
+      throw InputError("cannot open " + options.output_file.string() + " for '" + argv[0] +
+                       "': " + std::strerror(error));
+    }
+  } else {
+    AUTODRIVE_CHECK(::pipe2(in_pipe, O_CLOEXEC) == 0, std::strerror(errno));
+    AUTODRIVE_CHECK(::pipe2(out_pipe, O_CLOEXEC) == 0, std::strerror(errno));
+  }
 
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, in_pipe[0], STDIN_FILENO);
   posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
+  if (logged) posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDERR_FILENO);
 
   // The child starts clean: nothing blocked (a parent that blocked SIGTERM for a signalfd
   // must not pass that on) and every signal at its default action.
@@ -78,7 +101,12 @@ ChildProcess::ChildProcess(const std::vector<std::string>& argv,
   sigfillset(&all);
   posix_spawnattr_setsigmask(&attributes, &none);
   posix_spawnattr_setsigdefault(&attributes, &all);
-  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  int flags = POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF;
+  if (options.own_process_group) {
+    posix_spawnattr_setpgroup(&attributes, 0);
+    flags |= POSIX_SPAWN_SETPGROUP;
+  }
+  posix_spawnattr_setflags(&attributes, static_cast<short>(flags));
 
   std::vector<char*> envp;
   for (auto& e : env_strings) envp.push_back(e.data());
@@ -94,8 +122,8 @@ ChildProcess::ChildProcess(const std::vector<std::string>& argv,
   ::close(in_pipe[0]);
   ::close(out_pipe[1]);
   if (rc != 0) {
-    ::close(in_pipe[1]);
-    ::close(out_pipe[0]);
+    if (in_pipe[1] >= 0) ::close(in_pipe[1]);
+    if (out_pipe[0] >= 0) ::close(out_pipe[0]);
     pid_ = -1;
     throw InputError("cannot start '" + argv[0] + "': " + std::strerror(rc));
   }

@@ -6,11 +6,25 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace autodrive {
+
+/// How a child starts, beyond its program and arguments.
+struct ChildOptions {
+  /// Entries ("NAME=value") added to this process's environment (see `ChildEnvironment`).
+  std::vector<std::string> extra_env;
+  /// When set, the child's stdin is /dev/null and its stdout and stderr are appended to this
+  /// file (created when missing): a daemon's log. `ReadLine` and `Write` then have nothing to
+  /// read or write. When empty, stdin and stdout are pipes to us and stderr is ours.
+  std::filesystem::path output_file;
+  /// The child leads a process group of its own, so that a Ctrl-C at the terminal reaches
+  /// only us and we stop our children in our own order.
+  bool own_process_group = false;
+};
 
 /// One running child process. Move-only. The destructor stops a child that is still running
 /// (SIGTERM, then SIGKILL after a grace period) and reaps it, so no process is left behind.
@@ -25,6 +39,10 @@ class ChildProcess {
   /// the program cannot be started (with the path and the reason).
   explicit ChildProcess(const std::vector<std::string>& argv,
                         const std::vector<std::string>& extra_env = {});
+  /// Starts `argv` as `options` say. Throws `InputError` as the constructor does, and when the
+  /// output file cannot be opened.
+  [[nodiscard]] static ChildProcess Start(const std::vector<std::string>& argv,
+                                          const ChildOptions& options);
   ChildProcess(ChildProcess&& other) noexcept;
   ChildProcess& operator=(ChildProcess&& other) noexcept;
   ChildProcess(const ChildProcess&) = delete;
@@ -48,6 +66,8 @@ class ChildProcess {
   [[nodiscard]] pid_t pid() const { return pid_; }
 
  private:
+  struct Tag {};
+  ChildProcess(Tag, const std::vector<std::string>& argv, const ChildOptions& options);
   void CloseAll();
   pid_t pid_ = -1;
   int stdin_fd_ = -1;

@@ -366,7 +366,7 @@ class Scene {
     if (o_.show_lane_arrows) DrawArrows();
     DrawStopLines();
     DrawObstacles();
-    DrawSignalHeads();
+    if (o_.show_signal_heads) DrawSignalHeads();
     DrawSigns();
     DrawLegend();
   }

@@ -32,6 +32,9 @@ struct RenderOptions {
   bool show_tile_grid = true;    ///< faint lines along the tile edges
   bool show_movements = true;    ///< the movement paths through intersections
   bool show_lane_arrows = true;  ///< an arrow at the middle of every lane
+  /// The signal heads with their three lamps lit (off for a live picture that draws each
+  /// head's current lamp itself, as the dashboard does).
+  bool show_signal_heads = true;
   /// Only what is painted on the ground, as a camera sees it: the ground, road surface, parking
   /// bays, lane markings and stop lines. No tile grid, movements, arrows, obstacles, signal
   /// heads, signs or legend (the simulator's cameras draw those as solid objects); the margin

@@ -347,6 +347,8 @@ struct CityConfig {
   std::optional<config::ForeignSection> eye;
   /// SUMO co-simulation's section (scm/traffic/traffic_config.h): carried, not read, by the SCM.
   std::optional<config::ForeignSection> traffic;
+  /// The launcher's section (scm/launcher/launch_config.h): carried, not read, by the SCM.
+  std::optional<config::ForeignSection> launch;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -362,6 +364,7 @@ struct CityConfig {
     a.Optional("sim", sim);
     a.Optional("eye", eye);
     a.Optional("traffic", traffic);
+    a.Optional("launch", launch);
   }
   bool operator==(const CityConfig&) const = default;
 };

@@ -64,6 +64,9 @@ class OperatorClient {
   /// Resends skipped because the writer could not take them at once (diagnostics).
   [[nodiscard]] std::uint64_t resends_skipped() const { return resends_skipped_; }
   [[nodiscard]] const std::string& client_id() const { return client_id_; }
+  /// Who the next requests come from (the SCM logs it with each command and rate-limits per
+  /// client): a client acting for several people (the dashboard) names each one.
+  void set_client_id(std::string client_id) { client_id_ = std::move(client_id); }
 
  private:
   dds::Participant& participant_;

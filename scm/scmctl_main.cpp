@@ -5,8 +5,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
@@ -112,10 +118,13 @@ int main(int argc, char** argv) {
   auto* events = app.add_subcommand("events", "the event log");
   events->add_option("--since", since, "only events after this time (seconds since the epoch)");
   events->add_option("--limit", limit, "at most this many")->capture_default_str();
-  auto* watch = app.add_subcommand("watch", "print SPaT, fleet or events as they come");
-  watch->add_option("what", watch_what, "spat|fleet|events")
+  auto* watch = app.add_subcommand(
+      "watch",
+      "print SPaT, fleet, events or lamps as they come (lamps: every head of the SCM's MAP, "
+      "each report of signal_<i>/state with the wall time it arrived)");
+  watch->add_option("what", watch_what, "spat|fleet|events|lamps")
       ->required()
-      ->check(CLI::IsMember({"spat", "fleet", "events"}));
+      ->check(CLI::IsMember({"spat", "fleet", "events", "lamps"}));
   watch->add_option("--count", count, "stop after this many messages (0: until interrupted)");
   watch->add_option("--duration", duration_s, "stop after this many seconds (0: no limit)");
   watch->add_flag("--json", json, "one JSON object per line");
@@ -159,7 +168,7 @@ int main(int argc, char** argv) {
                                  std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                      std::chrono::duration<double>(duration_s))
                            : std::chrono::steady_clock::time_point::max();
-      int seen = 0;
+      std::atomic<int> seen{0};
       auto done = [&] {
         return stop.load() || (count > 0 && seen >= count) ||
                std::chrono::steady_clock::now() >= end;
@@ -186,6 +195,60 @@ int main(int argc, char** argv) {
           }
           return out;
         });
+      } else if (watch_what == "lamps") {
+        // The heads the SCM's MAP names; a line per report, as it arrives.
+        dds::Reader<msg::MapData> map(participant, dds::topics::Map());
+        std::set<std::uint32_t> heads;
+        const auto map_end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+        while (heads.empty() && !done() && std::chrono::steady_clock::now() < map_end) {
+          map.WaitForData(std::chrono::milliseconds(100));
+          for (auto& m : map.TakeAll()) {
+            for (const auto& x : dds::Elements(m->intersections)) {
+              for (const auto& g : dds::Elements(x.signal_groups)) {
+                for (const auto& h : dds::Elements(g.signal_heads)) {
+                  const std::string_view name = dds::View(h);
+                  if (name.starts_with("signal_")) {
+                    heads.insert(static_cast<std::uint32_t>(
+                        std::strtoul(std::string(name.substr(7)).c_str(), nullptr, 10)));
+                  }
+                }
+              }
+            }
+          }
+        }
+        if (heads.empty()) {
+          std::cerr << "scmctl: no MAP from an SCM within 30 s: no heads to watch\n";
+          return kNoAnswer;
+        }
+        std::mutex out_mutex;
+        std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> readers;
+        for (const std::uint32_t h : heads) {
+          readers.push_back(std::make_unique<dds::Reader<msg::Int32>>(
+              participant, dds::topics::SignalState(SignalHeadId{h})));
+          readers.back()->OnDataAvailable([&, h](dds::Reader<msg::Int32>& r) {
+            dds::Message<msg::Int32> m;
+            while (r.TakeOne(m)) {
+              const double rx =
+                  std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                      .count();
+              std::lock_guard lock(out_mutex);
+              if (done()) return;
+              if (json) {
+                std::cout << nlohmann::json{{"type", "lamp"},
+                                            {"head", h},
+                                            {"lamp", m->data},
+                                            {"rx", rx}}
+                                 .dump()
+                          << std::endl;
+              } else {
+                std::cout << fmt::format("{:.3f} signal_{} {}", rx, h, m->data) << std::endl;
+              }
+              ++seen;
+            }
+          });
+        }
+        while (!done()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        readers.clear();  // waits for a listener that is running (it prints nothing more)
       } else if (watch_what == "fleet") {
         dds::Reader<msg::FleetState> r(participant, dds::topics::Fleet());
         loop(r, [](const msg::FleetState& f) { return ToJson(f).dump(); });

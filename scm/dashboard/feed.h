@@ -1,0 +1,74 @@
+#pragma once
+/// @file
+/// What the dashboard reads from DDS, handed to the `Hub` as it arrives (listeners on
+/// Cyclone's threads; no polling): each head's `signal_<i>/state`, SPaT, the SCM's fleet,
+/// SUMO's traffic, events, device status, V2I request status, and the Eye's fleet (for its
+/// rate). JSON shapes in docs/dashboard.md.
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "common/dds/messages.h"
+#include "common/dds/participant.h"
+#include "common/dds/reader.h"
+#include "maps/map.h"
+#include "scm/city.h"
+#include "scm/dashboard/hub.h"
+
+namespace autodrive::dashboard {
+
+/// Messages received per stream since the start (for the rates in `stats`).
+struct FeedCounts {
+  std::uint64_t lamps = 0;
+  std::uint64_t spat = 0;
+  std::uint64_t fleet = 0;
+  std::uint64_t traffic = 0;
+  std::uint64_t eye = 0;
+  std::uint64_t events = 0;
+  std::uint64_t devices = 0;
+};
+
+class Feed {
+ public:
+  /// Subscribes on `participant` (which, like `map` and `hub`, must outlive it) to the heads
+  /// of `map` and the city's streams.
+  Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub);
+  Feed(const Feed&) = delete;
+  Feed& operator=(const Feed&) = delete;
+  ~Feed();
+
+  [[nodiscard]] FeedCounts counts() const;
+
+ private:
+  Hub& hub_;
+  std::atomic<std::uint64_t> lamps_{0}, spat_{0}, fleet_{0}, traffic_{0}, eye_{0}, events_{0},
+      devices_{0};
+  std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> heads_;
+  std::unique_ptr<dds::Reader<msg::Spat>> spat_reader_;
+  std::unique_ptr<dds::Reader<msg::FleetState>> fleet_reader_;
+  std::unique_ptr<dds::Reader<msg::TrafficObjects>> traffic_reader_;
+  std::unique_ptr<dds::Reader<msg::Event>> events_reader_;
+  std::unique_ptr<dds::Reader<msg::DeviceStatus>> devices_reader_;
+  std::unique_ptr<dds::Reader<msg::SignalRequestStatus>> requests_reader_;
+  std::unique_ptr<dds::Reader<msg::FleetState>> eye_reader_;
+};
+
+// --- Conversions (docs/dashboard.md's objects), public for tests ------------------------------
+[[nodiscard]] nlohmann::json SpatIntersectionJson(const msg::IntersectionState& x);
+[[nodiscard]] nlohmann::json VehicleJson(const msg::TrackedVehicle& v);
+[[nodiscard]] nlohmann::json TrafficObjectJson(const msg::TrafficObject& o);
+[[nodiscard]] nlohmann::json EventJson(const msg::Event& e);
+[[nodiscard]] nlohmann::json DeviceJson(const msg::DeviceStatus& d);
+[[nodiscard]] nlohmann::json RequestJson(const msg::SignalRequestStatus& r);
+/// The names of the IntersectionState status bits set in `status` ("failure_flash", ...).
+[[nodiscard]] nlohmann::json StatusFlags(std::uint16_t status);
+/// The static map object M of docs/dashboard.md, with the city's signal groups; `px_per_tile`,
+/// `margin_px` and the size as the map's SVG was drawn.
+[[nodiscard]] nlohmann::json MapJson(const scm::City& city, double px_per_tile, int margin_px,
+                                     int width_px, int height_px);
+
+}  // namespace autodrive::dashboard

@@ -1,0 +1,207 @@
+#pragma once
+/// @file
+/// The `launch` section of a city file: which processes `autodrive-city up` starts, each on,
+/// off or (for the lights) simulated or real, how each is restarted, where the run's files go
+/// (docs/launcher.md). The SCM carries the section and does not read it.
+///
+/// ```yaml
+/// launch:
+///   run_dir: /var/lib/autodrive/small_town  # logs, database, state (relative: to the file)
+///   lights: {mode: on, config: ../infra/small_town.yaml}
+///   scm: {mode: on}
+///   sim: {mode: auto}                  # auto: on when the city has a sim section
+///   driver: {mode: auto}               # the example driver: on when the simulator is
+///   eye: {mode: auto}                  # on when the city has an eye section
+///   traffic: {mode: auto}              # on when the city has a traffic section
+///   dashboard: {mode: on, args: [--address, 127.0.0.1:8080]}
+///   agents:
+///     - {name: planner, command: [python3, planner.py, --city, "{city}"]}
+/// ```
+
+#include <chrono>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/config.h"
+
+namespace autodrive::launcher {
+
+using std::chrono::nanoseconds;
+
+/// One of the city's own programs.
+struct ProcessConfig {
+  /// on, off, or auto (on when the city file has the program's section).
+  std::string mode = "auto";
+  /// always: started again whenever it exits; on-failure: unless it exited with 0; never.
+  /// Empty: the program's default (the SCM and the lights: always; the others: on-failure).
+  std::string restart;
+  std::vector<std::string> args;  ///< further arguments, appended
+  /// How long it may take to be ready (its first heartbeat or topic sample).
+  nanoseconds ready_timeout_s = std::chrono::seconds(120);
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("mode", mode, config::OneOf{{"on", "off", "auto"}});
+    a.Optional("restart", restart, config::OneOf{{"", "always", "on-failure", "never"}});
+    a.Optional("args", args);
+    a.Optional("ready_timeout_s", ready_timeout_s,
+               config::Range<nanoseconds>{std::chrono::seconds(1), std::chrono::hours(1)});
+  }
+  bool operator==(const ProcessConfig&) const = default;
+};
+
+/// The traffic lights' host (`autodrive-infra`): its own file says which heads are simulated
+/// and which are real (serial); off when the lights run on another host.
+struct LightsProcessConfig {
+  ProcessConfig process;
+  /// The light host's file, relative to the city file. Empty: ../infra/<city name>.yaml.
+  std::string config;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    process.Serialize(a);
+    a.Optional("config", config);
+  }
+  bool operator==(const LightsProcessConfig&) const = default;
+};
+
+/// The dashboard (`autodrive-dashboard`): where it listens and its operators' tokens.
+struct DashboardProcessConfig {
+  ProcessConfig process;
+  std::string listen = "127.0.0.1:8080";  ///< HOST:PORT
+  /// Operators' tokens (lines `NAME TOKEN`, mode 600), relative to the city file. Empty:
+  /// <run_dir>/dashboard.tokens, which `up` creates with one new token for the city's first
+  /// allowed operator when it is not there.
+  std::string tokens;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    process.Serialize(a);
+    a.Optional("listen", listen);
+    a.Optional("tokens", tokens);
+  }
+  bool operator==(const DashboardProcessConfig&) const = default;
+};
+
+/// A user's program started with the city (a planner, a V2I client, a ROS 2 bridge).
+struct AgentConfig {
+  std::string name;
+  /// The program and its arguments; `{city}` becomes the city file's path and `{run}` the run
+  /// folder.
+  std::vector<std::string> command;
+  std::string restart = "on-failure";
+  std::vector<std::string> env;  ///< NAME=value entries added to its environment
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("name", name);
+    a.Required("command", command);
+    a.Optional("restart", restart, config::OneOf{{"always", "on-failure", "never"}});
+    a.Optional("env", env);
+  }
+  bool operator==(const AgentConfig&) const = default;
+};
+
+/// The `launch` section.
+struct LaunchConfig {
+  /// Logs, the SCM's database and the launcher's state; relative to the city file. Empty:
+  /// $XDG_STATE_HOME/autodrive/<city name> (~/.local/state/autodrive/<city name>).
+  std::string run_dir;
+  LightsProcessConfig lights;
+  ProcessConfig scm;
+  ProcessConfig sim;
+  ProcessConfig driver;
+  ProcessConfig eye;
+  ProcessConfig traffic;
+  DashboardProcessConfig dashboard;
+  std::vector<AgentConfig> agents;
+  /// A process that exits this many times within `crash_loop_window_s` is in a crash loop:
+  /// reported (status, log), and started again only after the window, not at once.
+  int crash_loop_exits = 5;
+  nanoseconds crash_loop_window_s = std::chrono::seconds(60);
+  /// On stopping, how long each process has after SIGTERM before SIGKILL.
+  nanoseconds stop_grace_s = std::chrono::seconds(10);
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("run_dir", run_dir);
+    a.Optional("lights", lights);
+    a.Optional("scm", scm);
+    a.Optional("sim", sim);
+    a.Optional("driver", driver);
+    a.Optional("eye", eye);
+    a.Optional("traffic", traffic);
+    a.Optional("dashboard", dashboard);
+    a.Optional("agents", agents);
+    a.Optional("crash_loop_exits", crash_loop_exits, config::Range{1, 1000});
+    a.Optional("crash_loop_window_s", crash_loop_window_s,
+               config::Range<nanoseconds>{std::chrono::seconds(1), std::chrono::hours(24)});
+    a.Optional("stop_grace_s", stop_grace_s,
+               config::Range<nanoseconds>{std::chrono::milliseconds(100), std::chrono::minutes(5)});
+  }
+  bool operator==(const LaunchConfig&) const = default;
+};
+
+/// How a process is restarted.
+enum class Restart { kAlways, kOnFailure, kNever };
+
+/// What readiness means for a process: its first heartbeat or a first sample on its topic;
+/// none: started is ready.
+struct Readiness {
+  enum class Kind { kNone, kHeartbeat, kClock, kTraffic, kFile };
+  Kind kind = Kind::kNone;
+  std::string sender;  ///< kHeartbeat: the heartbeat's sender ("scm/<city>", "infra/<host>")
+  std::filesystem::path file;  ///< kFile: a file the process writes once it is ready
+};
+
+/// One process of the plan, fully resolved.
+struct ProcessPlan {
+  std::string name;  ///< lights, scm, sim, driver, eye, traffic, dashboard, or an agent's
+  std::vector<std::string> argv;  ///< argv[0]: a path (the city's programs) or a name on PATH
+  std::vector<std::string> env;
+  Restart restart = Restart::kOnFailure;
+  Readiness ready;
+  nanoseconds ready_timeout{std::chrono::seconds(120)};
+  std::filesystem::path log;  ///< stdout and stderr, appended
+  bool city_program = false;  ///< one of ours (takes --partition), not a user's agent
+};
+
+/// The whole city's processes in start order (stopped in reverse: the lights last, so that
+/// they flash on their own once the SCM has gone).
+struct LaunchPlan {
+  std::string city_name;
+  std::filesystem::path city_file;  ///< absolute
+  std::filesystem::path run_dir;    ///< absolute
+  std::vector<ProcessPlan> processes;
+  int crash_loop_exits = 5;
+  nanoseconds crash_loop_window{std::chrono::seconds(60)};
+  nanoseconds stop_grace{std::chrono::seconds(10)};
+  /// When the dashboard runs: its address, its tokens file, and the operator a new token is
+  /// made for when that file does not exist yet (`up` makes it).
+  struct Dashboard {
+    std::string url;  ///< http://HOST:PORT/ as configured
+    /// Where the dashboard writes the address it serves on once it listens (the real port
+    /// when the configured one is 0); removed before it starts.
+    std::filesystem::path url_file;
+    std::filesystem::path tokens;
+    std::string operator_name;
+  };
+  std::optional<Dashboard> dashboard;
+};
+
+/// Loads the city file at `city_file` whole (the SCM's checks, the map, each section the plan
+/// starts a program for) and resolves its launch plan, with the city's programs in `bin_dir`.
+/// Everything a process would refuse at start is refused here, before anything starts.
+/// @throws ConfigError / InputError naming the file, line and key.
+[[nodiscard]] LaunchPlan PlanCity(const std::filesystem::path& city_file,
+                                  const std::filesystem::path& bin_dir);
+
+/// The run folder of the city file at `city_file` (`launch.run_dir`, else
+/// ~/.local/state/autodrive/<name>), read without loading the city: for `down`, `status`,
+/// `logs`.
+/// @throws ConfigError naming the file.
+[[nodiscard]] std::filesystem::path RunDirOf(const std::filesystem::path& city_file);
+
+}  // namespace autodrive::launcher
