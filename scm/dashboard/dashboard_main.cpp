@@ -172,8 +172,10 @@ int Run(const Options& o) {
   json cameras = json::array();
   for (const CameraSource& c : server.cameras)
     cameras.push_back({{"name", c.name}, {"topic", c.topic}});
+  Hub::Options hub_options;
+  hub_options.batch_interval = std::chrono::milliseconds(20);
   Hub hub(MapJson(city, render.pixels_per_tile, render.margin_px, size.x(), size.y()),
-          std::move(cameras), true);
+          std::move(cameras), true, hub_options);
   Feed feed(participant, city.map, hub);
 
   // Rates over the last second, for the page's stats.

@@ -1,5 +1,7 @@
 #include "scm/dashboard/feed.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <string>
 
@@ -292,16 +294,23 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
                               hub_.SetLamp(id, m.data, SourceMs(info));
                             }));
   }
-  spat_reader_ = Listen(participant, dds::topics::Spat(),
-                        [this](const msg::Spat& m, const dds::SampleInfo& info) {
-                          spat_.fetch_add(1);
-                          std::vector<json> xs;
-                          xs.reserve(m.intersections._length);
-                          for (const auto& x : dds::Elements(m.intersections)) {
-                            xs.push_back(SpatIntersectionJson(x));
-                          }
-                          hub_.SetSpat(Seconds(m.header.stamp), std::move(xs), SourceMs(info));
-                        });
+  spat_reader_ = Listen(
+      participant, dds::topics::Spat(), [this](const msg::Spat& m, const dds::SampleInfo& info) {
+        spat_.fetch_add(1);
+        // JSON only for the intersections whose revision changed: a big
+        // city's SPaT is mostly the same from one message to the next.
+        std::vector<json> xs;
+        {
+          std::lock_guard lock(spat_mutex_);
+          for (const auto& x : dds::Elements(m.intersections)) {
+            const auto [it, added] = spat_revisions_.try_emplace(x.intersection_id, x.revision);
+            if (!added && it->second == x.revision) continue;
+            it->second = x.revision;
+            xs.push_back(SpatIntersectionJson(x));
+          }
+        }
+        hub_.SetSpat(Seconds(m.header.stamp), std::move(xs), SourceMs(info));
+      });
   fleet_reader_ = Listen(participant, dds::topics::Fleet(),
                          [this](const msg::FleetState& m, const dds::SampleInfo& info) {
                            fleet_.fetch_add(1);
@@ -314,10 +323,16 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
   traffic_reader_ = Listen(participant, dds::topics::Traffic(),
                            [this](const msg::TrafficObjects& m, const dds::SampleInfo& info) {
                              traffic_.fetch_add(1);
-                             json os = json::array();
-                             for (const auto& o : dds::Elements(m.objects)) {
-                               os.push_back(TrafficObjectJson(o));
+                             // The page draws at most 10 Hz: the others are not even converted.
+                             const auto now = std::chrono::steady_clock::now();
+                             {
+                               std::lock_guard lock(spat_mutex_);
+                               if (now - traffic_converted_ < kTrafficInterval) return;
+                               traffic_converted_ = now;
                              }
+                             json os = json::array();
+                             for (const auto& o : dds::Elements(m.objects))
+                               os.push_back(TrafficObjectJson(o));
                              hub_.SetTraffic(std::move(os), SourceMs(info));
                            });
   events_reader_ = Listen(participant, dds::topics::Events(),
@@ -325,11 +340,22 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
                             events_.fetch_add(1);
                             hub_.AddEvent(EventJson(m), SourceMs(info));
                           });
-  devices_reader_ = Listen(participant, dds::topics::Devices(),
-                           [this](const msg::DeviceStatus& m, const dds::SampleInfo& info) {
-                             devices_.fetch_add(1);
-                             hub_.SetDevice(DeviceJson(m), SourceMs(info));
-                           });
+  devices_reader_ =
+      Listen(participant, dds::topics::Devices(),
+             [this](const msg::DeviceStatus& m, const dds::SampleInfo& info) {
+               devices_.fetch_add(1);
+               // A light reports its status every period, nearly always the
+               // same: JSON only when what the page shows changed.
+               std::string key = fmt::format("{}|{}|{}|{}|{}|{}", m.kind, m.backend, m.health,
+                                             m.mode, dds::View(m.host), dds::View(m.detail));
+               {
+                 std::lock_guard lock(spat_mutex_);
+                 std::string& known = device_keys_[std::string(dds::View(m.device_id))];
+                 if (known == key) return;
+                 known = std::move(key);
+               }
+               hub_.SetDevice(DeviceJson(m), SourceMs(info));
+             });
   requests_reader_ = Listen(participant, dds::topics::SignalRequestStatus(),
                             [this](const msg::SignalRequestStatus& m, const dds::SampleInfo& info) {
                               hub_.SetRequest(RequestJson(m), SourceMs(info));

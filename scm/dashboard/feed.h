@@ -6,8 +6,12 @@
 /// rate). JSON shapes in docs/dashboard.md.
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -44,7 +48,14 @@ class Feed {
   [[nodiscard]] FeedCounts counts() const;
 
  private:
+  /// SUMO's traffic is converted at most this often (Hub::Options::traffic_interval).
+  static constexpr std::chrono::milliseconds kTrafficInterval{95};
+
   Hub& hub_;
+  std::mutex spat_mutex_;  ///< guards the two below (listeners may run on several threads)
+  std::unordered_map<std::uint32_t, std::uint32_t> spat_revisions_;  ///< by intersection id
+  std::chrono::steady_clock::time_point traffic_converted_{};
+  std::unordered_map<std::string, std::string> device_keys_;  ///< what each device showed
   std::atomic<std::uint64_t> lamps_{0}, spat_{0}, fleet_{0}, traffic_{0}, eye_{0}, events_{0},
       devices_{0};
   std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> heads_;

@@ -56,7 +56,56 @@ Hub::Hub(json map, json cameras, bool actions_need_token, Options options)
     : options_(options),
       map_(std::move(map)),
       cameras_(std::move(cameras)),
-      actions_need_token_(actions_need_token) {}
+      actions_need_token_(actions_need_token) {
+  if (options_.batch_interval.count() > 0) flusher_ = std::thread([this] { RunFlusher(); });
+}
+
+Hub::~Hub() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  flush_cv_.notify_all();
+  if (flusher_.joinable()) flusher_.join();
+}
+
+void Hub::RunFlusher() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    flush_cv_.wait(lock, [&] {
+      return stopping_ || !pending_lamps_.empty() || !pending_devices_.empty() ||
+             !pending_events_.empty();
+    });
+    if (stopping_) return;
+    // Gather what else comes within the interval, then send it all.
+    flush_cv_.wait_for(lock, options_.batch_interval, [&] { return stopping_; });
+    if (stopping_) return;
+    FlushLocked();
+  }
+}
+
+void Hub::Flush() {
+  std::lock_guard lock(mutex_);
+  FlushLocked();
+}
+
+void Hub::FlushLocked() {
+  if (!pending_lamps_.empty()) {
+    json heads = std::move(pending_lamps_);
+    pending_lamps_ = json::object();
+    PublishLocked("lamps", {{"rx", pending_lamps_rx_}, {"heads", std::move(heads)}});
+  }
+  if (!pending_events_.empty()) {
+    json events = std::move(pending_events_);
+    pending_events_ = json::array();
+    PublishLocked("events", {{"rx", pending_events_rx_}, {"events", std::move(events)}});
+  }
+  if (!pending_devices_.empty()) {
+    json devices = std::move(pending_devices_);
+    pending_devices_ = json::array();
+    PublishLocked("devices", {{"rx", pending_devices_rx_}, {"devices", std::move(devices)}});
+  }
+}
 
 json Hub::State() const {
   std::lock_guard lock(mutex_);
@@ -138,7 +187,16 @@ void Hub::SetLamp(std::uint32_t head, int lamp, double rx_ms) {
     if (it->second == lamp) return;
     it->second = lamp;
   }
-  PublishLocked("lamps", {{"rx", rx_ms}, {"heads", {{std::to_string(head), lamp}}}});
+  if (options_.batch_interval.count() == 0) {
+    PublishLocked("lamps", {{"rx", rx_ms}, {"heads", {{std::to_string(head), lamp}}}});
+    return;
+  }
+  if (pending_lamps_.empty()) {
+    pending_lamps_rx_ = rx_ms;
+    flush_cv_.notify_all();
+  }
+  pending_lamps_rx_ = std::min(pending_lamps_rx_, rx_ms);
+  pending_lamps_[std::to_string(head)] = lamp;
 }
 
 void Hub::SetSpat(double now, std::vector<json> intersections, double rx_ms) {
@@ -190,15 +248,34 @@ void Hub::SetIntersections(const std::vector<json>& intersections, double rx_ms)
 void Hub::SetDevice(json device, double rx_ms) {
   std::lock_guard lock(mutex_);
   json& known = devices_[device.at("id").get<std::string>()];
-  json without_time = device;
-  without_time.erase("last");
-  json known_without_time = known;
-  if (known_without_time.is_object()) known_without_time.erase("last");
-  const bool changed = known_without_time != without_time;
+  const auto same = [](json a, json b) {
+    for (json* j : {&a, &b}) {
+      if (!j->is_object()) continue;
+      j->erase("last");
+      j->erase("lamp");
+    }
+    return a == b;
+  };
+  const bool changed = !same(known, device);
   known = device;
-  if (changed) {
+  if (!changed) return;
+  if (options_.batch_interval.count() == 0) {
     PublishLocked("devices", {{"rx", rx_ms}, {"devices", json::array({std::move(device)})}});
+    return;
   }
+  if (pending_devices_.empty()) {
+    pending_devices_rx_ = rx_ms;
+    flush_cv_.notify_all();
+  }
+  pending_devices_rx_ = std::min(pending_devices_rx_, rx_ms);
+  // A device changed twice within the interval: its newest status only.
+  for (json& d : pending_devices_) {
+    if (d.at("id") == device.at("id")) {
+      d = std::move(device);
+      return;
+    }
+  }
+  pending_devices_.push_back(std::move(device));
 }
 
 void Hub::SetProcesses(json processes, double rx_ms) {
@@ -218,7 +295,16 @@ void Hub::AddEvent(json event, double rx_ms) {
     event_seen_.erase(events_.front().value("id", std::uint64_t{0}));
     events_.pop_front();
   }
-  PublishLocked("event", {{"rx", rx_ms}, {"event", std::move(event)}});
+  if (options_.batch_interval.count() == 0) {
+    PublishLocked("event", {{"rx", rx_ms}, {"event", std::move(event)}});
+    return;
+  }
+  if (pending_events_.empty()) {
+    pending_events_rx_ = rx_ms;
+    flush_cv_.notify_all();
+  }
+  pending_events_rx_ = std::min(pending_events_rx_, rx_ms);
+  pending_events_.push_back(std::move(event));
 }
 
 bool Hub::Ack(std::uint64_t id, const std::string& by, double at_s) {

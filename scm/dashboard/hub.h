@@ -18,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -61,15 +62,22 @@ class Hub {
   struct Options {
     std::size_t max_queue_bytes = 32u << 20;
     std::size_t max_events = 500;  ///< kept for a new browser's first state
-    /// SUMO's traffic goes out at most this often (it comes at 20 Hz with up to thousands of
-    /// cars; the page draws 10 Hz).
-    std::chrono::milliseconds traffic_interval{95};
+    /// SUMO's traffic goes out at most this often (0: each time; the dashboard's feed already
+    /// converts at most 10 a second, what the page draws).
+    std::chrono::milliseconds traffic_interval{0};
+    /// Lamp and device changes are gathered for this long after the first one and go out as
+    /// one message (0: each at once). A big city's lights change hundreds of times a second
+    /// (thousands while they flash): one message per change would swamp a browser.
+    std::chrono::milliseconds batch_interval{0};
   };
 
   /// `map`: the static map object (M in docs/dashboard.md); `cameras`: [{name, topic}].
   Hub(nlohmann::json map, nlohmann::json cameras, bool actions_need_token, Options options);
   Hub(nlohmann::json map, nlohmann::json cameras, bool actions_need_token)
       : Hub(std::move(map), std::move(cameras), actions_need_token, Options{}) {}
+  Hub(const Hub&) = delete;
+  Hub& operator=(const Hub&) = delete;
+  ~Hub();
 
   /// A new browser: its queue starts with the whole state.
   std::shared_ptr<Subscriber> Subscribe();
@@ -77,9 +85,12 @@ class Hub {
   [[nodiscard]] nlohmann::json State() const;
   /// Closes every subscriber (server shutdown).
   void CloseAll();
+  /// Sends the lamp and device changes gathered so far now (the batch interval's end).
+  void Flush();
 
   // --- Changes, from any thread. `rx_ms`: the DDS sample's source time (ms since the epoch). --
   /// A head's lamp (0 off, 1 red, 2 yellow, 3 green); nothing is sent when it did not change.
+  /// With a batch interval, changes within it go out together (`rx`: the oldest one's).
   void SetLamp(std::uint32_t head, int lamp, double rx_ms);
   /// One SPaT message: `now` its stamp (s); `intersections` X objects, each with "id" and
   /// "revision": only those whose revision changed go out.
@@ -91,13 +102,15 @@ class Hub {
   bool SetTraffic(nlohmann::json objects, double rx_ms);
   /// The SCM's intersections (I objects, with "name"): only changed ones go out.
   void SetIntersections(const std::vector<nlohmann::json>& intersections, double rx_ms);
-  /// A device's status (D object with "id"); `last` is updated always, sent when the rest
-  /// changed.
+  /// A device's status (D object with "id"); `last` and `lamp` are updated always, the device
+  /// sent when the rest changed (a flashing light's lamp is the `lamps` stream's); batched as
+  /// lamps are.
   void SetDevice(nlohmann::json device, double rx_ms);
   /// The launcher's processes (P objects), sent when changed.
   void SetProcesses(nlohmann::json processes, double rx_ms);
   /// An event (E object with "id"); a repeat of a known id (the latched history on
-  /// reconnection) is ignored.
+  /// reconnection) is ignored. With a batch interval, events within it go out as one `events`
+  /// message (oldest first).
   void AddEvent(nlohmann::json event, double rx_ms);
   /// An operator acknowledged event `id`. False if the event is unknown or not an active alarm.
   bool Ack(std::uint64_t id, const std::string& by, double at_s);
@@ -110,6 +123,9 @@ class Hub {
 
  private:
   void PublishLocked(const char* event, nlohmann::json data);
+  /// Sends the gathered lamp and device changes (under the lock).
+  void FlushLocked();
+  void RunFlusher();
   [[nodiscard]] nlohmann::json StateLocked() const;
 
   const Options options_;
@@ -132,6 +148,16 @@ class Hub {
   std::deque<nlohmann::json> events_;
   std::map<std::uint64_t, std::size_t> event_seen_;  ///< ids of events_ (value unused)
   std::map<std::string, nlohmann::json> requests_;   ///< by "vehicle/request"
+  // Batching (Options::batch_interval).
+  nlohmann::json pending_lamps_ = nlohmann::json::object();
+  double pending_lamps_rx_ = 0.0;
+  nlohmann::json pending_devices_ = nlohmann::json::array();
+  nlohmann::json pending_events_ = nlohmann::json::array();
+  double pending_events_rx_ = 0.0;
+  double pending_devices_rx_ = 0.0;
+  std::condition_variable flush_cv_;
+  bool stopping_ = false;
+  std::thread flusher_;
 };
 
 }  // namespace autodrive::dashboard

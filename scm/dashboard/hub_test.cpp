@@ -191,6 +191,37 @@ TEST(DashboardHub, ABrowserThatFallsBehindIsDroppedAndTheOthersKeepTheirStream) 
   EXPECT_EQ(hub.counters().subscribers, 1u);
 }
 
+TEST(DashboardHub, LampDeviceAndEventChangesWithinTheBatchIntervalGoOutAsOneMessageEach) {
+  Hub::Options options;
+  options.batch_interval = std::chrono::hours(1);  // only Flush() ends a batch here
+  Hub hub = MakeHub(options);
+  auto browser = hub.Subscribe();
+  (void)Drain(*browser);
+  hub.SetLamp(1, 1, 1005.0);
+  hub.SetLamp(2, 3, 1001.0);
+  hub.SetLamp(1, 2, 1007.0);  // the same head again: its newest lamp
+  hub.SetDevice({{"id", "signal_1"}, {"health", "ok"}, {"lamp", 1}, {"last", 1.0}}, 1002.0);
+  hub.SetDevice({{"id", "signal_1"}, {"health", "ok"}, {"lamp", 2}, {"last", 2.0}}, 1003.0);
+  hub.AddEvent({{"id", 7}, {"severity", 2}, {"active", true}}, 1004.0);
+  hub.AddEvent({{"id", 8}, {"severity", 2}, {"active", false}}, 1006.0);
+  EXPECT_TRUE(Drain(*browser).empty());
+  // A browser that comes now has them in its state already.
+  EXPECT_EQ(hub.State()["heads"]["1"], 2);
+  hub.Flush();
+  const auto got = Drain(*browser);
+  ASSERT_EQ(got.size(), 3u);
+  EXPECT_EQ(got[0].event, "lamps");
+  EXPECT_EQ(got[0].data["heads"], (json{{"1", 2}, {"2", 3}}));
+  EXPECT_EQ(got[0].data["rx"], 1001.0);  // the oldest: latency is never understated
+  EXPECT_EQ(got[1].event, "events");
+  ASSERT_EQ(got[1].data["events"].size(), 2u);
+  EXPECT_EQ(got[1].data["events"][0]["id"], 7);
+  EXPECT_EQ(got[2].event, "devices");
+  ASSERT_EQ(got[2].data["devices"].size(), 1u);  // its lamp changed, nothing else
+  hub.Flush();
+  EXPECT_TRUE(Drain(*browser).empty());
+}
+
 TEST(DashboardTokens, AFileOfNamesAndTokensIsCheckedAndMatchedExactly) {
   const Tokens t = Tokens::Parse(
       "# operators\nalice 0123456789abcdef0123\n\nbob   ZZZZZZZZZZZZZZZZ-_ # night shift\n",

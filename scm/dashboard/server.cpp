@@ -324,6 +324,15 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
         },
         [subscriber](bool) { subscriber->Close(); });
   });
+  http.Get("/api/metrics", [this](const httplib::Request&, httplib::Response& res) {
+    const HubCounters c = hub_.counters();
+    Reply(res, 200,
+          {{"messages", c.messages},
+           {"bytes", c.bytes},
+           {"bytes_out", c.bytes_out},
+           {"dropped", c.dropped},
+           {"subscribers", c.subscribers}});
+  });
   http.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
     std::size_t limit = 200;
     if (req.has_param("limit")) {

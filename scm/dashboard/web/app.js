@@ -2085,6 +2085,11 @@
       addEvent(m.event, true);
       summariseEvents();
     },
+    events(m) {
+      // A burst, gathered by the server (a storm of device alarms): oldest first.
+      for (const e of arr(m.events)) addEvent(e, true);
+      summariseEvents();
+    },
     ack(m) {
       ackEvent(m);
     },
