@@ -298,7 +298,11 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
   http.Get("/api/state", [this](const httplib::Request&, httplib::Response& res) {
     Reply(res, 200, hub_.State());
   });
-  http.Get("/api/stream", [this](const httplib::Request&, httplib::Response& res) {
+  http.Get("/api/stream", [this](const httplib::Request& req, httplib::Response& res) {
+    // No compression of the stream: cpp-httplib 0.11 would brotli every chunk (a third of the
+    // dashboard's CPU under a big city, measured) for a few kB a second. It decides from the
+    // request's Accept-Encoding after this handler; the request is the server's own object.
+    const_cast<httplib::Request&>(req).headers.erase("Accept-Encoding");
     auto subscriber = hub_.Subscribe();
     res.set_header("Cache-Control", "no-store");
     res.set_header("X-Accel-Buffering", "no");
@@ -377,6 +381,7 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
   });
   http.Get(R"(/camera/([A-Za-z0-9_\-]+)\.mjpg)", [this](const httplib::Request& req,
                                                         httplib::Response& res) {
+    const_cast<httplib::Request&>(req).headers.erase("Accept-Encoding");  // JPEG: no gain
     auto camera = CameraNamed(req.matches[1]);
     if (!camera) {
       Reply(res, 404, {{"error", "no such camera"}});
