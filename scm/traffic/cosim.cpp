@@ -277,16 +277,11 @@ void CoSimulation::HoldForLabCars() {
 }
 
 void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now) {
-  const double s = network_->scale();
-  const SumoTypeSize& nigel = TypeSize(network_->files().vehicle_type);
   for (const LabCarPose& car : cars) {
     LabCar& lab = lab_cars_[car.name];
     lab.last_seen = now;
     lab.pose = car;
     const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
-    // SUMO's position is the front bumper's middle.
-    const Eigen::Vector2d front =
-        car.position + heading * (config_.lab_cars.body_centre_ahead_m + nigel.length / s / 2);
     const Eigen::Vector2d centre = car.position + heading * config_.lab_cars.body_centre_ahead_m;
     const auto match = index_->NearestLane(centre, config_.lab_cars.max_lane_distance_m);
     // Inside an intersection's box a car is far from every lane's centreline (its paths there
@@ -312,36 +307,8 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
                        "0");
       api_->SetSpeedMode(lab.sumo_id, 0);
       lab.in_sumo = true;
-    }
-    // Where SUMO should map it, as a hint (SUMO weighs the lane named much higher than the
-    // nearest): in a box, the internal lane of the movement under it (its lane would otherwise
-    // jump between the box's crossing internal lanes, and SUMO would see it across a path it
-    // is not on); elsewhere, its lane.
-    std::string hint_edge;
-    int hint_lane = -1;
-    const auto split = [&](const std::string& sumo_lane) {
-      const auto at = sumo_lane.rfind('_');
-      hint_edge = sumo_lane.substr(0, at);
-      hint_lane = std::stoi(sumo_lane.substr(at + 1));
-    };
-    if (const auto under = claims_->Under(car.name)) {
-      const std::vector<std::string>& internal = network_->InternalLanes(under->first);
-      if (!internal.empty()) {
-        const auto k = std::min(
-            internal.size() - 1,
-            static_cast<std::size_t>(under->second * static_cast<double>(internal.size())));
-        split(internal[k]);
-      }
-    } else if (match) {
-      hint_edge = network_->EdgeOfLane(city_.map.lane(match->lane).name);
-      hint_lane = 0;
-    }
-    try {
-      api_->MoveToXY(lab.sumo_id, hint_edge, hint_lane, front.x() * s, front.y() * s,
-                     SumoAngleFromYaw(car.yaw_rad));
-    } catch (const SumoError& e) {
-      ++stats_.lab_car_misses;
-      spdlog::warn("traffic: {} could not be placed in SUMO: {}", car.name, e.what());
+      lab.route_via.reset();
+      lab.kept_route = false;
     }
   }
   // Cars not heard from for too long leave SUMO.
@@ -354,6 +321,81 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
   }
   stats_.lab_cars_placed = std::count_if(lab_cars_.begin(), lab_cars_.end(),
                                          [](const auto& kv) { return kv.second.in_sumo; });
+}
+
+void CoSimulation::MoveLabCars(const std::vector<LabCarPose>& cars) {
+  const double s = network_->scale();
+  const SumoTypeSize& nigel = TypeSize(network_->files().vehicle_type);
+  for (const LabCarPose& car : cars) {
+    LabCar& lab = lab_cars_.at(car.name);
+    if (!lab.in_sumo) continue;
+    const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
+    // SUMO's position is the front bumper's middle.
+    const Eigen::Vector2d front =
+        car.position + heading * (config_.lab_cars.body_centre_ahead_m + nigel.length / s / 2);
+    Eigen::Vector2d at = front;  // where SUMO is to have its front
+    bool keep_route = false;
+    // The lane it should be on (a hint only: SUMO takes the lane nearest the point).
+    std::string hint_edge;
+    int hint_lane = -1;
+    const auto hint = [&](const std::string& sumo_lane) {
+      const auto k = sumo_lane.rfind('_');
+      hint_edge = sumo_lane.substr(0, k);
+      hint_lane = std::stoi(sumo_lane.substr(k + 1));
+    };
+    if (const auto under = claims_->Under(car.name)) {
+      // In a box, on a movement's path. The lane nearest its front may be another movement's
+      // (paths cross there, or pass side by side): SUMO is to keep it on this one's lanes.
+      const MovementId m = under->first;
+      if (lab.route_via != m && (lab.lane.empty() || lab.lane.front() != ':')) {
+        // Its route through the movement: SUMO takes it while the car is on the lane in (not
+        // on another movement's internal lane, "leading elsewhere").
+        const maps::SumoMovement& sm = network_->files().movement(m);
+        try {
+          api_->SetRoute(lab.sumo_id, {sm.from.edge, sm.to.edge});
+          lab.route_via = m;
+        } catch (const SumoError& e) {
+          spdlog::debug("traffic: {:.2f} s: {} keeps its route in SUMO: {}", time_s_, car.name,
+                        e.what());
+        }
+      }
+      if (lab.route_via == m) {
+        keep_route = true;  // SUMO's route runs through it: at its pose, on the route's lanes
+      } else {
+        // SUMO has it on another movement's internal lane: its front on this one's path (or,
+        // past the box, on its lane out), where the nearest lane is the movement's own. SUMO
+        // takes it, and the route through it.
+        const maps::Movement& mv = city_.map.movement(m);
+        const PolylinePoint q = NearestOnPolyline(mv.path, front);
+        if (q.along_m < q.length_m) {
+          at = q.point;
+          const std::vector<std::string>& internal = network_->InternalLanes(m);
+          if (!internal.empty()) {
+            const auto k = std::min(internal.size() - 1,
+                                    static_cast<std::size_t>(q.along_m / q.length_m *
+                                                             static_cast<double>(internal.size())));
+            hint(internal[k]);
+          }
+        } else {
+          at = NearestOnPolyline(city_.map.lane(mv.to).centreline, front).point;
+          hint(network_->files().movement(m).to.id());
+        }
+      }
+    } else if (const auto match = index_->NearestLane(
+                   car.position + heading * config_.lab_cars.body_centre_ahead_m,
+                   config_.lab_cars.max_lane_distance_m)) {
+      hint_edge = network_->EdgeOfLane(city_.map.lane(match->lane).name);
+      hint_lane = 0;
+    }
+    try {
+      api_->MoveToXY(lab.sumo_id, hint_edge, hint_lane, at.x() * s, at.y() * s,
+                     SumoAngleFromYaw(car.yaw_rad), keep_route);
+      lab.kept_route = keep_route;
+    } catch (const SumoError& e) {
+      ++stats_.lab_car_misses;
+      spdlog::warn("traffic: {} could not be placed in SUMO: {}", car.name, e.what());
+    }
+  }
 }
 
 std::string CoSimulation::DescribeLabCars(const std::string& a, const std::string& b) const {
@@ -370,9 +412,20 @@ std::string CoSimulation::DescribeLabCars(const std::string& a, const std::strin
 
 void CoSimulation::NoteLabLane(const SumoVehicleState& v) {
   for (auto& [name, lab] : lab_cars_) {
-    if (lab.sumo_id != v.id || lab.lane == v.lane) continue;
-    spdlog::debug("traffic: {:.2f} s: {} is on {} in SUMO", time_s_, name, v.lane);
-    lab.lane = v.lane;
+    if (lab.sumo_id != v.id) continue;
+    // On a movement's internal lane, SUMO's route for it runs through that movement (a move
+    // that may leave its route, and SUMO put it there, makes its route the movement's lanes in
+    // and out). Anywhere else, after such a move, its route is whatever SUMO made it.
+    if (const auto m = movement_of_lane_.find(v.lane); m != movement_of_lane_.end()) {
+      lab.route_via = m->second;
+    } else if (!lab.kept_route) {
+      lab.route_via.reset();
+    }
+    if (lab.lane != v.lane) {
+      spdlog::debug("traffic: {:.2f} s: {} is on {} in SUMO", time_s_, name, v.lane);
+      lab.lane = v.lane;
+    }
+    return;
   }
 }
 
@@ -532,6 +585,7 @@ void CoSimulation::IndexStopLanes() {
       if (std::find(lights.begin(), lights.end(), light) == lights.end()) lights.push_back(light);
       for (const std::string& internal : network_->InternalLanes(mid)) {
         link_of_lane_.emplace(internal, std::pair{light, link});
+        movement_of_lane_.emplace(internal, mid);
       }
     }
   }
@@ -788,6 +842,7 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
                                                       MonoTime now) {
   PlaceLabCars(lab_cars, now);
   HoldForLabCars();
+  MoveLabCars(lab_cars);
   UpdateLights(now);
   // The random vehicles go in once the lab's cars are in the network (placed in the last
   // step), so that none is put where a lab car stands.

@@ -7,9 +7,18 @@
 ///
 /// Each `Step`:
 /// 1. the lamps become SUMO's link states (lights.h) where they changed;
-/// 2. every lab car is placed in SUMO as an externally moved vehicle (moveToXY, SUMO's
-///    keepRoute 2) at its pose, so that SUMO's cars follow it, stop behind it and yield to it;
-///    a car that goes stale or leaves the road network leaves SUMO;
+/// 2. every lab car is placed in SUMO as an externally moved vehicle (moveToXY) at its pose, so
+///    that SUMO's cars follow it, stop behind it and yield to it; a car that goes stale or
+///    leaves the road network leaves SUMO. SUMO puts a moved car on the lane nearest its front
+///    bumper, whatever lane the move names, and draws its body back along that lane. In an
+///    intersection's box that is often another movement's (paths cross there, or pass side by
+///    side), and SUMO would see the car across paths it is not on, and report collisions with
+///    the cars on them that never were. So in a box a car is kept to the movement it drives
+///    (`LabCarClaims::Under`): its route in SUMO is set through the movement (from its lane in,
+///    where SUMO has it there), and its moves keep to its route (keepRoute 3: only the lanes in,
+///    through and out); where SUMO has it on another movement's internal lane (whose route
+///    cannot change there), its front is put on the movement's path for a move (keepRoute 2:
+///    SUMO takes the lane under the point, and the route through it);
 /// 3. the demand's departures due are added (flows);
 /// 4. SUMO steps;
 /// 5. a traffic light that flashes red or is dark is an all-way stop, arbitrated here (see
@@ -23,6 +32,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -125,6 +135,10 @@ class CoSimulation {
     int entries = 0;
     std::string lane;  // SUMO's lane for it after the last step (for logs)
     LabCarPose pose;   // the last heard
+    // The movement SUMO's route for it runs through (its lane in, then its lane out), when known:
+    // a move that keeps to its route then puts it on that movement's lanes.
+    std::optional<MovementId> route_via;
+    bool kept_route = false;  // its last move kept to its route
   };
   struct Flow {
     FlowConfig config;
@@ -138,7 +152,9 @@ class CoSimulation {
   void AddVehicle(const std::string& id, const std::string& type, std::vector<std::string> route,
                   bool circulating, const std::string& depart_pos);
   void UpdateLights(MonoTime now);
+  // Lab cars: into SUMO (or out of it); then, once the claims are up to date, where they are.
   void PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now);
+  void MoveLabCars(const std::vector<LabCarPose>& cars);
   void NoteLabLane(const SumoVehicleState& v);
   // For a collision's log line: where the lab cars among `a` and `b` were.
   [[nodiscard]] std::string DescribeLabCars(const std::string& a, const std::string& b) const;
@@ -198,6 +214,8 @@ class CoSimulation {
   // The lab cars' claims (lab_claims.h): by light and link, SUMO's vehicles may not start it.
   std::unique_ptr<LabCarClaims> claims_;
   std::vector<std::pair<std::size_t, std::size_t>> link_of_movement_;  // by movement id
+  // The internal lanes of the controlled intersections' movements: the movement.
+  std::unordered_map<std::string, MovementId> movement_of_lane_;
   std::vector<std::vector<bool>> held_;
   std::vector<std::size_t> held_lights_;  // the lights with a held link
   void HoldForLabCars();

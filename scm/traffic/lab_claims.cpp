@@ -8,28 +8,27 @@
 
 namespace autodrive::traffic {
 
-namespace {
-
-// Distance from p to a polyline, and the direction of the polyline's segment nearest to it.
-std::pair<double, double> DistanceAndDirection(const maps::Polyline& path,
-                                               const Eigen::Vector2d& p) {
-  double best = std::numeric_limits<double>::infinity();
-  double direction = 0.0;
-  for (std::size_t i = 0; i + 1 < path.size(); ++i) {
-    const Eigen::Vector2d d = path[i + 1] - path[i];
-    const double n2 = d.squaredNorm();
-    if (n2 <= 0) continue;
-    const double t = std::clamp((p - path[i]).dot(d) / n2, 0.0, 1.0);
-    const double distance = (path[i] + t * d - p).norm();
-    if (distance < best) {
-      best = distance;
-      direction = std::atan2(d.y(), d.x());
+PolylinePoint NearestOnPolyline(const maps::Polyline& line, const Eigen::Vector2d& p) {
+  PolylinePoint best;
+  double at = 0;
+  for (std::size_t i = 0; i + 1 < line.size(); ++i) {
+    const Eigen::Vector2d d = line[i + 1] - line[i];
+    const double n = d.norm();
+    if (n <= 0) continue;
+    const double t = std::clamp((p - line[i]).dot(d) / (n * n), 0.0, 1.0);
+    const Eigen::Vector2d q = line[i] + t * d;
+    const double distance = (q - p).norm();
+    if (distance < best.distance_m) {
+      best.point = q;
+      best.along_m = at + t * n;
+      best.distance_m = distance;
+      best.direction_rad = std::atan2(d.y(), d.x());
     }
+    at += n;
   }
-  return {best, direction};
+  best.length_m = at;
+  return best;
 }
-
-}  // namespace
 
 LabCarClaims::LabCarClaims(const maps::Map& map, const maps::MapIndex& index, Options options)
     : map_(map), index_(index), options_(options) {
@@ -47,17 +46,14 @@ std::optional<maps::LaneMatch> LabCarClaims::LaneUnder(const Eigen::Vector2d& p,
   if (!match) return std::nullopt;
   const maps::Lane& lane = map_.lane(match->lane);
   if (match->distance_m > lane.width_m / 2) return std::nullopt;
-  const auto [distance, direction] = DistanceAndDirection(lane.centreline, p);
-  (void)distance;
-  if (std::abs(WrapAngle(direction - yaw)) > 1.2) return std::nullopt;
+  if (std::abs(WrapAngle(NearestOnPolyline(lane.centreline, p).direction_rad - yaw)) > 1.2) {
+    return std::nullopt;
+  }
   return match;
 }
 
-bool LabCarClaims::OnPath(const maps::Movement& m, const Eigen::Vector2d& centre,
-                          double yaw) const {
-  const auto [distance, direction] = DistanceAndDirection(m.path, centre);
-  return distance < options_.on_path_m &&
-         std::abs(WrapAngle(direction - yaw)) < options_.on_path_rad;
+bool LabCarClaims::Aligned(const PolylinePoint& q, double yaw) const {
+  return std::abs(WrapAngle(q.direction_rad - yaw)) < options_.on_path_rad;
 }
 
 void LabCarClaims::Follow(Car& car, const LabCarPose& pose) {
@@ -125,26 +121,22 @@ void LabCarClaims::Claim(Car& car, const LabCarPose& pose,
   const std::vector<MovementId>& candidates =
       car.entry ? map_.lane(*car.entry).movements_out : x.movements;
   std::vector<MovementId> on;
+  // The path it is on (the first, where several still run together), else the nearest that
+  // runs its way.
+  std::optional<std::pair<MovementId, PolylinePoint>> under;
   for (const MovementId m : candidates) {
-    if (OnPath(map_.movement(m), centre, pose.yaw_rad)) on.push_back(m);
-  }
-  if (!on.empty()) {
-    // How far along its path: the arc length of the path's point nearest the centre.
-    const maps::Polyline& p = map_.movement(on.front()).path;
-    double at = 0, best = std::numeric_limits<double>::infinity(), best_at = 0;
-    for (std::size_t i = 0; i + 1 < p.size(); ++i) {
-      const Eigen::Vector2d d = p[i + 1] - p[i];
-      const double n = d.norm();
-      if (n <= 0) continue;
-      const double t = std::clamp((centre - p[i]).dot(d) / (n * n), 0.0, 1.0);
-      const double distance = (p[i] + t * d - centre).norm();
-      if (distance < best) {
-        best = distance;
-        best_at = at + t * n;
-      }
-      at += n;
+    const PolylinePoint q = NearestOnPolyline(map_.movement(m).path, centre);
+    if (!Aligned(q, pose.yaw_rad)) continue;
+    if (q.distance_m < options_.on_path_m) {
+      if (on.empty()) under = std::pair{m, q};
+      on.push_back(m);
+    } else if (on.empty() && (!under || q.distance_m < under->second.distance_m)) {
+      under = std::pair{m, q};
     }
-    car.under = std::pair{on.front(), at > 0 ? best_at / at : 0.0};
+  }
+  if (under) {
+    const PolylinePoint& q = under->second;
+    car.under = std::pair{under->first, q.length_m > 0 ? q.along_m / q.length_m : 0.0};
   }
   // The movements it may be on, and what conflicts with them; and every movement from its lane
   // (a vehicle behind it cannot pass it, and SUMO may not see it in the box as its leader).

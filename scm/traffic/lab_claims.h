@@ -20,6 +20,7 @@
 /// A lab car that starts inside a box claims the movements whose paths pass under it.
 
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <unordered_map>
@@ -33,6 +34,16 @@
 #include "maps/query.h"
 
 namespace autodrive::traffic {
+
+/// The point of a polyline nearest to a query point.
+struct PolylinePoint {
+  Eigen::Vector2d point = Eigen::Vector2d::Zero();
+  double along_m = 0.0;  ///< its arc length from the line's start
+  double distance_m = std::numeric_limits<double>::infinity();  ///< from the query point
+  double direction_rad = 0.0;                                   ///< of the line's segment there
+  double length_m = 0.0;                                        ///< the whole line's
+};
+[[nodiscard]] PolylinePoint NearestOnPolyline(const maps::Polyline& line, const Eigen::Vector2d& p);
 
 /// A lab car's pose: its origin (the middle of its rear axle) in the map frame.
 struct LabCarPose {
@@ -68,7 +79,9 @@ class LabCarClaims {
   [[nodiscard]] std::optional<LaneId> Approaching(const std::string& name) const;
   [[nodiscard]] std::optional<IntersectionId> InBox(const std::string& name) const;
   /// For a car in a box: the movement whose path is under it (the first, where several still
-  /// run together) and how far along that path its body's centre is (0 to 1).
+  /// run together; where it strays from them all, the one whose path is nearest, if one runs
+  /// its way) and how far along that path its body's centre is (0 to 1). What SUMO is to have
+  /// it on (cosim.h).
   [[nodiscard]] std::optional<std::pair<MovementId, double>> Under(const std::string& name) const;
 
  private:
@@ -81,8 +94,8 @@ class LabCarClaims {
   };
   void Follow(Car& car, const LabCarPose& pose);
   void Claim(Car& car, const LabCarPose& pose, const std::function<bool(MovementId)>& may_enter);
-  [[nodiscard]] bool OnPath(const maps::Movement& m, const Eigen::Vector2d& centre,
-                            double yaw) const;
+  // Whether a car heading along yaw runs the way of the path at q.
+  [[nodiscard]] bool Aligned(const PolylinePoint& q, double yaw) const;
   // The lane under point p heading along yaw, if any.
   [[nodiscard]] std::optional<maps::LaneMatch> LaneUnder(const Eigen::Vector2d& p,
                                                          double yaw) const;

@@ -139,6 +139,32 @@ TEST(LabCarClaims, ACarHoldsWhatConflictsWithItsWayFromTheLineUntilItsRearIsOutO
   EXPECT_TRUE(claims.held().empty());
 }
 
+// A car off every path in the box (15 cm right of the straight one, on its way east) holds
+// what any way out of its lane may need; SUMO is to have it on the nearest path that runs its
+// way.
+TEST(LabCarClaims, ACarOffEveryPathIsUnderTheNearestThatRunsItsWay) {
+  const maps::Map& map = SmallTown();
+  const maps::MapIndex index(map);
+  const LabCarClaims::Options options;
+  LabCarClaims claims(map, index, options);
+  const maps::Lane& in = LaneNamed("r2c1:W>E:0");
+  const maps::Movement& straight = MovementNamed("r2c2:W>E:0>0");
+  const auto red = [](MovementId) { return false; };
+  for (const double s : {0.05, 0.2, 0.4}) claims.Update({OnPath(straight, s, options)}, red);
+  ASSERT_EQ(claims.InBox("nigel_1"), in.ingress_of);
+  LabCarPose off = OnPath(straight, 0.7, options);
+  off.position += Eigen::Vector2d(std::sin(off.yaw_rad), -std::cos(off.yaw_rad)) * 0.15;
+  claims.Update({off}, red);
+  EXPECT_EQ(claims.InBox("nigel_1"), in.ingress_of);
+  const auto under = claims.Under("nigel_1");
+  ASSERT_TRUE(under.has_value());
+  EXPECT_EQ(under->first, straight.id);
+  EXPECT_NEAR(under->second, 0.7 / straight.length_m, 0.05);
+  std::set<std::string> expected = FoesOf(in.movements_out);
+  for (const MovementId m : in.movements_out) expected.insert(map.movement(m).name);
+  EXPECT_EQ(Names(claims.held()), expected);
+}
+
 // A car seen first inside a box (a spawn there, or back in SUMO after a while off the road)
 // claims the movements whose paths it is on, and what conflicts with them.
 TEST(LabCarClaims, ACarFirstSeenInABoxHoldsTheMovementsItIsOnAndTheirFoes) {

@@ -77,10 +77,13 @@ class SumoApi {
                           const std::string& pos, const std::string& speed) = 0;
   virtual void SetRoute(const std::string& id, const std::vector<std::string>& edges) = 0;
   [[nodiscard]] virtual std::vector<std::string> Route(const std::string& id) = 0;
-  /// Places the vehicle's front bumper at (x, y) with `angle_deg` (navigational) on `edge`'s
-  /// lane `lane` if given (hints), off its route if need be (keepRoute 2).
+  /// Places the vehicle's front bumper at (x, y) with `angle_deg` (navigational), on the lane
+  /// nearest to it: of its route's edges and the internal lanes between them when `keep_route`
+  /// (keepRoute 3), else of any edge, its route then replaced by that lane's (keepRoute 2).
+  /// `edge`'s lane `lane` is only a hint: SUMO 1.15 took the lane nearest the point whichever
+  /// lane was named, in every case tried (and, without `keep_route`, whatever the angle).
   virtual void MoveToXY(const std::string& id, const std::string& edge, int lane, double x,
-                        double y, double angle_deg) = 0;
+                        double y, double angle_deg, bool keep_route) = 0;
   [[nodiscard]] virtual double LaneLength(const std::string& lane) = 0;
   /// Sets the speed SUMO reports and uses for followers (m/s; < 0 gives control back).
   virtual void SetSpeed(const std::string& id, double speed) = 0;
