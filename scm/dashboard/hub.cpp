@@ -338,7 +338,9 @@ void Hub::SetStats(json stats, double rx_ms) {
 
 HubCounters Hub::counters() const {
   std::lock_guard lock(mutex_);
-  return counters_;
+  HubCounters c = counters_;
+  c.lamps_known = lamps_.size();
+  return c;
 }
 
 }  // namespace autodrive::dashboard

@@ -55,6 +55,7 @@ struct HubCounters {
   std::uint64_t bytes_out = 0;  ///< queued to browsers, all together
   std::uint64_t dropped = 0;    ///< browsers dropped for falling behind
   std::size_t subscribers = 0;
+  std::size_t lamps_known = 0;  ///< heads whose lamp has been heard
 };
 
 class Hub {

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cctype>
@@ -32,6 +33,46 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 
 namespace {
+
+// Set by the pre-routing handler on a request whose browser takes gzip (see Start).
+constexpr const char* kTakesGzip = "X-Autodrive-Takes-Gzip";
+
+/// `text` gzip'd (RFC 1952), as browsers take it with `Content-Encoding: gzip`.
+std::string Gzip(std::string_view text) {
+  z_stream z{};
+  // 15 + 16: a gzip wrapper around deflate's largest window; level 9 once, at start.
+  if (deflateInit2(&z, 9, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+    throw std::runtime_error("dashboard: zlib could not start");
+  }
+  std::string out(deflateBound(&z, text.size()) + 32, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+  z.avail_in = static_cast<uInt>(text.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = static_cast<uInt>(out.size());
+  const int done = deflate(&z, Z_FINISH);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  if (done != Z_STREAM_END)
+    throw std::runtime_error("dashboard: zlib could not compress a page asset");
+  return out;
+}
+
+/// A fixed asset, served gzip'd to a browser that takes it.
+struct StaticAsset {
+  std::string plain, gzip, mime;
+  StaticAsset(std::string text, std::string type)
+      : plain(std::move(text)), gzip(Gzip(plain)), mime(std::move(type)) {}
+  void Serve(const httplib::Request& req, httplib::Response& res) const {
+    res.set_header("Cache-Control", "no-cache");
+    res.set_header("Vary", "Accept-Encoding");
+    if (req.has_header(kTakesGzip)) {
+      res.set_header("Content-Encoding", "gzip");
+      res.set_content(gzip, mime);
+    } else {
+      res.set_content(plain, mime);
+    }
+  }
+};
 
 double NowMs() {
   return std::chrono::duration<double, std::milli>(
@@ -285,24 +326,32 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
   http.set_payload_max_length(8u << 20);
   http.set_keep_alive_max_count(1000);
 
+  // Compression is the dashboard's, not cpp-httplib's: 0.11 brotlis every response a browser
+  // accepts it for, at brotli's highest quality, on each request (seconds of CPU for the grid
+  // city's map, and a third of the dashboard's CPU on the event stream, measured). The fixed
+  // assets are gzip'd once, here; the stream, the API and the cameras go as they are.
+  http.set_pre_routing_handler([](const httplib::Request& req, httplib::Response&) {
+    auto& headers = const_cast<httplib::Headers&>(req.headers);  // the server's own object
+    const bool gzip = req.get_header_value("Accept-Encoding").find("gzip") != std::string::npos;
+    headers.erase("Accept-Encoding");
+    headers.erase(kTakesGzip);
+    if (gzip) headers.emplace(kTakesGzip, "1");
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
   for (const WebAsset& asset : WebAssets()) {
-    http.Get(std::string(asset.path), [asset](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Cache-Control", "no-cache");
-      res.set_content(std::string(asset.content), std::string(asset.mime) + "; charset=utf-8");
+    auto file = std::make_shared<const StaticAsset>(std::string(asset.content),
+                                                    std::string(asset.mime) + "; charset=utf-8");
+    http.Get(std::string(asset.path), [file](const httplib::Request& req, httplib::Response& res) {
+      file->Serve(req, res);
     });
   }
-  http.Get("/map.svg", [this](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-cache");
-    res.set_content(options_.svg, "image/svg+xml");
-  });
+  auto svg = std::make_shared<const StaticAsset>(options_.svg, "image/svg+xml");
+  http.Get("/map.svg",
+           [svg](const httplib::Request& req, httplib::Response& res) { svg->Serve(req, res); });
   http.Get("/api/state", [this](const httplib::Request&, httplib::Response& res) {
     Reply(res, 200, hub_.State());
   });
-  http.Get("/api/stream", [this](const httplib::Request& req, httplib::Response& res) {
-    // No compression of the stream: cpp-httplib 0.11 would brotli every chunk (a third of the
-    // dashboard's CPU under a big city, measured) for a few kB a second. It decides from the
-    // request's Accept-Encoding after this handler; the request is the server's own object.
-    const_cast<httplib::Request&>(req).headers.erase("Accept-Encoding");
+  http.Get("/api/stream", [this](const httplib::Request&, httplib::Response& res) {
     auto subscriber = hub_.Subscribe();
     res.set_header("Cache-Control", "no-store");
     res.set_header("X-Accel-Buffering", "no");
@@ -335,7 +384,8 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
            {"bytes", c.bytes},
            {"bytes_out", c.bytes_out},
            {"dropped", c.dropped},
-           {"subscribers", c.subscribers}});
+           {"subscribers", c.subscribers},
+           {"lamps_known", c.lamps_known}});
   });
   http.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
     std::size_t limit = 200;
@@ -381,7 +431,6 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
   });
   http.Get(R"(/camera/([A-Za-z0-9_\-]+)\.mjpg)", [this](const httplib::Request& req,
                                                         httplib::Response& res) {
-    const_cast<httplib::Request&>(req).headers.erase("Accept-Encoding");  // JPEG: no gain
     auto camera = CameraNamed(req.matches[1]);
     if (!camera) {
       Reply(res, 404, {{"error", "no such camera"}});

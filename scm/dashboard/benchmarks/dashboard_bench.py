@@ -93,6 +93,8 @@ def main():
     parser.add_argument("--seconds", type=float, default=60.0, help="measured seconds")
     parser.add_argument("--warmup", type=float, default=20.0, help="seconds before measuring")
     parser.add_argument("--browsers", type=int, default=1, help="pages open at once")
+    parser.add_argument("--discovery", type=float, default=300.0,
+                        help="seconds to wait for the dashboard to hear every head")
     parser.add_argument("--keep", action="store_true", help="keep the work folder")
     args = parser.parse_args()
 
@@ -142,6 +144,21 @@ def main():
             d.set_script_timeout(60)
             d.get(url)
             drivers.append(d)
+        # Discovery of a big city's thousands of endpoints takes a while, and each head's last
+        # lamp reaches the dashboard as history when its reader is matched (with an old
+        # source time: not an update). Measure once the dashboard has heard every head.
+        def metrics():
+            return json.loads(urllib.request.urlopen(url + "api/metrics", timeout=30).read())
+
+        heads = 4 * intersections
+        start = time.monotonic()
+        heard = metrics()["lamps_known"]
+        while heard < heads and time.monotonic() - start < args.discovery:
+            time.sleep(2.0)
+            heard = metrics()["lamps_known"]
+        print(f"the dashboard heard {heard} of {heads} heads {time.monotonic() - start:.0f} s "
+              "after the page opened" + ("" if heard == heads else
+                                         " (measuring all the same: --discovery)"), flush=True)
         for d in drivers:
             end = time.monotonic() + 120
             while time.monotonic() < end and not d.execute_script(
@@ -171,12 +188,34 @@ def main():
         raw_thread = threading.Thread(target=read_raw, daemon=True)
         raw_thread.start()
 
-        def metrics():
-            return json.loads(urllib.request.urlopen(url + "api/metrics", timeout=30).read())
-
         for d in drivers:
             d.execute_script("for (const k in window.dashboard.latencies) "
                              "window.dashboard.latencies[k].length = 0;")
+        # Every process of the city, and the browsers, for the host's load beside the figures.
+        procs = {p["name"]: p["pid"] for p in json.loads(status.read_text())["processes"]}
+
+        def chromium_pids():
+            out = subprocess.run(["pgrep", "-f", f"user-data-dir={work}"], capture_output=True,
+                                 text=True).stdout
+            return [int(x) for x in out.split()]
+
+        def host_cpu():
+            cpu = {}
+            for name, p in procs.items():
+                try:
+                    cpu[name] = cpu_seconds(p)
+                except OSError:
+                    pass
+            total = 0.0
+            for p in chromium_pids():
+                try:
+                    total += cpu_seconds(p)
+                except OSError:
+                    pass
+            cpu["chromium"] = total
+            return cpu
+
+        h0 = host_cpu()
         m0, c0, t0 = metrics(), cpu_seconds(pid), time.monotonic()
         lat = {}
         # The page keeps the last 1,000 per stream: collect every few seconds.
@@ -193,6 +232,7 @@ def main():
                 for k, v in got.items():
                     lat.setdefault(k, []).extend(v)
         m1, c1, t1 = metrics(), cpu_seconds(pid), time.monotonic()
+        h1 = host_cpu()
         raw_stop.set()
         handler_ms = drivers[0].execute_script("return window.dashboard.handlerMs || {};")
         dt = t1 - t0
@@ -201,6 +241,11 @@ def main():
         every = [x for v in lat.values() for x in v]
         print(f"measured {dt:.0f} s with {len(drivers)} browser(s), {m1['dropped']} dropped")
         print(f"dashboard CPU: {cpu:.1f}% of one core (goal <= 10%)")
+        load = {k: 100.0 * (h1[k] - h0[k]) / dt for k in h1 if k in h0}
+        print(f"host ({os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}), % of one "
+              "core: " + ", ".join(f"{k} {v:.0f}" for k, v in
+                                   sorted(load.items(), key=lambda kv: -kv[1])) +
+              f"; all {sum(load.values()):.0f}")
         print(f"stream: {per_browser / 1000:.1f} kB/s per browser, "
               f"{(m1['messages'] - m0['messages']) / dt:.0f} messages/s")
         for k in ["lamps", "spat", "traffic", "fleet"]:
