@@ -2,12 +2,11 @@
 // compressed, and how.
 #include "scm/dashboard/server.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <string>
-
-#include <fmt/format.h>
 
 #include "common/dds/participant.h"
 #include "scm/dashboard/hub.h"
@@ -24,8 +23,8 @@ using namespace std::chrono_literals;
 class DashboardServer : public ::testing::Test {
  protected:
   DashboardServer()
-      : participant_(dds::ParticipantOptions{
-            {}, fmt::format("dashboard_server_test_{}", ::getpid()), {}}),
+      : participant_(
+            dds::ParticipantOptions{{}, fmt::format("dashboard_server_test_{}", ::getpid()), {}}),
         server_(participant_, hub_, Options(), [] { return nlohmann::json::object(); }) {
     server_.Start();
   }
