@@ -166,6 +166,18 @@ def main():
         shown = [h for h in heads if driver.find_elements(By.ID, f"head-{h}")]
         check(len(heads) > 0 and shown == heads,
               f"every light head of the map is on the page ({len(shown)} of {len(heads)})")
+        # Every light is in the devices table with its health (from its periodic status).
+        def listed():
+            return driver.execute_script(
+                "return Array.from(document.querySelectorAll('#devices tbody tr[data-id]'))"
+                ".map((tr) => [tr.getAttribute('data-id'), tr.cells[1].textContent.trim()]);")
+        wanted = {f"signal_{h}" for h in heads}
+        wait_for(lambda: wanted <= {d for d, _ in listed()}, 30, "every light in the devices")
+        devices = dict(listed())
+        check(wanted <= set(devices) and all(devices[d] for d in wanted),
+              f"every light is in the devices table with its health "
+              f"({len(wanted & set(devices))} of {len(wanted)}: "
+              f"{sorted({devices.get(d, '?') for d in wanted})})")
         # The page's lamp changes, as they happen, by the host's clock.
         driver.execute_script("""
           window.__lampLog = [];

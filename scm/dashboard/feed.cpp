@@ -365,15 +365,27 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
       Listen(participant, Repeating(dds::topics::Devices()),
              [this](const msg::DeviceStatus& m, const dds::SampleInfo& info) {
                devices_.fetch_add(1);
-               // A light reports its status every period, nearly always the
-               // same: JSON only when what the page shows changed.
-               std::string key = fmt::format("{}|{}|{}|{}|{}|{}", m.kind, m.backend, m.health,
-                                             m.mode, dds::View(m.host), dds::View(m.detail));
+               // A light reports its status every period, nearly always the same: JSON only
+               // when what the page shows changed (compared in place: no allocation).
                {
                  std::lock_guard lock(spat_mutex_);
-                 std::string& known = device_keys_[std::string(dds::View(m.device_id))];
-                 if (known == key) return;
-                 known = std::move(key);
+                 const std::string_view id = dds::View(m.device_id);
+                 auto it = devices_shown_.find(id);
+                 if (it == devices_shown_.end()) {
+                   it = devices_shown_.emplace(std::string(id), DeviceShown{}).first;
+                 } else if (it->second.kind == m.kind && it->second.backend == m.backend &&
+                            it->second.health == m.health && it->second.mode == m.mode &&
+                            it->second.host == dds::View(m.host) &&
+                            it->second.detail == dds::View(m.detail)) {
+                   return;
+                 }
+                 DeviceShown& shown = it->second;
+                 shown.kind = m.kind;
+                 shown.backend = m.backend;
+                 shown.health = m.health;
+                 shown.mode = m.mode;
+                 shown.host = dds::View(m.host);
+                 shown.detail = dds::View(m.detail);
                }
                hub_.SetDevice(DeviceJson(m), SourceMs(info));
              });

@@ -10,7 +10,9 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <functional>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <vector>
 
@@ -55,7 +57,16 @@ class Feed {
   std::mutex spat_mutex_;  ///< guards the two below (listeners may run on several threads)
   std::unordered_map<std::uint32_t, std::uint32_t> spat_revisions_;  ///< by intersection id
   std::chrono::steady_clock::time_point traffic_converted_{};
-  std::unordered_map<std::string, std::string> device_keys_;  ///< what each device showed
+  /// What the page shows of a device, as last sent.
+  struct DeviceShown {
+    std::uint8_t kind = 0, backend = 0, health = 0, mode = 0;
+    std::string host, detail;
+  };
+  struct TextHash {
+    using is_transparent = void;
+    std::size_t operator()(std::string_view s) const { return std::hash<std::string_view>{}(s); }
+  };
+  std::unordered_map<std::string, DeviceShown, TextHash, std::equal_to<>> devices_shown_;
   std::atomic<std::uint64_t> lamps_{0}, spat_{0}, fleet_{0}, traffic_{0}, eye_{0}, events_{0},
       devices_{0};
   std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> heads_;
