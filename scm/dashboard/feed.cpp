@@ -308,54 +308,29 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
                               hub_.SetLamp(id, m.data, SourceMs(info));
                             }));
   }
-  spat_reader_ = Listen(participant, Repeating(dds::topics::Spat()),
-                        [this](const msg::Spat& m, const dds::SampleInfo& info) {
-                          spat_.fetch_add(1);
-                          // JSON only for the intersections whose revision changed: a big
-                          // city's SPaT is mostly the same from one message to the next.
-                          std::vector<json> xs;
-                          {
-                            std::lock_guard lock(spat_mutex_);
-                            for (const auto& x : dds::Elements(m.intersections)) {
-                              const auto [it, added] =
-                                  spat_revisions_.try_emplace(x.intersection_id, x.revision);
-                              if (!added && it->second == x.revision) continue;
-                              it->second = x.revision;
-                              xs.push_back(SpatIntersectionJson(x));
-                            }
-                          }
-                          hub_.SetSpat(Seconds(m.header.stamp), std::move(xs), SourceMs(info));
-                        });
-  fleet_reader_ = Listen(participant, Repeating(dds::topics::Fleet()),
-                         [this](const msg::FleetState& m, const dds::SampleInfo& info) {
-                           fleet_.fetch_add(1);
-                           json vs = json::array();
-                           for (const auto& v : dds::Elements(m.vehicles)) {
-                             vs.push_back(VehicleJson(v));
-                           }
-                           hub_.SetFleet(Seconds(m.header.stamp), std::move(vs), SourceMs(info));
-                         });
-  // SUMO's traffic comes at 20 Hz and the page draws at most 10: a sample that comes sooner
-  // is left in the reader (history 1), where the next replaces it, and is never converted
-  // from CDR at all.
+  // SPaT, the fleet and SUMO's traffic each repeat their whole state: their listeners only
+  // note that a sample waits, and the converter thread takes the latest (history 1) and
+  // converts it. Cyclone's receive thread stays free to drain its socket, and a converter
+  // that falls behind skips samples (the next replaces the last) instead of queueing them.
+  spat_reader_ =
+      std::make_unique<dds::Reader<msg::Spat>>(participant, Repeating(dds::topics::Spat()));
+  fleet_reader_ =
+      std::make_unique<dds::Reader<msg::FleetState>>(participant, Repeating(dds::topics::Fleet()));
   traffic_reader_ = std::make_unique<dds::Reader<msg::TrafficObjects>>(
       participant, Repeating(dds::topics::Traffic()));
-  traffic_reader_->OnDataAvailable([this](dds::Reader<msg::TrafficObjects>& r) {
-    const auto now = std::chrono::steady_clock::now();
+  const auto note = [this](bool Feed::*waiting) {
     {
-      std::lock_guard lock(spat_mutex_);
-      if (now - traffic_converted_ < kTrafficInterval) return;
-      traffic_converted_ = now;
+      std::lock_guard lock(convert_mutex_);
+      this->*waiting = true;
     }
-    dds::Message<msg::TrafficObjects> m;
-    dds::SampleInfo info;
-    while (r.TakeOne(m, &info)) {
-      traffic_.fetch_add(1);
-      json os = json::array();
-      for (const auto& o : dds::Elements(m->objects)) os.push_back(TrafficObjectJson(o));
-      hub_.SetTraffic(std::move(os), SourceMs(info));
-    }
-  });
+    convert_cv_.notify_one();
+  };
+  spat_reader_->OnDataAvailable([note](dds::Reader<msg::Spat>&) { note(&Feed::spat_waiting_); });
+  fleet_reader_->OnDataAvailable(
+      [note](dds::Reader<msg::FleetState>&) { note(&Feed::fleet_waiting_); });
+  traffic_reader_->OnDataAvailable(
+      [note](dds::Reader<msg::TrafficObjects>&) { note(&Feed::traffic_waiting_); });
+  converter_ = std::thread([this] { Convert(); });
   events_reader_ = Listen(participant, dds::topics::Events(),
                           [this](const msg::Event& m, const dds::SampleInfo& info) {
                             events_.fetch_add(1);
@@ -368,7 +343,7 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
                // A light reports its status every period, nearly always the same: JSON only
                // when what the page shows changed (compared in place: no allocation).
                {
-                 std::lock_guard lock(spat_mutex_);
+                 std::lock_guard lock(devices_mutex_);
                  const std::string_view id = dds::View(m.device_id);
                  auto it = devices_shown_.find(id);
                  if (it == devices_shown_.end()) {
@@ -398,8 +373,74 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
              [this](const msg::FleetState&, const dds::SampleInfo&) { eye_.fetch_add(1); });
 }
 
+void Feed::Convert() {
+  dds::Message<msg::Spat> spat;
+  dds::Message<msg::FleetState> fleet;
+  dds::Message<msg::TrafficObjects> traffic;
+  dds::SampleInfo info;
+  std::unique_lock lock(convert_mutex_);
+  while (!stop_) {
+    // SUMO's traffic comes at 20 Hz and the page draws at most 10: a sample that comes sooner
+    // is left in the reader, where the next replaces it, never converted from CDR at all (and
+    // the one converted is always converted as it comes, fresh).
+    const auto now = std::chrono::steady_clock::now();
+    const bool traffic_due = traffic_waiting_ && now - traffic_converted_ >= kTrafficInterval;
+    if (!traffic_due) traffic_waiting_ = false;
+    if (!spat_waiting_ && !fleet_waiting_ && !traffic_due) {
+      convert_cv_.wait(lock);
+      continue;
+    }
+    const bool do_spat = std::exchange(spat_waiting_, false);
+    const bool do_fleet = std::exchange(fleet_waiting_, false);
+    if (traffic_due) {
+      traffic_waiting_ = false;
+      traffic_converted_ = now;
+    }
+    lock.unlock();
+    if (do_spat) {
+      while (spat_reader_->TakeOne(spat, &info)) {
+        spat_.fetch_add(1);
+        // JSON only for the intersections whose revision changed: a big city's SPaT is mostly
+        // the same from one message to the next.
+        std::vector<json> xs;
+        for (const auto& x : dds::Elements(spat->intersections)) {
+          const auto [it, added] = spat_revisions_.try_emplace(x.intersection_id, x.revision);
+          if (!added && it->second == x.revision) continue;
+          it->second = x.revision;
+          xs.push_back(SpatIntersectionJson(x));
+        }
+        hub_.SetSpat(Seconds(spat->header.stamp), std::move(xs), SourceMs(info));
+      }
+    }
+    if (do_fleet) {
+      while (fleet_reader_->TakeOne(fleet, &info)) {
+        fleet_.fetch_add(1);
+        json vs = json::array();
+        for (const auto& v : dds::Elements(fleet->vehicles)) vs.push_back(VehicleJson(v));
+        hub_.SetFleet(Seconds(fleet->header.stamp), std::move(vs), SourceMs(info));
+      }
+    }
+    if (traffic_due) {
+      while (traffic_reader_->TakeOne(traffic, &info)) {
+        traffic_.fetch_add(1);
+        json os = json::array();
+        for (const auto& o : dds::Elements(traffic->objects)) os.push_back(TrafficObjectJson(o));
+        hub_.SetTraffic(std::move(os), SourceMs(info));
+      }
+    }
+    lock.lock();
+  }
+}
+
 Feed::~Feed() {
-  // Readers first: their listeners use this object.
+  // The converter first (it takes from the readers), then the readers: their listeners use
+  // this object.
+  {
+    std::lock_guard lock(convert_mutex_);
+    stop_ = true;
+  }
+  convert_cv_.notify_one();
+  if (converter_.joinable()) converter_.join();
   eye_reader_.reset();
   requests_reader_.reset();
   devices_reader_.reset();

@@ -7,12 +7,14 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
@@ -53,10 +55,18 @@ class Feed {
   /// SUMO's traffic is converted at most this often (Hub::Options::traffic_interval).
   static constexpr std::chrono::milliseconds kTrafficInterval{95};
 
+  /// The converter thread: takes and converts SPaT, the fleet and the traffic when their
+  /// listeners note a sample, the latest only.
+  void Convert();
+
   Hub& hub_;
-  std::mutex spat_mutex_;  ///< guards the two below (listeners may run on several threads)
-  std::unordered_map<std::uint32_t, std::uint32_t> spat_revisions_;  ///< by intersection id
+  std::mutex convert_mutex_;  ///< guards the flags below
+  std::condition_variable convert_cv_;
+  bool spat_waiting_ = true, fleet_waiting_ = true, traffic_waiting_ = true, stop_ = false;
   std::chrono::steady_clock::time_point traffic_converted_{};
+  std::unordered_map<std::uint32_t, std::uint32_t> spat_revisions_;  ///< the converter's
+  std::thread converter_;
+  std::mutex devices_mutex_;  ///< guards devices_shown_ (listeners may run on several threads)
   /// What the page shows of a device, as last sent.
   struct DeviceShown {
     std::uint8_t kind = 0, backend = 0, health = 0, mode = 0;
