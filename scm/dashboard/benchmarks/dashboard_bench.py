@@ -37,6 +37,29 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def udp_drops(pid):
+    """Datagrams dropped so far on the UDP sockets of process `pid` (receive buffer full)."""
+    inodes = set()
+    for fd in pathlib.Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[8:-1])
+    drops = 0
+    for table in ("/proc/net/udp", "/proc/net/udp6"):
+        try:
+            lines = pathlib.Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            if fields[9] in inodes:
+                drops += int(fields[-1])
+    return drops
+
+
 def percentile(values, p):
     if not values:
         return float("nan")
@@ -215,7 +238,7 @@ def main():
             cpu["chromium"] = total
             return cpu
 
-        h0 = host_cpu()
+        h0, d0 = host_cpu(), udp_drops(pid)
         m0, c0, t0 = metrics(), cpu_seconds(pid), time.monotonic()
         lat = {}
         # The page keeps the last 1,000 per stream: collect every few seconds.
@@ -232,7 +255,7 @@ def main():
                 for k, v in got.items():
                     lat.setdefault(k, []).extend(v)
         m1, c1, t1 = metrics(), cpu_seconds(pid), time.monotonic()
-        h1 = host_cpu()
+        h1, d1 = host_cpu(), udp_drops(pid)
         raw_stop.set()
         handler_ms = drivers[0].execute_script("return window.dashboard.handlerMs || {};")
         dt = t1 - t0
@@ -246,6 +269,9 @@ def main():
               "core: " + ", ".join(f"{k} {v:.0f}" for k, v in
                                    sorted(load.items(), key=lambda kv: -kv[1])) +
               f"; all {sum(load.values()):.0f}")
+        print(f"dashboard's DDS sockets: {(d1 - d0) / dt:.0f} datagrams/s dropped (receive "
+              "buffer full: the host cannot give it the CPU to keep up)" if d1 > d0 else
+              "dashboard's DDS sockets: no datagram dropped")
         print(f"stream: {per_browser / 1000:.1f} kB/s per browser, "
               f"{(m1['messages'] - m0['messages']) / dt:.0f} messages/s")
         for k in ["lamps", "spat", "traffic", "fleet"]:
