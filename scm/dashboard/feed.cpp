@@ -1,6 +1,7 @@
 #include "scm/dashboard/feed.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <cmath>
 #include <string>
@@ -374,10 +375,6 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
 }
 
 void Feed::Convert() {
-  dds::Message<msg::Spat> spat;
-  dds::Message<msg::FleetState> fleet;
-  dds::Message<msg::TrafficObjects> traffic;
-  dds::SampleInfo info;
   std::unique_lock lock(convert_mutex_);
   while (!stop_) {
     // SUMO's traffic comes at 20 Hz and the page draws at most 10: a sample that comes sooner
@@ -397,38 +394,53 @@ void Feed::Convert() {
       traffic_converted_ = now;
     }
     lock.unlock();
-    if (do_spat) {
-      while (spat_reader_->TakeOne(spat, &info)) {
-        spat_.fetch_add(1);
-        // JSON only for the intersections whose revision changed: a big city's SPaT is mostly
-        // the same from one message to the next.
-        std::vector<json> xs;
-        for (const auto& x : dds::Elements(spat->intersections)) {
-          const auto [it, added] = spat_revisions_.try_emplace(x.intersection_id, x.revision);
-          if (!added && it->second == x.revision) continue;
-          it->second = x.revision;
-          xs.push_back(SpatIntersectionJson(x));
-        }
-        hub_.SetSpat(Seconds(spat->header.stamp), std::move(xs), SourceMs(info));
-      }
-    }
-    if (do_fleet) {
-      while (fleet_reader_->TakeOne(fleet, &info)) {
-        fleet_.fetch_add(1);
-        json vs = json::array();
-        for (const auto& v : dds::Elements(fleet->vehicles)) vs.push_back(VehicleJson(v));
-        hub_.SetFleet(Seconds(fleet->header.stamp), std::move(vs), SourceMs(info));
-      }
-    }
-    if (traffic_due) {
-      while (traffic_reader_->TakeOne(traffic, &info)) {
-        traffic_.fetch_add(1);
-        json os = json::array();
-        for (const auto& o : dds::Elements(traffic->objects)) os.push_back(TrafficObjectJson(o));
-        hub_.SetTraffic(std::move(os), SourceMs(info));
+    try {
+      ConvertWaiting(do_spat, do_fleet, traffic_due);
+    } catch (const std::exception& e) {
+      // As a listener's would be: logged and counted, never fatal (bad text from the network
+      // makes JSON throw). The next sample is converted as usual.
+      const std::uint64_t n = ++convert_errors_;
+      if (n <= 5 || n % 100 == 0) {
+        spdlog::error("dashboard: converting a sample failed ({} so far): {}", n, e.what());
       }
     }
     lock.lock();
+  }
+}
+
+void Feed::ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic) {
+  dds::SampleInfo info;
+  if (do_spat) {
+    while (spat_reader_->TakeOne(spat_sample_, &info)) {
+      spat_.fetch_add(1);
+      // JSON only for the intersections whose revision changed: a big city's SPaT is mostly
+      // the same from one message to the next.
+      std::vector<json> xs;
+      for (const auto& x : dds::Elements(spat_sample_->intersections)) {
+        const auto [it, added] = spat_revisions_.try_emplace(x.intersection_id, x.revision);
+        if (!added && it->second == x.revision) continue;
+        it->second = x.revision;
+        xs.push_back(SpatIntersectionJson(x));
+      }
+      hub_.SetSpat(Seconds(spat_sample_->header.stamp), std::move(xs), SourceMs(info));
+    }
+  }
+  if (do_fleet) {
+    while (fleet_reader_->TakeOne(fleet_sample_, &info)) {
+      fleet_.fetch_add(1);
+      json vs = json::array();
+      for (const auto& v : dds::Elements(fleet_sample_->vehicles)) vs.push_back(VehicleJson(v));
+      hub_.SetFleet(Seconds(fleet_sample_->header.stamp), std::move(vs), SourceMs(info));
+    }
+  }
+  if (do_traffic) {
+    while (traffic_reader_->TakeOne(traffic_sample_, &info)) {
+      traffic_.fetch_add(1);
+      json os = json::array();
+      for (const auto& o : dds::Elements(traffic_sample_->objects))
+        os.push_back(TrafficObjectJson(o));
+      hub_.SetTraffic(std::move(os), SourceMs(info));
+    }
   }
 }
 

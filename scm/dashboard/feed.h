@@ -58,6 +58,7 @@ class Feed {
   /// The converter thread: takes and converts SPaT, the fleet and the traffic when their
   /// listeners note a sample, the latest only.
   void Convert();
+  void ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic);
 
   Hub& hub_;
   std::mutex convert_mutex_;  ///< guards the flags below
@@ -65,6 +66,10 @@ class Feed {
   bool spat_waiting_ = true, fleet_waiting_ = true, traffic_waiting_ = true, stop_ = false;
   std::chrono::steady_clock::time_point traffic_converted_{};
   std::unordered_map<std::uint32_t, std::uint32_t> spat_revisions_;  ///< the converter's
+  dds::Message<msg::Spat> spat_sample_;                              ///< the converter's, reused
+  dds::Message<msg::FleetState> fleet_sample_;
+  dds::Message<msg::TrafficObjects> traffic_sample_;
+  std::atomic<std::uint64_t> convert_errors_{0};
   std::thread converter_;
   std::mutex devices_mutex_;  ///< guards devices_shown_ (listeners may run on several threads)
   /// What the page shows of a device, as last sent.

@@ -80,7 +80,7 @@ TEST_F(DashboardServer, TheStateAndTheStreamAreNotCompressed) {
   ASSERT_TRUE(whole);
   EXPECT_EQ(whole->status, 200);
   EXPECT_FALSE(whole->has_header("Content-Encoding"));
-  EXPECT_NO_THROW((void)nlohmann::json::parse(whole->body));
+  EXPECT_TRUE(nlohmann::json::accept(whole->body));
 
   // The stream: its headers and its first message (the whole state), as they come.
   std::string encoding = "unread", first;
@@ -100,7 +100,7 @@ TEST_F(DashboardServer, TheStateAndTheStreamAreNotCompressed) {
   const std::size_t state = first.find("event: state\ndata: ");
   ASSERT_NE(state, std::string::npos) << first.substr(0, 80);
   const std::size_t data = state + std::string_view("event: state\ndata: ").size();
-  EXPECT_NO_THROW((void)nlohmann::json::parse(first.substr(data, first.find('\n', data) - data)));
+  EXPECT_TRUE(nlohmann::json::accept(first.substr(data, first.find('\n', data) - data)));
 }
 
 }  // namespace
