@@ -331,7 +331,6 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
       [note](dds::Reader<msg::FleetState>&) { note(&Feed::fleet_waiting_); });
   traffic_reader_->OnDataAvailable(
       [note](dds::Reader<msg::TrafficObjects>&) { note(&Feed::traffic_waiting_); });
-  converter_ = std::thread([this] { Convert(); });
   events_reader_ = Listen(participant, dds::topics::Events(),
                           [this](const msg::Event& m, const dds::SampleInfo& info) {
                             events_.fetch_add(1);
@@ -372,6 +371,8 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
   eye_reader_ =
       Listen(participant, Repeating(dds::topics::EyeFleet()),
              [this](const msg::FleetState&, const dds::SampleInfo&) { eye_.fetch_add(1); });
+  // Last: should a reader above fail, no thread is left running (and joinable) behind it.
+  converter_ = std::thread([this] { Convert(); });
 }
 
 void Feed::Convert() {

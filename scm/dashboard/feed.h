@@ -1,9 +1,9 @@
 #pragma once
 /// @file
-/// What the dashboard reads from DDS, handed to the `Hub` as it arrives (listeners on
-/// Cyclone's threads; no polling): each head's `signal_<i>/state`, SPaT, the SCM's fleet,
-/// SUMO's traffic, events, device status, V2I request status, and the Eye's fleet (for its
-/// rate). JSON shapes in docs/dashboard.md.
+/// What the dashboard reads from DDS, handed to the `Hub` as it arrives (no polling: listeners
+/// on Cyclone's threads, and a converter thread they wake for SPaT, the fleet and traffic): each
+/// head's `signal_<i>/state`, SPaT, the SCM's fleet, SUMO's traffic, events, device status, V2I
+/// request status, and the Eye's fleet (for its rate). JSON shapes in docs/dashboard.md.
 
 #include <atomic>
 #include <chrono>
