@@ -376,18 +376,6 @@ double TerrainModel::MaxHeight() const {
 // ---------------------------------------------------------------------------------------------
 // Building the scene
 
-void StaticSceneOptions::Validate() const {
-  const auto check = [](double v, double lo, double hi, const char* name) {
-    AUTODRIVE_THROW_UNLESS(v >= lo && v <= hi, "StaticSceneOptions: " << name << " must be in ["
-                                                                      << lo << ", " << hi
-                                                                      << "], got " << v);
-  };
-  check(cell_size_m, 0.01, 10.0, "cell_size_m");
-  check(pole_radius_m, 0.001, 1.0, "pole_radius_m");
-  check(signal_head_height_m, 0.0, 10.0, "signal_head_height_m");
-  check(sign_height_m, 0.0, 10.0, "sign_height_m");
-}
-
 Prism PrismOnGround(const TerrainModel& terrain, maps::Polyline footprint_M, double height_m) {
   const double bottom = terrain.MinHeightUnder(footprint_M);
   return {std::move(footprint_M), bottom, bottom + height_m};

@@ -21,12 +21,6 @@ bool Due(Duration now, double rate_hz, std::int64_t& count) {
 
 }  // namespace
 
-void LidarConfig::Validate() const {
-  AUTODRIVE_THROW_UNLESS(range_min_m < range_max_m, "range_min_m " << range_min_m
-                                                                   << " must be below range_max_m "
-                                                                   << range_max_m);
-}
-
 void SensorReadings::Clear() {
   feedback.reset();
   encoders.reset();

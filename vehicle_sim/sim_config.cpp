@@ -203,4 +203,27 @@ std::vector<RigidTransform2> SpawnPoses(const SimConfig& sim, const maps::Map& m
   return poses;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Checks of configuration types declared with their users (sensors.h, raycast.h), kept here with
+// the loader so that a city's simulator section loads without the simulator (the launcher and
+// the dashboard link autodrive::vehicle_sim_config alone).
+
+void LidarConfig::Validate() const {
+  AUTODRIVE_THROW_UNLESS(range_min_m < range_max_m, "range_min_m " << range_min_m
+                                                                   << " must be below range_max_m "
+                                                                   << range_max_m);
+}
+
+void StaticSceneOptions::Validate() const {
+  const auto check = [](double v, double lo, double hi, const char* name) {
+    AUTODRIVE_THROW_UNLESS(v >= lo && v <= hi, "StaticSceneOptions: " << name << " must be in ["
+                                                                      << lo << ", " << hi
+                                                                      << "], got " << v);
+  };
+  check(cell_size_m, 0.01, 10.0, "cell_size_m");
+  check(pole_radius_m, 0.001, 1.0, "pole_radius_m");
+  check(signal_head_height_m, 0.0, 10.0, "signal_head_height_m");
+  check(sign_height_m, 0.0, 10.0, "sign_height_m");
+}
+
 }  // namespace autodrive::vehicle_sim
