@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cstdint>
 #include <limits>
+#include <random>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -92,6 +93,14 @@ std::string SignalHeadName(SignalHeadId id) {
 
 SignalHeadId ParseSignalHeadName(std::string_view name) {
   return SignalHeadId(ParseIndexedName(name, kSignalHeadNamePrefix, "ParseSignalHeadName"));
+}
+
+std::string RandomToken() {
+  std::random_device random;
+  static_assert(sizeof(std::random_device::result_type) >= 4);
+  std::string out;
+  for (int i = 0; i < 4; ++i) out += fmt::format("{:08x}", random() & 0xffffffffu);
+  return out;
 }
 
 }  // namespace autodrive

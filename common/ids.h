@@ -145,6 +145,10 @@ inline constexpr std::string_view kSignalHeadNamePrefix = "signal_";
 /// @throws InputError with the text seen if the name is not of that form.
 [[nodiscard]] SignalHeadId ParseSignalHeadName(std::string_view name);
 
+/// A secret that names nobody: 128 bits from `std::random_device` as 32 lower-case hex digits
+/// (an operator's dashboard token, a session's id).
+[[nodiscard]] std::string RandomToken();
+
 }  // namespace autodrive
 
 /// Hashes an id as its value, so ids are keys of unordered containers.

@@ -189,5 +189,16 @@ TEST(ParseSignalHeadName, RejectsEverythingElseNamingTheText) {
   }
 }
 
+TEST(RandomToken, Is32HexDigitsAndNeverTheSameTwice) {
+  std::set<std::string> seen;
+  for (int i = 0; i < 1000; ++i) {
+    const std::string t = RandomToken();
+    ASSERT_EQ(t.size(), 32u) << t;
+    EXPECT_EQ(t.find_first_not_of("0123456789abcdef"), std::string::npos) << t;
+    seen.insert(t);
+  }
+  EXPECT_EQ(seen.size(), 1000u);
+}
+
 }  // namespace
 }  // namespace autodrive

@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
-#include <random>
 #include <set>
 #include <sstream>
 
@@ -241,13 +240,6 @@ std::optional<std::string> Tokens::Find(std::string_view token) const {
     if (SameSecret(token, secret) && !found) found = name;
   }
   return found;
-}
-
-std::string NewToken() {
-  std::random_device random;
-  std::string out;
-  for (int i = 0; i < 4; ++i) out += fmt::format("{:08x}", random());
-  return out;
 }
 
 // --- Cameras ------------------------------------------------------------------------------------

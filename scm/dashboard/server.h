@@ -53,9 +53,6 @@ class Tokens {
   std::vector<std::pair<std::string, std::string>> entries_;  ///< (name, token)
 };
 
-/// A new random token (32 hex digits from the system's random source).
-[[nodiscard]] std::string NewToken();
-
 /// A camera the page can show.
 struct CameraSource {
   std::string name;   ///< in the URL: /camera/NAME.mjpg

@@ -11,7 +11,6 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <string>
 #include <thread>
 
@@ -20,6 +19,7 @@
 
 #include "common/dds/participant.h"
 #include "common/error.h"
+#include "common/ids.h"
 #include "common/logging.h"
 #include "common/process.h"
 #include "common/shutdown.h"
@@ -68,9 +68,7 @@ std::optional<pid_t> RunningLauncher(const std::filesystem::path& run_dir) {
 void MakeTokens(const LaunchPlan::Dashboard& d) {
   if (std::filesystem::exists(d.tokens) || d.operator_name.empty()) return;
   std::filesystem::create_directories(d.tokens.parent_path());
-  std::random_device random;
-  std::string token;
-  for (int i = 0; i < 4; ++i) token += fmt::format("{:08x}", random());
+  const std::string token = RandomToken();
   const int fd = ::open(d.tokens.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
   if (fd < 0) throw InputError(fmt::format("{}: cannot create the tokens file", d.tokens.string()));
   const std::string line =
