@@ -100,8 +100,9 @@ TEST_F(TrafficSystem, SumoCarsCallActuatedGroupsNeverCrossOnRedAndStopAtAFlashin
   // wall, so this test's read lag (a `scmctl` call, a busy machine) of 50 ms would move a lamp
   // change by 0.3 simulated seconds, and a car that entered on an early green would count as
   // entering on red. Flash is kept apart from steady red (as `-mode`).
+  // Deep: the 14 devices report ten times a second, and nothing is read during a `scmctl` call.
   dds::Reader<msg::DeviceStatus> devices(*participant_, dds::topics::Devices().name,
-                                         dds::Qos::Stream(256));
+                                         dds::Qos::Stream(8192));
   std::map<int, LampHistory> history;
   StartInfra("small_town", {"--clock", "sim"});
   StartScm(city, {"--clock", "sim"});
