@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <memory>
@@ -19,6 +20,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "common/config.h"
@@ -93,7 +95,9 @@ TEST_F(TrafficSystem, SumoCarsCallActuatedGroupsNeverCrossOnRedAndStopAtAFlashin
   const maps::Map map = maps::LoadMapOrLayout(Config("config/maps/small_town.yaml"));
   dds::Reader<msg::TrafficObjects> traffic(*participant_, dds::topics::Traffic().name,
                                            dds::Qos::Stream(64));
-  dds::Reader<msg::Clock> clock(*participant_, dds::topics::Clock());
+  // Every /clock kept (it places the lamps' samples in time, below), also through a `scmctl` call.
+  dds::Reader<msg::Clock> clock(*participant_, dds::topics::Clock().name,
+                                dds::Qos::BestEffortStream(8192));
   // The lamps each light showed, from its own reports (`DeviceStatus`: the aspect it shows,
   // stamped by the light with the simulated time at which it showed it). Not `signal_<i>/state`
   // timed by when this test reads it: in lockstep the clock runs about six times faster than the
@@ -104,6 +108,15 @@ TEST_F(TrafficSystem, SumoCarsCallActuatedGroupsNeverCrossOnRedAndStopAtAFlashin
   dds::Reader<msg::DeviceStatus> devices(*participant_, dds::topics::Devices().name,
                                          dds::Qos::Stream(8192));
   std::map<int, LampHistory> history;
+  // And `signal_<i>/state` itself, each sample with its DDS source time (wall clock, this host),
+  // placed in simulated time through /clock's own source times: the reports above must agree.
+  std::map<int, std::unique_ptr<dds::Reader<msg::Int32>>> lamps;
+  for (const maps::SignalHead& h : map.signal_heads) {
+    lamps[static_cast<int>(h.id.value())] =
+        std::make_unique<dds::Reader<msg::Int32>>(*participant_, dds::topics::SignalState(h.id));
+  }
+  std::vector<std::pair<std::int64_t, double>> clock_at;   // (source ns, simulated s)
+  std::vector<std::tuple<int, std::int64_t, int>> states;  // (head, source ns, lamp)
   StartInfra("small_town", {"--clock", "sim"});
   StartScm(city, {"--clock", "sim"});
   // Ten simulated minutes in lockstep with the traffic as the controller.
@@ -126,8 +139,18 @@ TEST_F(TrafficSystem, SumoCarsCallActuatedGroupsNeverCrossOnRedAndStopAtAFlashin
   bool ended = false;
   while (SteadyClock::now() < deadline && !ended) {
     traffic.WaitForData(std::chrono::milliseconds(5));
-    while (auto c = clock.TakeOne())
-      now = std::max(now, ToSeconds(dds::FromMsg((*c)->clock) - Time{}));
+    dds::Message<msg::Clock> c;
+    dds::SampleInfo info;
+    while (clock.TakeOne(c, &info)) {
+      const double t = ToSeconds(dds::FromMsg(c->clock) - Time{});
+      now = std::max(now, t);
+      clock_at.emplace_back(info.source_timestamp_ns, t);
+    }
+    for (auto& [head, reader] : lamps) {
+      dds::Message<msg::Int32> m;
+      while (reader->TakeOne(m, &info))
+        states.emplace_back(head, info.source_timestamp_ns, m->data);
+    }
     while (auto d = devices.TakeOne()) {
       const std::string id(dds::View((*d)->device_id));
       if (id.rfind("signal_", 0) != 0) continue;
@@ -167,6 +190,39 @@ TEST_F(TrafficSystem, SumoCarsCallActuatedGroupsNeverCrossOnRedAndStopAtAFlashin
     ended = sim.Wait(std::chrono::milliseconds(0)).has_value();
   }
   ASSERT_TRUE(ended) << "the simulator did not finish 600 simulated seconds in 12 minutes";
+
+  // Every steady lamp `signal_<i>/state` showed (outside flash) is in the light's stamped
+  // reports, at most a second of simulated time before the last /clock sent before the state
+  // was written (the light's clock lags what was sent by /clock's delivery, never leads it; a
+  // /clock lost on its way here places a state up to a step early).
+  std::sort(clock_at.begin(), clock_at.end());
+  int states_checked = 0, states_unmatched = 0;
+  double worst_lag = 0;
+  for (const auto& [head, source_ns, lamp] : states) {
+    const auto after =
+        std::upper_bound(clock_at.begin(), clock_at.end(),
+                         std::make_pair(source_ns, std::numeric_limits<double>::infinity()));
+    if (after == clock_at.begin() || lamp < 1 || lamp > 3) continue;
+    const double t = std::prev(after)->second;
+    const LampHistory& h = history[head];
+    const auto steady = [](int l) { return l >= 1 && l <= 3; };  // not flashing, dark, off
+    if (t < 15 || !steady(LampAt(h, t)) || !steady(LampAt(h, t - 1.0))) continue;
+    ++states_checked;
+    std::optional<double> reported;  // the latest report of that lamp in the window
+    for (const auto& [since, l] : h) {
+      if (l == lamp && since <= t + 0.2 && since >= t - 1.0) reported = since;
+    }
+    if (reported) {
+      worst_lag = std::max(worst_lag, t - *reported);
+    } else {
+      ++states_unmatched;
+      ADD_FAILURE() << "signal_" << head << "/state showed " << lamp << " at about " << t
+                    << " s: not in its reports";
+    }
+  }
+  std::printf("signal_<i>/state: %d steady lamps, %d not in the lights' reports (lag <= %.2f s)\n",
+              states_checked, states_unmatched, worst_lag);
+  EXPECT_GT(states_checked, 100);
   EXPECT_EQ(cosim.Wait(seconds(30)), 0) << "autodrive-traffic saw a collision, a teleport or a "
                                            "vehicle lost (its exit code)";
   ASSERT_GT(flash_at, 0);
