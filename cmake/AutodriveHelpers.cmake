@@ -59,9 +59,11 @@ function(autodrive_program name)
 endfunction()
 
 # autodrive_test(NAME SOURCES ... [DEPS ...] [LABELS ...] [TIMEOUT s] [ENVIRONMENT ...]
-#                [COMPONENT c] [RESOURCE_LOCK name])
+#                [COMPONENT c] [RESOURCE_LOCK name] [COST s])
 # RESOURCE_LOCK: CTest never runs two cases holding the same lock at once (other tests still
 # run beside them).
+# COST: about how long a case takes (seconds). CTest starts the costliest cases first, so that a
+# run on a fresh clone (no timings of earlier runs yet) does not end with one long case alone.
 # A GoogleTest program whose test cases CTest runs one by one, as `NAME.Suite.Case`
 # (gtest_discover_tests in PRE_TEST mode: the program is asked for its cases when ctest runs,
 # so discovery costs the build nothing). Every case gets:
@@ -71,13 +73,16 @@ endfunction()
 #   TIMEOUT      seconds per case (default 120)
 #   ENVIRONMENT  AUTODRIVE_TEST_ENVIRONMENT (loopback-only DDS configuration, source and build
 #                folders, sanitizer options) and the given entries
+# The program's own sources compile at -O1 in RelWithDebInfo and Release (the libraries it tests
+# keep the build type's optimisation).
 # The program joins the custom target autodrive_<component>_tests, which builds a component's
 # tests (and, through their add_dependencies, the programs they run).
 function(autodrive_test name)
   if(NOT AUTODRIVE_BUILD_TESTS)
     return()
   endif()
-  cmake_parse_arguments(ARG "" "TIMEOUT;COMPONENT;RESOURCE_LOCK" "SOURCES;DEPS;LABELS;ENVIRONMENT"
+  cmake_parse_arguments(ARG "" "TIMEOUT;COMPONENT;RESOURCE_LOCK;COST"
+    "SOURCES;DEPS;LABELS;ENVIRONMENT"
     ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
@@ -91,6 +96,9 @@ function(autodrive_test name)
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
   autodrive_apply_build_flags(${name})
+  # The test's own files at -O1 in an optimised build: the code under test is in the libraries,
+  # compiled as the build type says; GoogleTest's and the test's code compile in a fifth less.
+  target_compile_options(${name} PRIVATE $<$<CONFIG:RelWithDebInfo,Release>:-O1>)
   autodrive_add_to_component(${name} ${ARG_COMPONENT})
 
   # ${name}_CASES lists the cases' full CTest names. The properties are set by a script of our own that CTest reads after the discovered cases
@@ -104,9 +112,12 @@ function(autodrive_test name)
     DISCOVERY_TIMEOUT 120)
   set(labels ${ARG_LABELS} ${ARG_COMPONENT})
   set(environment ${AUTODRIVE_TEST_ENVIRONMENT} ${ARG_ENVIRONMENT})
-  set(lock_line "")
+  set(extra_properties "")
   if(ARG_RESOURCE_LOCK)
-    set(lock_line "      RESOURCE_LOCK [==[${ARG_RESOURCE_LOCK}]==]\n")
+    set(extra_properties "      RESOURCE_LOCK [==[${ARG_RESOURCE_LOCK}]==]\n")
+  endif()
+  if(ARG_COST)
+    string(APPEND extra_properties "      COST ${ARG_COST}\n")
   endif()
   set(properties_file "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")
   file(WRITE "${properties_file}"
@@ -116,7 +127,7 @@ function(autodrive_test name)
        "    set_tests_properties(\"\${autodrive_case}\" PROPERTIES\n"
        "      LABELS [==[${labels}]==]\n"
        "      TIMEOUT ${ARG_TIMEOUT}\n"
-       "${lock_line}"
+       "${extra_properties}"
        "      ENVIRONMENT [==[${environment}]==])\n"
        "  endforeach()\n"
        "endif()\n")

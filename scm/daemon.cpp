@@ -48,9 +48,8 @@ constexpr std::size_t kMaxDetailBytes = 1024;
 // Topics of operators the city does not allow that are still answered (with a refusal).
 constexpr std::size_t kMaxStrangerOperators = 32;
 
-// SPaT is filled this many intersections at a time (about 0.1 ms on a lab PC), looking for
-// waiting requests in between; when one waits, up to kRequestsBeforeSpat are answered first.
-constexpr std::size_t kSpatSlice = 128;
+// When a request waits between two slices of SPaT (ScmOptions::spat_slice), up to this many are
+// answered first.
 constexpr std::size_t kRequestsBeforeSpat = 4;
 
 constexpr std::string_view kOperatorTopicPrefix = "rt/autodrive/scm/operator/";
@@ -483,7 +482,7 @@ bool Scm::Impl::RequestWaiting() const {
 
 bool Scm::Impl::PublishSpatUnlessAsked(const CityBundle& c, const ClockReading& now) {
   publishers->StartSpat(now);
-  while (!publishers->FillSpat(*c.runtime, kSpatSlice)) {
+  while (!publishers->FillSpat(*c.runtime, std::max<std::size_t>(options.spat_slice, 1))) {
     if (!spat_gave_way && RequestWaiting()) {
       spat_gave_way = true;
       requests_before_spat = kRequestsBeforeSpat;

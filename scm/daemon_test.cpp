@@ -455,14 +455,15 @@ TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {
 }
 
 TEST_F(DaemonTest, RequestsWaitingWhenSpatIsDueAreAnsweredFirstButOnlyAFew) {
-  // 12 x 12 intersections: SPaT is filled in slices (128 intersections each), and the loop
-  // looks for waiting requests between them.
+  // 3 x 3 intersections: SPaT is filled in slices (4 intersections each here, 128 by default),
+  // and the loop looks for waiting requests between them.
   TestTime time;
   WallClock clock(time.Sources());
-  ScmOptions options = Options(bench::WriteGridCity(12, dir_, "lab"));
+  ScmOptions options = Options(bench::WriteGridCity(3, dir_, "lab"));
   options.config_root = dir_;
+  options.spat_slice = 4;
   Scm scm(options, clock, *participant_);
-  ASSERT_GT(scm.runtime().intersections().size(), 128u);
+  ASSERT_GT(scm.runtime().intersections().size(), options.spat_slice);
   dds::Reader<msg::OperatorReply> replies(*participant_, dds::topics::OperatorReplies().name,
                                           dds::Qos::Stream(64));
   dds::Writer<msg::OperatorRequest> requests(*participant_, dds::topics::OperatorRequests());

@@ -358,14 +358,18 @@ TEST_F(ScmGuard, HostileRequestsAreRefusedCountedAndTheRatesKept) {
   ExpectRatesKept("hostile requests", 0.15, 0.3);
 }
 
-// Every scmctl run gets its answer: 10,000 commands (AUTODRIVE_SCMCTL_COMMANDS to change it)
-// from 8 scmctl processes at a time, read-only and state-changing, against a running city.
-TEST_F(ScmGuard, TenThousandScmctlCommandsGetTenThousandAnswers) {
+// Every scmctl run gets its answer: 4,000 commands (AUTODRIVE_SCMCTL_COMMANDS to change it;
+// 10,000 passed by hand) from 8 scmctl processes at a time, read-only and state-changing,
+// against a running city. The race this guards against lost 4 answers in 2,600 commands; at
+// that rate 4,000 commands would miss one with a probability of 99.8%. Each scmctl costs this
+// machine about 30 ms of CPU (a process, a DDS participant, discovery by every other one), so
+// 10,000 took 325 s of CPU, both cores for three minutes of every CI run.
+TEST_F(ScmGuard, EveryScmctlCommandGetsAnAnswer) {
   StartInfra();
   StartScm();
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   const char* env = std::getenv("AUTODRIVE_SCMCTL_COMMANDS");
-  const int total = env != nullptr ? std::atoi(env) : 10'000;
+  const int total = env != nullptr ? std::atoi(env) : 4'000;
   const std::vector<std::vector<std::string>> commands = {
       {"status"},
       {"show", "driving_school_crossing"},
