@@ -94,6 +94,11 @@ bool FullyVisible(const camera::Camera& cam, const Truth& t) {
 
 class EyeEndToEnd : public ::testing::Test {
  protected:
+  // The cameras' frame rate, and the Eye's for the files (which carry no times). 15 Hz gives the
+  // figures of 30 Hz (2026-11-27: 0.54 against 0.52 mm RMS straight down, 100% of the fully
+  // visible frames in both) in half the time.
+  static constexpr double kRateHz = 15.0;
+
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     dir_ =
@@ -110,12 +115,14 @@ class EyeEndToEnd : public ::testing::Test {
     std::string sim_cameras, eye_cameras;
     for (const SequenceCamera& c : s.cameras) {
       sim_cameras += fmt::format(
-          "    - name: {}\n      rate_hz: 30\n      lens: {}\n      mount: {}\n"
+          "    - name: {}\n      rate_hz: {}\n      lens: {}\n      mount: {}\n"
           "      film: {{noise_sigma: 3.0, blur_sigma_px: 0.5, exposure_time_s: 0.005}}\n",
-          c.name, c.lens, c.mount);
+          c.name, kRateHz, c.lens, c.mount);
+      // The files carry no times: the Eye stamps them index / rate_hz.
       const auto set = dir_ / c.name;
-      eye_cameras += fmt::format("    - {{name: {}, source: \"images:{}\", calibration: {}}}\n",
-                                 c.name, set.string(), (set / "camera.yaml").string());
+      eye_cameras +=
+          fmt::format("    - {{name: {}, source: \"images:{}\", calibration: {}, rate_hz: {}}}\n",
+                      c.name, set.string(), (set / "camera.yaml").string(), kRateHz);
     }
     const std::vector<std::array<double, 3>> tags{{100, 0.5, 0.5}, {101, 4.5, 4.5},
                                                   {102, 4.5, 0.5}, {103, 0.5, 4.5},
