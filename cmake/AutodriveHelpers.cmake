@@ -82,8 +82,7 @@ function(autodrive_test name)
     return()
   endif()
   cmake_parse_arguments(ARG "" "TIMEOUT;COMPONENT;RESOURCE_LOCK;COST"
-    "SOURCES;DEPS;LABELS;ENVIRONMENT"
-    ${ARGN})
+    "SOURCES;DEPS;LABELS;ENVIRONMENT" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()

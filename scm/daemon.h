@@ -42,6 +42,7 @@ struct ScmOptions {
   std::size_t max_requests_per_pass = 32;
   /// SPaT is filled this many intersections at a time (about 0.1 ms on a lab PC for 128), and
   /// the loop looks for waiting requests in between; when one waits, a few are answered first.
+  /// 0 is taken as 1.
   std::size_t spat_slice = 128;
 };
 

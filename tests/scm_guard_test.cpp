@@ -360,10 +360,10 @@ TEST_F(ScmGuard, HostileRequestsAreRefusedCountedAndTheRatesKept) {
 
 // Every scmctl run gets its answer: 4,000 commands (AUTODRIVE_SCMCTL_COMMANDS to change it;
 // 10,000 passed by hand) from 8 scmctl processes at a time, read-only and state-changing,
-// against a running city. The race this guards against lost 4 answers in 2,600 commands; at
-// that rate 4,000 commands would miss one with a probability of 99.8%. Each scmctl costs this
-// machine about 30 ms of CPU (a process, a DDS participant, discovery by every other one), so
-// 10,000 took 325 s of CPU, both cores for three minutes of every CI run.
+// against a running city. The race this guards against lost 4 answers in 2,600 commands; were
+// it back at that rate, 4,000 commands would lose at least one (and fail) with a probability
+// of 99.8%. Each scmctl costs this machine about 30 ms of CPU (a process, a DDS participant,
+// discovery by every other one), so 10,000 took 325 s of CPU, both cores for three minutes.
 TEST_F(ScmGuard, EveryScmctlCommandGetsAnAnswer) {
   StartInfra();
   StartScm();
