@@ -84,7 +84,8 @@ TrafficLightDevice::TrafficLightDevice(const DeviceParams& params, MonoTime now)
 }
 
 void TrafficLightDevice::OnHeartbeat(const ScmHeartbeat& heartbeat, MonoTime now) {
-  last_scm_sequence_ = heartbeat.sequence_number;
+  last_scm_sequence_ = heartbeat.sequence_number;  // not in `revision_`: the host reports it
+  const bool was_alive = alive_;
   switch (heartbeat.state) {
     case ScmState::kStarting:
       break;  // not running yet: does not keep the device out of flash
@@ -104,9 +105,11 @@ void TrafficLightDevice::OnHeartbeat(const ScmHeartbeat& heartbeat, MonoTime now
       EnterFailSafe(std::string(kScmStopped), now);
       break;
   }
+  if (alive_ != was_alive) ++revision_;
 }
 
 void TrafficLightDevice::OnCommand(std::int32_t wire_value, MonoTime now) {
+  ++revision_;
   const std::optional<Aspect> aspect = AspectFromWire(wire_value);
   if (!aspect) {
     ++malformed_commands_;
@@ -136,12 +139,17 @@ void TrafficLightDevice::OnCommand(std::int32_t wire_value, MonoTime now) {
 void TrafficLightDevice::Update(MonoTime now) {
   if (alive_ && now - last_running_ > params_.scm_heartbeat_timeout) {
     alive_ = false;
+    ++revision_;
     EnterFailSafe(std::string(kLostHeartbeat), now);
   }
   TryLeaveFailSafe(now);
 }
 
 void TrafficLightDevice::OnFeedback(const LampFeedback& feedback) {
+  if (feedback.online != online_ || feedback.offline_reason != offline_reason_ ||
+      (feedback.online && feedback.faults != faults_)) {
+    ++revision_;
+  }
   if (feedback.online != online_) {
     if (feedback.online) {
       Raise(Severity::kAlarm, "device_offline", name_ + " is back online", false);
@@ -164,12 +172,14 @@ void TrafficLightDevice::OnFeedback(const LampFeedback& feedback) {
 }
 
 void TrafficLightDevice::ForceFlash(const std::string& reason, MonoTime now) {
+  ++revision_;
   forced_ = reason;
   Show(Aspect::kFlashingRed, now);
 }
 
 void TrafficLightDevice::ReleaseForce(MonoTime now) {
   if (!forced_) return;
+  ++revision_;
   forced_.reset();
   if (!fail_safe_) fail_safe_ = std::string(kMonitorReset);
   needs_fresh_command_ = true;
@@ -178,6 +188,7 @@ void TrafficLightDevice::ReleaseForce(MonoTime now) {
 }
 
 void TrafficLightDevice::Restart(const std::string& reason, MonoTime now) {
+  ++revision_;
   alive_ = false;
   session_.reset();
   last_running_ = now;
@@ -259,11 +270,13 @@ std::vector<DeviceEvent> TrafficLightDevice::TakeEvents() { return std::exchange
 
 void TrafficLightDevice::Show(Aspect aspect, MonoTime now) {
   if (aspect == shown_) return;  // a flashing aspect keeps its phase
+  ++revision_;
   shown_ = aspect;
   flash_start_ = now;
 }
 
 void TrafficLightDevice::EnterFailSafe(const std::string& reason, MonoTime now) {
+  ++revision_;
   fail_safe_ = reason;
   needs_fresh_command_ = true;
   command_usable_ = false;
@@ -277,6 +290,7 @@ void TrafficLightDevice::EnterFailSafe(const std::string& reason, MonoTime now) 
 void TrafficLightDevice::TryLeaveFailSafe(MonoTime now) {
   if (!fail_safe_ || forced_ || !alive_ || !command_ || !command_usable_) return;
   if (!IsLegalTransition(Aspect::kFlashingRed, *command_)) return;
+  ++revision_;
   fail_safe_.reset();
   refusal_.reset();
   Show(*command_, now);
@@ -289,6 +303,7 @@ void TrafficLightDevice::TryLeaveFailSafe(MonoTime now) {
 
 void TrafficLightDevice::Raise(Severity severity, std::string code, std::string message,
                                bool active) {
+  ++revision_;
   events_.push_back(DeviceEvent{severity, std::move(code), std::move(message), active});
 }
 

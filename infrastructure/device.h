@@ -159,6 +159,11 @@ class TrafficLightDevice {
   [[nodiscard]] const std::string& name() const { return name_; }
   /// The head's id.
   [[nodiscard]] SignalHeadId id() const { return params_.id; }
+  /// A number that changes whenever anything the accessors above report may have changed
+  /// (aspect, lamps, mode, health, detail, events), except the heartbeat's sequence number and
+  /// the passing of time (`NextChange` says when that matters): a host of many heads skips
+  /// those whose revision and deadlines did not move.
+  [[nodiscard]] std::uint64_t revision() const { return revision_; }
 
  private:
   void Show(Aspect aspect, MonoTime now);
@@ -195,6 +200,7 @@ class TrafficLightDevice {
   std::uint64_t refused_commands_ = 0;
   std::uint64_t malformed_commands_ = 0;
   std::vector<DeviceEvent> events_;
+  std::uint64_t revision_ = 0;
 };
 
 }  // namespace autodrive::infrastructure

@@ -6,6 +6,7 @@
 #include <deque>
 #include <map>
 #include <random>
+#include <unordered_map>
 #include <utility>
 
 #include "common/dds/conversions.h"
@@ -138,14 +139,27 @@ struct DeviceHost::Head {
   std::optional<std::int32_t> published_state;
   std::optional<StatusKey> published_status;
   MonoTime next_status{};
-  std::vector<Held> held;  // at most kMaxHeldWriters, one per writer participant
+  // What the loop did with the device last: it drives the lamps again when the device's
+  // revision moved, at `next_drive` (a flash edge, a heartbeat time-out), or when the backend
+  // has I/O of its own; it builds the status again when the revision moved or one is due.
+  std::uint64_t driven_revision = ~std::uint64_t{0};
+  MonoTime next_drive = MonoTime::min();
+  std::uint64_t status_revision = ~std::uint64_t{0};
+  bool driven = false;            // in this pass: its monitor looks at it
+  bool commands_waiting = false;  // its reader woke the loop's waitset
+  std::vector<Held> held;         // at most kMaxHeldWriters, one per writer participant
   std::uint64_t foreign_commands = 0;
   ReportLimiter foreign_reports;
 };
 
 struct DeviceHost::Monitor {
   Monitor(ConflictMonitor m, std::vector<Head*> h, BackendKind b, MonoTime now)
-      : monitor(std::move(m)), heads(std::move(h)), backend(b), next_status(now) {}
+      : monitor(std::move(m)),
+        heads(std::move(h)),
+        backend(b),
+        next_status(now),
+        watching("watching " + std::to_string(monitor.heads().size()) + " heads, " +
+                 std::to_string(monitor.conflicts().size()) + " conflicting pairs") {}
 
   ConflictMonitor monitor;
   std::vector<Head*> heads;
@@ -153,6 +167,7 @@ struct DeviceHost::Monitor {
   std::unique_ptr<dds::Writer<msg::DeviceStatus>> status;
   std::optional<StatusKey> published_status;
   MonoTime next_status{};
+  std::string watching;  // its status detail while not latched
   // The last device command carried out, and the SCM that sent it.
   std::uint64_t last_command_id = 0;
   std::optional<ScmId> last_command_scm;
@@ -325,27 +340,21 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
   // when /clock reaches the next deadline.
   dds::LoopWaitSet waitset(dds_->participant, pace);
   waitset.Attach(dds_->heartbeats);
-  std::size_t attached = 1;
-  if (dds_->device_commands) {
-    waitset.Attach(*dds_->device_commands);
-    ++attached;
-  }
-  std::size_t polled = 0;
+  if (dds_->device_commands) waitset.Attach(*dds_->device_commands);
+  std::unordered_map<dds_entity_t, Head*> by_reader;
+  by_reader.reserve(heads_.size());
   for (const auto& h : heads_) {
-    if (attached < kMaxWaitedReaders) {
-      waitset.Attach(*h->commands);
-      ++attached;
-    } else {
-      ++polled;  // taken at every pass all the same, at the latest kTickPeriod later
-    }
+    waitset.Attach(*h->commands);
+    by_reader.emplace(h->commands->handle(), h.get());
   }
-  if (polled > 0) {
-    spdlog::warn(
-        "{}: the commands of {} of its {} heads wake the loop; the other {} are taken "
-        "at least every {} ms",
-        source_, heads_.size() - polled, heads_.size(), polled,
-        std::chrono::duration_cast<std::chrono::milliseconds>(kTickPeriod).count());
-  }
+  // The first pass, and one after a failure, takes every reader; the others only those that
+  // woke the waitset (a reader left with data wakes it again at once).
+  bool all_commands = true;
+  // Backends with I/O of their own are served every tick; without them, data and deadlines
+  // alone wake the loop.
+  const bool polled = std::any_of(heads_.begin(), heads_.end(),
+                                  [](const auto& h) { return h->backend->NeedsPoll(); });
+  const Duration cap = polled ? kTickPeriod : kIdleWait;
   const bool separate = &clock != &pace;
   if (separate) clock.SetWaker([&waitset] { waitset.Wake(); });
   std::uint64_t failures = 0;
@@ -359,21 +368,28 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
   };
   while (!clock.interrupted() && !pace.interrupted()) {
     const ClockReading now = clock.Read();
-    MonoTime next = now.mono + kTickPeriod;
+    MonoTime next = now.mono + cap;
     try {
-      Step(now);
+      Pass(now, all_commands);
+      all_commands = false;
       next = NextDeadline(now);
     } catch (const std::exception& e) {
+      all_commands = true;
       failed("a pass", e);
     }
     try {
       if (separate) {
         clock.WakeAt(next);
-        (void)waitset.WaitUntil(pace.Monotonic() + kTickPeriod);
+        (void)waitset.WaitUntil(pace.Monotonic() + cap);
       } else {
-        (void)waitset.WaitUntil(std::min(next, now.mono + kTickPeriod));
+        (void)waitset.WaitUntil(std::min(next, now.mono + cap));
+      }
+      for (const dds_attach_t reader : waitset.triggered()) {
+        const auto it = by_reader.find(static_cast<dds_entity_t>(reader));
+        if (it != by_reader.end()) it->second->commands_waiting = true;
       }
     } catch (const std::exception& e) {
+      all_commands = true;
       failed("waiting", e);
     }
   }
@@ -395,17 +411,23 @@ MonoTime DeviceHost::NextDeadline(const ClockReading& now) const {
   return std::max(next, now.mono + std::chrono::milliseconds(1));
 }
 
-void DeviceHost::Step(const ClockReading& now) {
+void DeviceHost::Step(const ClockReading& now) { Pass(now, /*all_commands=*/true); }
+
+void DeviceHost::Pass(const ClockReading& now, bool all_commands) {
   if (stopped_) return;
   if (now.session != clock_session_) RestartTimeBase(now);
   // Heartbeats first (who the SCM is), then device commands (a reset releases the heads), then
   // light commands (a red taken in the same pass as the reset ends the heads' flash).
   TakeHeartbeats(now);
   TakeDeviceCommands(now);
-  TakeCommands(now);
+  TakeCommands(now, all_commands);
   for (auto& h : heads_) {
+    h->driven = false;
     h->device.Update(now.mono);
-    DriveLamps(*h, now);
+    if (h->device.revision() != h->driven_revision || now.mono >= h->next_drive ||
+        h->backend->NeedsPoll()) {
+      DriveLamps(*h, now);
+    }
   }
   CheckMonitors(now);
   for (auto& h : heads_) {
@@ -634,10 +656,12 @@ void DeviceHost::ReportIgnoredDeviceCommand(const ClockReading& now, const std::
                0, "", true);
 }
 
-void DeviceHost::TakeCommands(const ClockReading& now) {
+void DeviceHost::TakeCommands(const ClockReading& now, bool all_commands) {
   dds::Message<msg::Int32> m;
   dds::SampleInfo info;
   for (auto& h : heads_) {
+    if (!all_commands && !h->commands_waiting) continue;
+    h->commands_waiting = false;
     while (h->commands->TakeOne(m, &info)) {
       ++counters_.commands;
       const std::optional<dds::ParticipantKey> writer = dds_->writers.Find(*h->commands, info);
@@ -705,10 +729,22 @@ void DeviceHost::DriveLamps(Head& head, const ClockReading& now) {
   } else {
     head.lamps.reset();
   }
+  ++counters_.heads_driven;
+  head.driven = true;
+  head.driven_revision = head.device.revision();
+  head.next_drive = head.device.NextChange(now.mono);
 }
 
 void DeviceHost::CheckMonitors(const ClockReading& now) {
   for (auto& mon : monitors_) {
+    // Lamps not driven in this pass are as observed last; then only a latch can come, at its
+    // instant.
+    const bool observe =
+        std::any_of(mon->heads.begin(), mon->heads.end(), [](const Head* h) { return h->driven; });
+    if (!observe) {
+      const std::optional<MonoTime> latch = mon->monitor.NextLatch();
+      if (!latch || now.mono < *latch) continue;
+    }
     for (const Head* h : mon->heads) mon->monitor.Observe(h->plan.id, h->lamps, now.mono);
     const std::optional<MonitorLatch> latch = mon->monitor.Update(now.mono);
     if (!latch) continue;
@@ -754,10 +790,12 @@ void DeviceHost::PublishStates() {
 }
 
 void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
+  // A periodic status goes out with any pass in the last tenth of its period.
+  const Duration slack = config_.status_period_s / 10;
   const auto publish = [&](dds::Writer<msg::DeviceStatus>& writer, const std::string& device_id,
                            BackendKind backend, const StatusKey& key,
                            std::optional<StatusKey>& published, MonoTime& next) {
-    if (!stopping && published == key && now.mono < next) return;
+    if (!stopping && published == key && now.mono < next - slack) return;  // nothing new
     next = now.mono + config_.status_period_s;
     dds::Message<msg::DeviceStatus> s;
     s->header.stamp = dds::ToMsg(now.wire);
@@ -776,6 +814,12 @@ void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
     if (TryWrite(writer, s, counters_)) published = key;
   };
   for (auto& h : heads_) {
+    // Unchanged since its status was last built and not due: nothing to build (the detail is
+    // a string).
+    if (!stopping && h->device.revision() == h->status_revision &&
+        now.mono < h->next_status - slack) {
+      continue;
+    }
     StatusKey key{h->device.health(), h->device.mode(), ToWire(h->device.aspect()),
                   h->device.detail(), 0};
     if (stopping) {
@@ -784,20 +828,29 @@ void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
     }
     publish(*h->status, h->device.name(), h->backend->kind(), key, h->published_status,
             h->next_status);
+    // A failed write is tried again next pass (`published_status` is still the old key).
+    if (h->published_status == key) h->status_revision = h->device.revision();
   }
   for (auto& mon : monitors_) {
     const auto& m = mon->monitor;
+    const Health health = m.latched() ? Health::kFault : Health::kOk;
+    const std::uint64_t command_id =
+        mon->last_command_scm && mon->last_command_scm == last_scm_ ? mon->last_command_id : 0;
+    // Nothing changed (a new latch needs a reset first, which changes the command id) and
+    // not due: nothing to build.
+    if (!stopping && now.mono < mon->next_status - slack && mon->published_status &&
+        mon->published_status->health == health &&
+        mon->published_status->last_command_id == command_id) {
+      continue;
+    }
     StatusKey key;
     if (m.latched()) {
       key = StatusKey{Health::kFault, Mode::kFlash, ToWire(Aspect::kFlashingRed),
                       "latched: " + m.latch()->message, 0};
     } else {
-      key = StatusKey{Health::kOk, Mode::kNormal, ToWire(Aspect::kOff),
-                      "watching " + std::to_string(m.heads().size()) + " heads, " +
-                          std::to_string(m.conflicts().size()) + " conflicting pairs",
-                      0};
+      key = StatusKey{Health::kOk, Mode::kNormal, ToWire(Aspect::kOff), mon->watching, 0};
     }
-    key.last_command_id = last_command_id(m.intersection());
+    key.last_command_id = command_id;
     if (stopping) {
       key.health = Health::kOffline;
       key.detail = "device host " + source_ + " stopped";

@@ -54,6 +54,8 @@ struct HostCounters {
   std::uint64_t clock_restarts = 0;            ///< new sessions of the clock (simulator restarts)
   std::uint64_t events_published = 0;          ///< events written
   std::uint64_t publish_failures = 0;          ///< writes that failed (logged, never fatal)
+  std::uint64_t heads_driven = 0;  ///< times a head's lamps were shown and polled: the work of
+                                   ///< the passes, which skip heads with nothing new
 };
 
 /// Hosts the heads of one `autodrive-infra` process on DDS. Single-threaded: `Step` takes what
@@ -81,10 +83,14 @@ struct HostCounters {
 /// pass, heartbeats come first, then device commands, then light commands.
 class DeviceHost {
  public:
-  /// The longest the loop waits between two passes: serial backends are polled at least this
-  /// often (in real time, even while a simulation is paused). Data and the devices' own
-  /// deadlines (flash edges, heartbeat time-outs, statuses) wake it sooner.
+  /// The longest the loop waits between two passes when a head has I/O of its own (a serial
+  /// backend, `LampBackend::NeedsPoll`): such backends are polled at least this often (in real
+  /// time, even while a simulation is paused). Data and the devices' own deadlines (flash
+  /// edges, heartbeat time-outs, statuses) wake it sooner.
   static constexpr Duration kTickPeriod = std::chrono::milliseconds(20);
+  /// The longest the loop waits when no head needs polling: data and the deadlines wake it;
+  /// this only bounds a wait in real time.
+  static constexpr Duration kIdleWait = std::chrono::milliseconds(500);
   /// Reports of one kind ("foreign_command" per head, "device_command_ignored") go out at most
   /// once per this much control time; the ones held back are counted in the next.
   static constexpr Duration kReportPeriod = std::chrono::seconds(10);
@@ -93,10 +99,6 @@ class DeviceHost {
   static constexpr std::size_t kMaxHeldWriters = 8;
   /// Other cities' SCM sessions remembered so that each is reported once.
   static constexpr std::size_t kMaxForeignSessions = 32;
-  /// Readers whose data wakes the loop (the bound of `dds::LoopWaitSet`): the heartbeat and
-  /// device command readers, then the command readers of the first heads. The commands of
-  /// heads beyond it are taken at every pass too, at the latest `kTickPeriod` after they came.
-  static constexpr std::size_t kMaxWaitedReaders = 64;
 
   /// Builds the devices, backends (`make_backend`, default `MakeBackend`) and monitors of
   /// `plan`, and the readers and writers in `participant`, which must outlive the host.
@@ -107,17 +109,24 @@ class DeviceHost {
   DeviceHost& operator=(const DeviceHost&) = delete;
   ~DeviceHost();
 
-  /// One pass at `now`: takes what arrived, updates devices and monitors, drives the lamps,
-  /// publishes. A new clock session in `now` (the simulator restarted) first restarts the
+  /// One pass at `now`: takes what arrived (from every reader), updates devices and monitors,
+  /// drives the lamps, publishes. The work of a pass grows with what changed, not with the
+  /// heads hosted: a head is driven only when its device changed, a deadline of its came, or
+  /// its backend has I/O of its own (`LampBackend::NeedsPoll`); a monitor is checked only when
+  /// one of its heads was driven or its latch is due; a status is built only when due or
+  /// changed. A new clock session in `now` (the simulator restarted) first restarts the
   /// host's time base: heads back to start-up flash, monitors keep their latches but restart
   /// their timers, the followed SCM is forgotten until its next heartbeat. Never throws on bad
   /// input or failed writes (they are logged and counted). Does nothing after `Stop`.
   void Step(const ClockReading& now);
   /// The next instant of the control timeline at which a pass has something to do if no data
   /// arrives: a flash edge, a heartbeat time-out, a monitor reaching its persistence, a status
-  /// or heartbeat due. After `Step(now)`, it is later than `now.mono`.
+  /// or heartbeat due. After `Step(now)`, it is later than `now.mono`. A periodic status goes
+  /// out with any pass in the last tenth of its period (so that thousands of heads' statuses
+  /// share passes rather than each waking the loop); its period's end is the deadline.
   [[nodiscard]] MonoTime NextDeadline(const ClockReading& now) const;
-  /// The loop: `Step`s with the time of `clock`, then waits on a `dds::LoopWaitSet` for data on
+  /// The loop: `Step`s with the time of `clock` (taking commands only from the heads whose
+  /// readers the waitset saw with data), then waits on a `dds::LoopWaitSet` for data on all
   /// its readers (commands, heartbeats, device commands: a command is shown at once),
   /// `NextDeadline` on `clock`, or `kTickPeriod` of `pace`, whichever comes first; until `clock`
   /// or `pace` is interrupted, then `Stop`s. `pace` is a `WallClock` (the lamps' serial links
@@ -161,6 +170,9 @@ class DeviceHost {
   };
   Head& FindHead(SignalHeadId head) const;
   Monitor& FindMonitor(IntersectionId intersection) const;
+  // A pass: `Step`, taking the light commands of every head (`all_commands`) or only of those
+  // whose readers the loop's waitset saw with data.
+  void Pass(const ClockReading& now, bool all_commands);
   void RestartTimeBase(const ClockReading& now);
   [[nodiscard]] bool ScmCurrent(MonoTime now) const;
   void TakeHeartbeats(const ClockReading& now);
@@ -169,7 +181,7 @@ class DeviceHost {
   void CarryOut(Monitor& monitor, const ScmId& scm, std::uint64_t command_id,
                 const std::string& issued_by, std::uint64_t request_id, const ClockReading& now);
   void ReportIgnoredDeviceCommand(const ClockReading& now, const std::string& reason);
-  void TakeCommands(const ClockReading& now);
+  void TakeCommands(const ClockReading& now, bool all_commands);
   void HoldCommand(Head& head, const dds::ParticipantKey& writer, std::int32_t value);
   void ReportForeignCommand(Head& head, const dds::ParticipantKey& writer, std::int32_t value,
                             const ClockReading& now);

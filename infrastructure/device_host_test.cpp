@@ -346,6 +346,46 @@ TEST_F(DeviceHostTest, ABurntOutLampIsReportedAsAFault) {
   EXPECT_TRUE(TickUntil([&] { return status_["signal_1"].health == kOk; }));
 }
 
+TEST_F(DeviceHostTest, APassDrivesOnlyTheHeadsWithSomethingNew) {
+  // A host of thousands of heads must not show and poll every head at every pass.
+  for (const auto& [id, writer] : commands_) Reach(id, {Aspect::kRed});
+  for (int i = 0; i < 10; ++i) Tick();
+  const auto driven = [&] { return host_->counters().heads_driven; };
+  std::uint64_t before = driven();
+  host_->Step(Reading());
+  EXPECT_EQ(driven(), before) << "nothing new, no deadline: no head driven";
+  Beat();
+  Deliver();
+  EXPECT_EQ(driven(), before) << "a heartbeat of the SCM followed changes no head";
+  Command(1, Aspect::kGreen);
+  Deliver();
+  EXPECT_EQ(driven(), before + 1) << "only the commanded head";
+  EXPECT_EQ(backends_[1]->aspect(), Aspect::kGreen);
+  before = driven();
+  backends_[2]->FailLamp(Lamp::kRed);  // not through the device: the backend says it changed
+  host_->Step(Reading());
+  EXPECT_EQ(driven(), before + 1) << "only the head whose backend changed";
+  EXPECT_EQ(host_->device(SignalHeadId(2)).health(), Health::kFault);
+  // The statuses still go out every period, although no head is driven for them.
+  Collect();
+  status_.clear();
+  before = driven();
+  now_ += config_.status_period_s;
+  host_->Step(Reading());
+  ASSERT_TRUE(Settle([&] { return status_.size() >= commands_.size(); }));
+  EXPECT_EQ(driven(), before);
+  EXPECT_EQ(status_["signal_2"].health, kFault);
+  EXPECT_EQ(status_["signal_1"].displayed, ToWire(Aspect::kGreen));
+  // A lost heartbeat is a deadline of every head: each is driven into its fail-safe flash.
+  before = driven();
+  now_ += config_.scm_heartbeat_timeout_s + 1ms;
+  host_->Step(Reading());
+  EXPECT_EQ(driven(), before + commands_.size());
+  for (const auto& [id, writer] : commands_) {
+    EXPECT_TRUE(host_->device(SignalHeadId(id)).in_fail_safe()) << id;
+  }
+}
+
 TEST_F(DeviceHostTest, TheMonitorLatchesOnConflictingGreensAndOnlyTheScmsResetClearsIt) {
   const auto* monitor = host_->monitor(IntersectionId(1));
   ASSERT_NE(monitor, nullptr);

@@ -93,6 +93,11 @@ class LampBackend {
   virtual void Show(Aspect aspect, const Lamps& lamps) = 0;
   /// Does pending I/O and reports what the lamps do now. Never blocks.
   virtual LampFeedback Poll() = 0;
+  /// Whether `Poll` may report something new although nothing new was shown: true for a
+  /// backend with I/O of its own (a serial link), which its host then polls every tick; a
+  /// backend that only reflects what it was shown returns false until something else changes
+  /// it, so that a host of thousands of idle heads visits only those that changed.
+  [[nodiscard]] virtual bool NeedsPoll() const { return true; }
   /// Simulated or physical.
   [[nodiscard]] virtual BackendKind kind() const = 0;
   /// "simulated", "serial /dev/ttyACM0 at 115200 baud": for logs.

@@ -8,6 +8,7 @@ void SimulatedBackend::Show(Aspect aspect, const Lamps& lamps) {
 }
 
 LampFeedback SimulatedBackend::Poll() {
+  injected_ = false;
   LampFeedback feedback;
   if (offline_) {
     feedback.online = false;
@@ -24,16 +25,22 @@ LampFeedback SimulatedBackend::Poll() {
 
 void SimulatedBackend::FailLamp(Lamp lamp, const std::string& reason) {
   faults_[lamp] = Fault{Failure::kDark, reason};
+  injected_ = true;
 }
 
 void SimulatedBackend::StickLamp(Lamp lamp) {
   faults_[lamp] = Fault{Failure::kStuckOn, "stuck_on"};
+  injected_ = true;
 }
 
-void SimulatedBackend::RepairLamp(Lamp lamp) { faults_.erase(lamp); }
+void SimulatedBackend::RepairLamp(Lamp lamp) {
+  faults_.erase(lamp);
+  injected_ = true;
+}
 
 void SimulatedBackend::SetOffline(std::optional<std::string> reason) {
   offline_ = std::move(reason);
+  injected_ = true;
 }
 
 }  // namespace autodrive::infrastructure

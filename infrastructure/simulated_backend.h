@@ -19,6 +19,9 @@ class SimulatedBackend final : public LampBackend {
 
   void Show(Aspect aspect, const Lamps& lamps) override;
   LampFeedback Poll() override;
+  /// True only after a failure was injected, repaired or the head taken off- or online,
+  /// until the next `Poll`: what it shows is reported by the `Poll` after `Show`.
+  [[nodiscard]] bool NeedsPoll() const override { return injected_; }
   [[nodiscard]] BackendKind kind() const override { return BackendKind::kSimulated; }
   [[nodiscard]] std::string Describe() const override { return "simulated"; }
 
@@ -44,6 +47,7 @@ class SimulatedBackend final : public LampBackend {
   Lamps commanded_;
   std::map<Lamp, Fault> faults_;
   std::optional<std::string> offline_;
+  bool injected_ = false;  // a change not from `Show` that `Poll` has not reported yet
 };
 
 }  // namespace autodrive::infrastructure

@@ -4,12 +4,16 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
+#include <memory>
 #include <thread>
+#include <vector>
 
 #include "common/dds/clock_subscriber.h"
 #include "common/dds/conversions.h"
+#include "common/dds/loop_waitset.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
@@ -165,6 +169,47 @@ TEST(DdsLayer, WaitSetReturnsTheReaderWithDataAndWakesOnRequest) {
   EXPECT_LT(std::chrono::steady_clock::now() - start, 10s);
   waker.join();
   EXPECT_TRUE(ws.Wait(10ms).empty()) << "the wake-up must be consumed";
+}
+
+TEST(DdsLayer, LoopWaitSetTakesThousandsOfReadersAndNamesTheOnesWithData) {
+  // A light host waits on one command reader per head (a quarter of a 32x32 city: 1,024); the
+  // loop takes only from the readers the waitset names.
+  Participant p(Isolated());
+  WallClock clock;
+  LoopWaitSet ws(p, clock);
+  constexpr int kReaders = 100;  // more than the 64 it used to take
+  std::vector<std::unique_ptr<Reader<msg::Float32>>> readers;
+  for (int i = 0; i < kReaders; ++i) {
+    readers.push_back(std::make_unique<Reader<msg::Float32>>(
+        p, "rt/test/lws_" + std::to_string(i), Qos::Stream()));
+    ws.Attach(*readers.back());
+  }
+  EXPECT_FALSE(ws.WaitUntil(clock.Monotonic() + 10ms));
+  EXPECT_TRUE(ws.triggered().empty());
+  Writer<msg::Float32> w1(p, "rt/test/lws_7", Qos::Stream());
+  Writer<msg::Float32> w2(p, "rt/test/lws_71", Qos::Stream());
+  ASSERT_TRUE(w1.WaitForReaders(1, 30s));
+  ASSERT_TRUE(w2.WaitForReaders(1, 30s));
+  w1.Write(msg::Float32{1.0f});
+  w2.Write(msg::Float32{2.0f});
+  // Both samples are delivered locally by the writes; one wait sees both readers.
+  ASSERT_TRUE(ws.WaitUntil(clock.Monotonic() + 30s));
+  std::vector<dds_entity_t> seen(ws.triggered().begin(), ws.triggered().end());
+  std::sort(seen.begin(), seen.end());
+  std::vector<dds_entity_t> expected{readers[7]->handle(), readers[71]->handle()};
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(seen, expected);
+  ASSERT_TRUE(readers[7]->TakeOne().has_value());
+  // A reader left with data wakes the next wait at once, and is named again.
+  ASSERT_TRUE(ws.WaitUntil(clock.Monotonic() + 30s));
+  ASSERT_EQ(ws.triggered().size(), 1u);
+  EXPECT_EQ(ws.triggered()[0], readers[71]->handle());
+  ASSERT_TRUE(readers[71]->TakeOne().has_value());
+  // A wake-up names no reader.
+  ws.Wake();
+  EXPECT_TRUE(ws.WaitUntil(clock.Monotonic() + 30s));
+  EXPECT_TRUE(ws.triggered().empty());
+  EXPECT_FALSE(ws.WaitUntil(clock.Monotonic() + 10ms));
 }
 
 TEST(DdsLayer, TransientLocalLateJoinerGetsTheLatchedSample) {

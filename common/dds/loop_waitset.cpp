@@ -18,18 +18,18 @@ LoopWaitSet::LoopWaitSet(const Participant& participant, Clock& clock)
       guard_(dds_create_guardcondition(participant.handle()), "dds_create_guardcondition") {
   internal::ThrowIfError(dds_waitset_attach(waitset_.handle(), guard_.handle(), 0),
                          "dds_waitset_attach(guard)");
+  triggered_.resize(1);
   clock_.SetWaker([this] { Wake(); });
 }
 
 LoopWaitSet::~LoopWaitSet() { clock_.SetWaker({}); }
 
 void LoopWaitSet::AttachReader(dds_entity_t reader) {
-  AUTODRIVE_CHECK(attached_ < kMaxConditions,
-                  "a loop waits on at most " << kMaxConditions << " readers");
   Entity condition(dds_create_readcondition(reader, DDS_ANY_STATE), "dds_create_readcondition");
   internal::ThrowIfError(dds_waitset_attach(waitset_.handle(), condition.handle(), reader),
                          "dds_waitset_attach(reader)");
-  conditions_[attached_++] = std::move(condition);
+  conditions_.push_back(std::move(condition));
+  triggered_.resize(conditions_.size() + 1);
 }
 
 bool LoopWaitSet::WaitUntil(MonoTime deadline) {
@@ -40,19 +40,23 @@ bool LoopWaitSet::WaitUntil(MonoTime deadline) {
     clock_.WakeAt(deadline);
     timeout = kSimulatedWaitCap;
   }
+  triggered_count_ = 0;
   if (clock_.interrupted()) return false;
-  dds_attach_t triggered[kMaxConditions + 1];
   const dds_return_t n = internal::ThrowIfError(
-      dds_waitset_wait(waitset_.handle(), triggered, kMaxConditions + 1, timeout.count()),
+      dds_waitset_wait(waitset_.handle(), triggered_.data(), triggered_.size(), timeout.count()),
       "dds_waitset_wait");
-  bool woken = false;
-  for (dds_return_t i = 0; i < n && i <= kMaxConditions; ++i) {
-    if (triggered[i] == 0) {
+  // Cyclone fills at most size() entries (all of them: the guard and every condition).
+  const auto count =
+      std::min(static_cast<std::size_t>(std::max<dds_return_t>(n, 0)), triggered_.size());
+  for (std::size_t i = 0; i < count; ++i) {
+    if (triggered_[i] == 0) {
       bool was_set = false;
       (void)dds_take_guardcondition(guard_.handle(), &was_set);
+    } else {
+      triggered_[triggered_count_++] = triggered_[i];  // readers first, in place
     }
-    woken = true;
   }
+  const bool woken = count > 0;
   return woken && !clock_.interrupted() && clock_.Monotonic() < deadline;
 }
 

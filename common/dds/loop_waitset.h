@@ -5,6 +5,9 @@
 
 #include <dds/dds.h>
 
+#include <span>
+#include <vector>
+
 #include "common/dds/entity.h"
 #include "common/dds/participant.h"
 #include "common/dds/reader.h"
@@ -15,8 +18,10 @@ namespace autodrive::dds {
 /// Blocks a loop until one of its readers has data, `Wake()` is called (from any thread), or
 /// the clock's control timeline reaches a deadline. On the wall clock the deadline is a real
 /// time-out; on a simulated clock the clock itself wakes the waitset when `/clock` reaches the
-/// deadline (`Clock::WakeAt`). Never allocates, so a loop that waits on it stays
-/// allocation-free. Registers itself as the clock's waker: one per clock. Not movable.
+/// deadline (`Clock::WakeAt`). Waiting never allocates (only `Attach` does), so a loop that
+/// waits on it stays allocation-free. Any number of readers can be attached; `triggered()`
+/// tells which had data, so that a loop over thousands of readers takes only from those.
+/// Registers itself as the clock's waker: one per clock. Not movable.
 class LoopWaitSet {
  public:
   /// `participant` and `clock` must outlive it.
@@ -34,17 +39,23 @@ class LoopWaitSet {
   /// Blocks until data, `Wake()`, `deadline` on the clock, a new clock session or an interrupt.
   /// Returns true when woken by data or `Wake()`, false otherwise (read the clock to know).
   bool WaitUntil(MonoTime deadline);
+  /// The readers (their handles) that held data when the last `WaitUntil` returned; empty
+  /// when it returned for another reason. Valid until the next `WaitUntil`.
+  [[nodiscard]] std::span<const dds_attach_t> triggered() const {
+    return {triggered_.data(), triggered_count_};
+  }
   /// Makes a concurrent or the next `WaitUntil` return at once. Thread-safe; never throws.
   void Wake() noexcept;
 
  private:
-  static constexpr int kMaxConditions = 64;
   void AttachReader(dds_entity_t reader);
   Clock& clock_;
   Entity waitset_;
   Entity guard_;
-  Entity conditions_[kMaxConditions];
-  int attached_ = 0;
+  std::vector<Entity> conditions_;
+  // Room for every attached condition and the guard; the readers that triggered first.
+  std::vector<dds_attach_t> triggered_;
+  std::size_t triggered_count_ = 0;
 };
 
 }  // namespace autodrive::dds
