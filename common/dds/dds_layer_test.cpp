@@ -180,8 +180,8 @@ TEST(DdsLayer, LoopWaitSetTakesThousandsOfReadersAndNamesTheOnesWithData) {
   constexpr int kReaders = 100;  // more than the 64 it used to take
   std::vector<std::unique_ptr<Reader<msg::Float32>>> readers;
   for (int i = 0; i < kReaders; ++i) {
-    readers.push_back(std::make_unique<Reader<msg::Float32>>(
-        p, "rt/test/lws_" + std::to_string(i), Qos::Stream()));
+    readers.push_back(std::make_unique<Reader<msg::Float32>>(p, "rt/test/lws_" + std::to_string(i),
+                                                             Qos::Stream()));
     ws.Attach(*readers.back());
   }
   EXPECT_FALSE(ws.WaitUntil(clock.Monotonic() + 10ms));
