@@ -21,6 +21,7 @@ CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& parti
   runtime = std::make_unique<CityRuntime>(std::move(city));
   const City& owned = runtime->city();
   supervisor = std::make_unique<DeviceSupervisor>(*runtime, SupervisionParamsOf(owned));
+  devices = std::make_unique<DeviceTable>(*runtime, owned.device_timeout, MonoTime{});
   lights = std::make_unique<LightCommander>(writers, *runtime);
   fleet = std::make_unique<FleetRegistry>(
       owned.map, FleetRegistryParams{owned.fleet_staleness, 0.05, kPi / 3});
@@ -39,6 +40,7 @@ CityBundle::~CityBundle() {
   sources.clear();
   fleet.reset();
   lights.reset();
+  devices.reset();
   supervisor.reset();
   runtime.reset();
 }
@@ -47,6 +49,7 @@ void CityBundle::Start(MonoTime now) {
   runtime->Start(now, restore);
   lights->Forget();
   supervisor = std::make_unique<DeviceSupervisor>(*runtime, SupervisionParamsOf(runtime->city()));
+  devices = std::make_unique<DeviceTable>(*runtime, runtime->city().device_timeout, now);
 }
 
 }  // namespace autodrive::scm

@@ -11,6 +11,7 @@
 
 #include "common/dds/participant.h"
 #include "scm/city.h"
+#include "scm/device_table.h"
 #include "scm/fleet.h"
 #include "scm/fleet_sources.h"
 #include "scm/publishers.h"
@@ -43,6 +44,7 @@ class CityBundle {
   std::vector<IntersectionStateRecord> restore;
   std::unique_ptr<CityRuntime> runtime;
   std::unique_ptr<DeviceSupervisor> supervisor;
+  std::unique_ptr<DeviceTable> devices;  ///< what the supervisor took, for the device table
   std::unique_ptr<LightCommander> lights;
   std::unique_ptr<FleetRegistry> fleet;
   std::vector<std::unique_ptr<ObservationSource>> sources;

@@ -11,6 +11,7 @@
 #include "autodrive_msgs/msg/DeviceStatus.h"
 
 #include "common/config.h"
+#include "common/dds/conversions.h"
 #include "common/dds/discovery.h"
 #include "common/dds/loop_waitset.h"
 #include "common/dds/reader.h"
@@ -407,7 +408,14 @@ void Scm::Impl::TakeDeviceStatuses(const ClockReading& now) {
     r.displayed = AspectFromWire(m.displayed_state);
     r.last_command_id = m.last_command_id;
     r.detail = dds::View(m.detail).substr(0, kMaxDetailBytes);
-    bundle->supervisor->Report(r, now.mono, *bundle->runtime, *this);
+    r.kind = m.kind;
+    r.backend = m.backend;
+    r.mode = m.mode;
+    r.displayed_state = m.displayed_state;
+    r.stamp = dds::FromMsg(m.header.stamp);
+    if (bundle->supervisor->Report(r, now.mono, *bundle->runtime, *this)) {
+      bundle->devices->Take(r, now.mono);
+    }
   }
 }
 
@@ -540,6 +548,10 @@ void Scm::Impl::Pass() {
       next_spat += ((now.mono - next_spat) / options.spat_period + 1) * options.spat_period;
     }
   }
+  if (c.devices->Due(now.mono)) {
+    c.devices->Refresh(now.mono);
+    publishers->PublishDeviceTable(*c.devices, now.wire);
+  }
   if (now.mono >= next_housekeeping) Housekeeping(now);
   while (next_tick <= now.mono) next_tick += options.tick;
 }
@@ -554,6 +566,7 @@ MonoTime Scm::Impl::NextDeadline() const {
     next = std::min(next, wake);
   }
   next = std::min(next, bundle->supervisor->next_deadline());
+  next = std::min(next, bundle->devices->next_deadline());
   return next;
 }
 

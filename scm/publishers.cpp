@@ -140,18 +140,19 @@ void LogWriteFailure(std::string_view topic, std::uint64_t failures, const DdsEr
 
 }  // namespace
 
-/// SPaT's writer and its own thread. Two messages: the loop fills one while the other may be in
-/// the sender's hands; a hand-over waits only if the sender has not yet taken the previous
-/// message, which would mean it is a whole SPaT period behind (its writes never block:
-/// `Qos::NonBlocking`). Nothing here allocates once both messages have their shape.
-class SpatSender {
+/// A big message's writer and its own thread (SPaT, the device table). Two messages: the loop
+/// fills one while the other may be in the sender's hands; a hand-over waits only if the sender
+/// has not yet taken the previous message, which would mean it is a whole period behind (its
+/// writes never block: `Qos::NonBlocking`). Nothing here allocates once both messages have
+/// their shape.
+template <typename T>
+class LoopSender {
  public:
-  explicit SpatSender(const dds::Participant& p)
-      : writer_(p, dds::topics::Spat().name, NonBlocking(dds::topics::Spat().qos)),
-        thread_([this] { Run(); }) {}
-  SpatSender(const SpatSender&) = delete;
-  SpatSender& operator=(const SpatSender&) = delete;
-  ~SpatSender() {
+  LoopSender(const dds::Participant& p, const dds::TopicSpec<T>& spec)
+      : writer_(p, spec.name, NonBlocking(spec.qos)), thread_([this] { Run(); }) {}
+  LoopSender(const LoopSender&) = delete;
+  LoopSender& operator=(const LoopSender&) = delete;
+  ~LoopSender() {
     {
       std::lock_guard lock(mutex_);
       stop_ = true;
@@ -161,7 +162,7 @@ class SpatSender {
   }
 
   /// The message to fill next (the sender has neither it nor anything not yet taken).
-  msg::Spat& Next() {
+  T& Next() {
     std::unique_lock lock(mutex_);
     changed_.wait(lock, [&] { return !queued_ && sending_ != fill_; });
     return buffers_[fill_].get();
@@ -181,7 +182,7 @@ class SpatSender {
     changed_.wait(lock, [&] { return !queued_ && !sending_; });
   }
   /// Both messages, for reshaping (after `WaitIdle`, from the thread that hands over).
-  std::array<dds::Message<msg::Spat>, 2>& buffers() { return buffers_; }
+  std::array<dds::Message<T>, 2>& buffers() { return buffers_; }
   [[nodiscard]] std::uint64_t failures() const { return failures_.load(); }
 
  private:
@@ -205,8 +206,8 @@ class SpatSender {
     }
   }
 
-  dds::Writer<msg::Spat> writer_;
-  std::array<dds::Message<msg::Spat>, 2> buffers_;
+  dds::Writer<T> writer_;
+  std::array<dds::Message<T>, 2> buffers_;
   std::mutex mutex_;
   std::condition_variable changed_;
   std::size_t fill_ = 0;                // the loop's message (guarded by mutex_)
@@ -268,7 +269,8 @@ ScmPublishers::ScmPublishers(const dds::Participant& p, std::string city, std::u
                     NonBlocking(dds::topics::OperatorReplies().qos)),
       device_command_writer_(p, dds::topics::DeviceCommands().name,
                              NonBlocking(dds::topics::DeviceCommands().qos)),
-      spat_(std::make_unique<SpatSender>(p)) {
+      spat_(std::make_unique<LoopSender<msg::Spat>>(p, dds::topics::Spat())),
+      device_table_(std::make_unique<LoopSender<msg::DeviceTable>>(p, dds::topics::DeviceTable())) {
   dds::SetString(heartbeat_->sender, "scm");
   dds::SetString(heartbeat_->city, city_);
   heartbeat_->session_id = session_;
@@ -289,7 +291,7 @@ ScmPublishers::~ScmPublishers() = default;
 
 PublisherCounters ScmPublishers::counters() const {
   PublisherCounters c = counters_;
-  c.write_failures += spat_->failures();
+  c.write_failures += spat_->failures() + device_table_->failures();
   return c;
 }
 
@@ -317,6 +319,34 @@ void ScmPublishers::Reset(const CityRuntime& runtime, std::string city) {
     }
   }
   signals_.reserve(max_groups);
+}
+
+void ScmPublishers::PublishDeviceTable(const DeviceTable& table, Time now) {
+  msg::DeviceTable& m = device_table_->Next();
+  m.header.stamp = dds::ToMsg(now);
+  dds::UpdateString(m.header.frame_id, "map");
+  dds::UpdateString(m.city, city_);
+  m.session_id = session_;
+  m.revision = table.revision();
+  const auto& rows = table.rows();
+  dds::SetLengthKeepingCapacity(m.devices, static_cast<std::uint32_t>(rows.size()));
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const DeviceRow& row = rows[i];
+    auto& e = dds::Elements(m.devices)[i];
+    dds::UpdateString(e.device_id, row.device_id);
+    dds::UpdateString(e.host, row.host);
+    e.kind = row.kind;
+    e.backend = row.backend;
+    e.health = row.health;
+    e.mode = row.mode;
+    e.displayed_state = row.displayed_state;
+    dds::UpdateString(e.detail, row.detail);
+    e.last_report = row.reported ? dds::ToMsg(row.last_report) : msg::Time{};
+    e.reported = row.reported;
+    e.lost = row.lost;
+  }
+  device_table_->Send();
+  ++counters_.device_tables;
 }
 
 void ScmPublishers::StartSpat(const ClockReading& now) {

@@ -22,6 +22,7 @@
 #include "common/dds/writer.h"
 #include "common/time.h"
 #include "scm/controller.h"
+#include "scm/device_table.h"
 #include "scm/events.h"
 #include "scm/fleet.h"
 #include "scm/map_data.h"
@@ -52,10 +53,12 @@ struct MapMessages {
 /// Publication counters.
 struct PublisherCounters {
   std::uint64_t spat = 0;            ///< SPaT messages handed to the SPaT sender
+  std::uint64_t device_tables = 0;   ///< device tables handed to their sender
   std::uint64_t write_failures = 0;  ///< writes Cyclone refused (not sent; counted and logged)
 };
 
-class SpatSender;
+template <typename T>
+class LoopSender;
 
 /// The SCM's writers (all but the lights'). Called from the loop only. SPaT, the one big
 /// message (about 200 kB for 1,024 intersections), is filled on the loop and written by a
@@ -84,6 +87,8 @@ class ScmPublishers {
   bool FillSpat(const CityRuntime& runtime, std::size_t count);
   void SendSpat();
   void PublishFleet(const FleetRegistry& fleet, Time now);
+  /// The device table as of `now` (written by a sender thread: about 300 kB for a 32x32 city).
+  void PublishDeviceTable(const DeviceTable& table, Time now);
   void PublishHeartbeat(Time now, ScmState state);
   void PublishEvent(const Event& event, Time now, std::uint64_t event_id);
   void PublishMap(MapMessages& map, Time now);
@@ -118,7 +123,8 @@ class ScmPublishers {
   dds::Writer<msg::SignalRequestStatus> request_status_writer_;
   dds::Writer<msg::OperatorReply> reply_writer_;
   dds::Writer<msg::DeviceCommand> device_command_writer_;
-  std::unique_ptr<SpatSender> spat_;
+  std::unique_ptr<LoopSender<msg::Spat>> spat_;
+  std::unique_ptr<LoopSender<msg::DeviceTable>> device_table_;
   msg::Spat* spat_fill_ = nullptr;  // the message begun by StartSpat, not yet sent
   ClockReading spat_now_;
   std::size_t spat_filled_ = 0;

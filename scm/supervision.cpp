@@ -59,34 +59,34 @@ void DeviceSupervisor::Foreign(const DeviceReportView& r, std::string_view why, 
       IntersectionId(0), std::string(r.device_id), "scm", false});
 }
 
-void DeviceSupervisor::Report(const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
+bool DeviceSupervisor::Report(const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
                               EventSink& events) {
   ++counters_.reports;
   if (r.city != params_.city) {
     ++counters_.foreign_city;
     Foreign(r, fmt::format("it serves another city (this SCM runs '{}')", params_.city), events);
-    return;
+    return false;
   }
   if (const auto id = HeadIdOf(r.device_id)) {
     if (const auto h = runtime.HeadIndex(*id)) {
-      ReportHead(*h, r, now, runtime, events);
-      return;
+      return ReportHead(*h, r, now, runtime, events);
     }
   } else if (r.device_id.starts_with("mmu_")) {
     for (std::size_t x = 0; x < monitor_ids_.size(); ++x) {
       if (monitor_ids_[x] == r.device_id) {
         ReportMonitor(x, r, now, runtime, events);
-        return;
+        return true;
       }
     }
   } else {
-    return;  // another kind of device (cameras, simulators): not supervised here
+    return false;  // another kind of device (cameras, simulators): not supervised here
   }
   ++counters_.unknown_device;
   Foreign(r, "the city has no such light or monitor", events);
+  return false;
 }
 
-void DeviceSupervisor::ReportHead(std::size_t h, const DeviceReportView& r, MonoTime now,
+bool DeviceSupervisor::ReportHead(std::size_t h, const DeviceReportView& r, MonoTime now,
                                   CityRuntime& runtime, EventSink& events) {
   HeadHealth& head = heads_[h];
   const HeadSlot& slot = runtime.heads()[h];
@@ -99,7 +99,7 @@ void DeviceSupervisor::ReportHead(std::size_t h, const DeviceReportView& r, Mono
                                     "second report is ignored",
                                     slot.name, r.host, head.host),
                         xid, slot.name, "scm", true});
-      return;
+      return false;
     }
     events.Emit(Event{
         Severity::kWarning, "device_host_changed",
@@ -118,6 +118,7 @@ void DeviceSupervisor::ReportHead(std::size_t h, const DeviceReportView& r, Mono
     events.Emit(Event{Severity::kInfo, "device_back", fmt::format("{} reports again", slot.name),
                       xid, slot.name, "scm", false});
   }
+  return true;
 }
 
 void DeviceSupervisor::ReportMonitor(std::size_t x, const DeviceReportView& r, MonoTime now,

@@ -38,6 +38,12 @@ struct DeviceReportView {
   std::optional<Aspect> displayed;  ///< the aspect it displays (lights)
   std::uint64_t last_command_id = 0;
   std::string_view detail;
+  // What only the device table shows (DeviceStatus_Constants values, as on the wire).
+  std::uint8_t kind = 0;
+  std::uint8_t backend = 0;
+  std::uint8_t mode = 0;
+  std::int32_t displayed_state = 0;
+  Time stamp{};  ///< the report's own stamp
 };
 
 /// What the SCM last sent a head, and when (from the light commander).
@@ -87,8 +93,10 @@ class DeviceSupervisor {
   DeviceSupervisor& operator=(const DeviceSupervisor&) = delete;
 
   /// Takes one report received at `now`. An infrastructure monitor that reports its latch puts
-  /// its intersection in fail-safe flash at once (through `runtime`).
-  void Report(const DeviceReportView& report, MonoTime now, CityRuntime& runtime,
+  /// its intersection in fail-safe flash at once (through `runtime`). Returns true when the
+  /// report is one of the city's devices' own (our city, a light from the host it is bound to,
+  /// a monitor): the device table shows those, and nothing else.
+  bool Report(const DeviceReportView& report, MonoTime now, CityRuntime& runtime,
               EventSink& events);
   /// Applies the rules at `now`: lights not heard for the time-out are lost, faulty lights and
   /// lights showing something other than `sent[h]` for the mismatch time latch their
@@ -121,7 +129,7 @@ class DeviceSupervisor {
     std::optional<std::uint64_t> reset_command;  ///< our reset it has not confirmed yet
     MonoTime reset_at{};
   };
-  void ReportHead(std::size_t h, const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
+  bool ReportHead(std::size_t h, const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
                   EventSink& events);
   void ReportMonitor(std::size_t x, const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
                      EventSink& events);

@@ -7,6 +7,7 @@
 #include <deque>
 
 #include "common/test_support.h"
+#include "scm/device_table.h"
 
 namespace autodrive::scm {
 namespace {
@@ -175,6 +176,84 @@ TEST_F(SupervisionTest, AResetTheMonitorNeverConfirmsRaisesAnAlarmAndItsReportsC
   m.health = DeviceHealth::kFault;
   supervisor_.Report(m, t0_ + seconds(6), runtime_, events_);
   EXPECT_TRUE(Latched("north_t"));
+}
+
+// The device table shows what the supervisor took as the city's own devices, and nothing else.
+TEST_F(SupervisionTest, TheDeviceTableHasEveryLightAndOnlyTheCitysOwnReports) {
+  DeviceTable table(runtime_, Params().timeout, t0_);
+  ASSERT_EQ(table.rows().size(), runtime_.heads().size()) << "every light, before any report";
+  for (const auto& row : table.rows()) EXPECT_FALSE(row.reported) << row.device_id;
+  const auto take = [&](const DeviceReportView& r, MonoTime at) {
+    if (supervisor_.Report(r, at, runtime_, events_)) table.Take(r, at);
+  };
+  DeviceReportView r = Light(1, Aspect::kRed);
+  r.health = DeviceHealth::kDegraded;
+  r.detail = "refused green -> yellow";
+  r.displayed_state = 1;
+  r.stamp = Time(seconds(1234));
+  take(r, t0_);
+  const DeviceRow& row = table.rows()[*runtime_.HeadIndex(SignalHeadId(1))];
+  EXPECT_TRUE(row.reported);
+  EXPECT_EQ(row.host, "infra/a");
+  EXPECT_EQ(row.health, 1);
+  EXPECT_EQ(row.detail, "refused green -> yellow");
+  EXPECT_EQ(row.last_report, Time(seconds(1234)));
+  const std::uint64_t revision = table.revision();
+  // A second host claiming the light, and another city's light of the same name: not shown.
+  DeviceReportView stranger = Light(1, Aspect::kGreen, "infra/b");
+  stranger.health = DeviceHealth::kFault;
+  take(stranger, t0_ + milliseconds(10));
+  DeviceReportView foreign = Light(1, Aspect::kGreen);
+  foreign.city = "other_town";
+  foreign.health = DeviceHealth::kFault;
+  take(foreign, t0_ + milliseconds(20));
+  EXPECT_EQ(row.host, "infra/a");
+  EXPECT_EQ(row.health, 1);
+  EXPECT_EQ(table.revision(), revision);
+  // A monitor gets its row with its first report.
+  DeviceReportView m;
+  m.device_id = "mmu_centre";
+  m.city = "small_town";
+  m.host = "infra/a";
+  take(m, t0_ + milliseconds(30));
+  ASSERT_EQ(table.rows().size(), runtime_.heads().size() + 1);
+  EXPECT_EQ(table.rows().back().device_id, "mmu_centre");
+  EXPECT_GT(table.revision(), revision);
+}
+
+TEST_F(SupervisionTest, TheDeviceTableGoesOutEveryPeriodAndSoonAfterAChangeButNotMoreOften) {
+  DeviceTable table(runtime_, Params().timeout, t0_);
+  EXPECT_FALSE(table.Due(t0_));
+  EXPECT_EQ(table.next_deadline(), t0_ + DeviceTable::kPeriod);
+  table.Take(Light(1, Aspect::kRed), t0_ + milliseconds(100));
+  EXPECT_TRUE(table.Due(t0_ + milliseconds(100))) << "a change, nothing sent for long";
+  table.Refresh(t0_ + milliseconds(100));
+  table.Take(Light(1, Aspect::kRed), t0_ + milliseconds(150));
+  EXPECT_FALSE(table.Due(t0_ + milliseconds(150))) << "the same report again changes nothing";
+  DeviceReportView green = Light(1, Aspect::kGreen);
+  green.displayed_state = 3;
+  table.Take(green, t0_ + milliseconds(160));
+  EXPECT_FALSE(table.Due(t0_ + milliseconds(299))) << "at most every kMinInterval";
+  EXPECT_EQ(table.next_deadline(), t0_ + milliseconds(100) + DeviceTable::kMinInterval);
+  EXPECT_TRUE(table.Due(t0_ + milliseconds(300)));
+  table.Refresh(t0_ + milliseconds(300));
+  EXPECT_EQ(table.next_deadline(), t0_ + milliseconds(300) + DeviceTable::kPeriod);
+}
+
+TEST_F(SupervisionTest, ALightNotHeardForTheTimeOutIsLostInTheNextDeviceTable) {
+  DeviceTable table(runtime_, Params().timeout, t0_);
+  table.Take(Light(2, Aspect::kRed), t0_);
+  const DeviceRow& row = table.rows()[*runtime_.HeadIndex(SignalHeadId(2))];
+  table.Refresh(t0_ + milliseconds(400));
+  EXPECT_FALSE(row.lost);
+  const std::uint64_t revision = table.revision();
+  table.Refresh(t0_ + milliseconds(600));  // 0.5 s time-out
+  EXPECT_TRUE(row.lost);
+  EXPECT_GT(table.revision(), revision);
+  EXPECT_FALSE(table.rows()[*runtime_.HeadIndex(SignalHeadId(3))].lost) << "never reported";
+  table.Take(Light(2, Aspect::kRed), t0_ + milliseconds(700));
+  EXPECT_FALSE(row.lost) << "it reports again";
+  EXPECT_TRUE(table.Due(t0_ + milliseconds(800))) << "and the table says so soon";
 }
 
 }  // namespace

@@ -287,6 +287,24 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
 TEST_F(ScmSystem, KillingTheDevicesPutsTheIntersectionInFlashWithinOneSecond) {
   StartInfra();
   StartScm();
+  // The SCM's device table: every light of the city, whether the SCM still hears it.
+  dds::Reader<msg::DeviceTable> table(*participant_, dds::topics::DeviceTable());
+  const auto table_says = [&](bool lost, std::string_view health_detail_host) {
+    const auto end = std::chrono::steady_clock::now() + seconds(30);
+    while (std::chrono::steady_clock::now() < end) {
+      for (auto& m : table.TakeAll()) {
+        for (const auto& d : dds::Elements(m->devices)) {
+          if (dds::View(d.device_id) == "signal_1" && d.reported && d.lost == lost &&
+              dds::View(d.host).find(health_detail_host) != std::string_view::npos) {
+            return true;
+          }
+        }
+      }
+      table.WaitForData(milliseconds(100));
+    }
+    return false;
+  };
+  ASSERT_TRUE(table_says(false, "infra/")) << "signal_1 reported, from its host";
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   ASSERT_TRUE(WaitDevices([](const auto& seen) { return seen.contains("signal_1"); }, seconds(10)));
   ::kill(infras_.back()->pid(), SIGKILL);
@@ -308,12 +326,14 @@ TEST_F(ScmSystem, KillingTheDevicesPutsTheIntersectionInFlashWithinOneSecond) {
     EXPECT_EQ(g.event_state, autodrive_msgs_msg_SignalGroupState_Constants_STOP_THEN_PROCEED);
   }
   EXPECT_TRUE(WaitEvent("device_lost", seconds(10)));
+  EXPECT_TRUE(table_says(true, "infra/")) << "the table says signal_1 is lost";
   // A reset is refused while the lights are gone, and works once they are back.
   auto r = Lab({"reset", "driving_school_crossing"});
   EXPECT_EQ(r.code, 1);
   EXPECT_THAT(r.text, HasSubstr("is still lost; reset refused"));
   StartInfra();
   ASSERT_TRUE(WaitStatus("lights_lost: 0", seconds(30)));
+  EXPECT_TRUE(table_says(false, "infra/")) << "and back";
   r = Lab({"reset", "driving_school_crossing"});
   EXPECT_EQ(r.code, 0) << r.text;
   EXPECT_TRUE(WaitSpat(AnyGreen, seconds(30)));

@@ -8,7 +8,9 @@
 #include <array>
 
 #include "autodrive_msgs/msg/DeviceCommand.h"
+#include "autodrive_msgs/msg/DeviceEntry.h"
 #include "autodrive_msgs/msg/DeviceStatus.h"
+#include "autodrive_msgs/msg/DeviceTable.h"
 #include "autodrive_msgs/msg/Event.h"
 #include "autodrive_msgs/msg/FleetState.h"
 #include "autodrive_msgs/msg/Heartbeat.h"
@@ -55,7 +57,9 @@
 /// X-macro over every generated message type: X(c_type, short_name).
 #define AUTODRIVE_DDS_MESSAGE_TYPES(X)                                 \
   X(autodrive_msgs_msg_dds__DeviceCommand_, DeviceCommand)             \
+  X(autodrive_msgs_msg_dds__DeviceEntry_, DeviceEntry)                 \
   X(autodrive_msgs_msg_dds__DeviceStatus_, DeviceStatus)               \
+  X(autodrive_msgs_msg_dds__DeviceTable_, DeviceTable)                 \
   X(autodrive_msgs_msg_dds__Event_, Event)                             \
   X(autodrive_msgs_msg_dds__FleetState_, FleetState)                   \
   X(autodrive_msgs_msg_dds__Heartbeat_, Heartbeat)                     \

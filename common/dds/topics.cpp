@@ -167,6 +167,9 @@ TopicSpec<msg::Event> Events() {
 TopicSpec<msg::DeviceStatus> Devices() {
   return Spec<msg::DeviceStatus>("/autodrive/scm/devices", Qos::LatchedState());
 }
+TopicSpec<msg::DeviceTable> DeviceTable() {
+  return Spec<msg::DeviceTable>("/autodrive/scm/device_table", Qos::LatchedState());
+}
 TopicSpec<msg::Heartbeat> Heartbeat() {
   return Spec<msg::Heartbeat>("/autodrive/scm/heartbeat", Qos::Stream(16));
 }

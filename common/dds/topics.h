@@ -77,13 +77,16 @@ TopicSpec<msg::Int32> SignalCommand(SignalHeadId s);
 TopicSpec<msg::Int32> SignalState(SignalHeadId s);
 
 // --- Smart City Manager, /autodrive/scm/... -------------------------------------------------
-TopicSpec<msg::Spat> Spat();                     ///< 10 Hz stream
-TopicSpec<msg::MapData> Map();                   ///< latched
-TopicSpec<msg::SignRegistry> Signs();            ///< latched
-TopicSpec<msg::FleetState> Fleet();              ///< stream
-TopicSpec<msg::TrafficObjects> Traffic();        ///< stream (SUMO background traffic)
-TopicSpec<msg::Event> Events();                  ///< latched, last 100 per writer
-TopicSpec<msg::DeviceStatus> Devices();          ///< latched, last one per writer
+TopicSpec<msg::Spat> Spat();               ///< 10 Hz stream
+TopicSpec<msg::MapData> Map();             ///< latched
+TopicSpec<msg::SignRegistry> Signs();      ///< latched
+TopicSpec<msg::FleetState> Fleet();        ///< stream
+TopicSpec<msg::TrafficObjects> Traffic();  ///< stream (SUMO background traffic)
+TopicSpec<msg::Event> Events();            ///< latched, last 100 per writer
+TopicSpec<msg::DeviceStatus> Devices();    ///< latched, last one per writer
+/// Latched: the SCM's table of its city's devices (every status period of theirs, at most
+/// 1 s apart, and soon after a change).
+TopicSpec<msg::DeviceTable> DeviceTable();
 TopicSpec<msg::Heartbeat> Heartbeat();           ///< stream (last 16): SCM and device hosts
 TopicSpec<msg::SignalRequest> SignalRequests();  ///< command (V2I, from vehicles)
 TopicSpec<msg::SignalRequestStatus> SignalRequestStatus();  ///< command (V2I, to vehicles)

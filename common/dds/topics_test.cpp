@@ -104,6 +104,7 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
                                  ROW(Traffic()),
                                  ROW(Events()),
                                  ROW(Devices()),
+                                 ROW(DeviceTable()),
                                  ROW(Heartbeat()),
                                  ROW(SignalRequests()),
                                  ROW(SignalRequestStatus()),

@@ -224,7 +224,14 @@ json EventJson(const msg::Event& e) {
           {"active", e.active}};
 }
 
-json DeviceJson(const msg::DeviceStatus& d) {
+json DeviceJson(const msg::DeviceEntry& d) {
+  if (!d.reported) {
+    return {{"id", Text(d.device_id)},
+            {"kind", "traffic_light"},
+            {"health", "unknown"},
+            {"detail", "not reported yet"},
+            {"lost", false}};
+  }
   return {
       {"id", Text(d.device_id)},
       {"kind", KindName(d.kind)},
@@ -235,7 +242,8 @@ json DeviceJson(const msg::DeviceStatus& d) {
       {"lamp", d.displayed_state},
       {"detail", Text(d.detail)},
       {"host", Text(d.host)},
-      {"last", Seconds(d.header.stamp)}};
+      {"last", Seconds(d.last_report)},
+      {"lost", static_cast<bool>(d.lost)}};
 }
 
 json RequestJson(const msg::SignalRequestStatus& r) {
@@ -336,33 +344,41 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
                             events_.fetch_add(1);
                             hub_.AddEvent(EventJson(m), SourceMs(info));
                           });
+  // The SCM's table of the city's devices (about once a second, and soon after a change),
+  // rather than each light's own status every status period: one sample instead of thousands.
   devices_reader_ =
-      Listen(participant, Repeating(dds::topics::Devices()),
-             [this](const msg::DeviceStatus& m, const dds::SampleInfo& info) {
+      Listen(participant, dds::topics::DeviceTable(),
+             [this](const msg::DeviceTable& m, const dds::SampleInfo& info) {
                devices_.fetch_add(1);
-               // A light reports its status every period, nearly always the same: JSON only
-               // when what the page shows changed (compared in place: no allocation).
-               {
-                 std::lock_guard lock(devices_mutex_);
-                 const std::string_view id = dds::View(m.device_id);
-                 auto it = devices_shown_.find(id);
-                 if (it == devices_shown_.end()) {
-                   it = devices_shown_.emplace(std::string(id), DeviceShown{}).first;
-                 } else if (it->second.kind == m.kind && it->second.backend == m.backend &&
-                            it->second.health == m.health && it->second.mode == m.mode &&
-                            it->second.host == dds::View(m.host) &&
-                            it->second.detail == dds::View(m.detail)) {
-                   return;
+               const double source_ms = SourceMs(info);
+               for (const auto& d : dds::Elements(m.devices)) {
+                 // Nearly every row is as it was: JSON only when what the page shows of it changed
+                 // (compared in place: no allocation).
+                 {
+                   std::lock_guard lock(devices_mutex_);
+                   const std::string_view id = dds::View(d.device_id);
+                   auto it = devices_shown_.find(id);
+                   if (it == devices_shown_.end()) {
+                     it = devices_shown_.emplace(std::string(id), DeviceShown{}).first;
+                   } else if (it->second.kind == d.kind && it->second.backend == d.backend &&
+                              it->second.health == d.health && it->second.mode == d.mode &&
+                              it->second.reported == d.reported && it->second.lost == d.lost &&
+                              it->second.host == dds::View(d.host) &&
+                              it->second.detail == dds::View(d.detail)) {
+                     continue;
+                   }
+                   DeviceShown& shown = it->second;
+                   shown.kind = d.kind;
+                   shown.backend = d.backend;
+                   shown.health = d.health;
+                   shown.mode = d.mode;
+                   shown.reported = d.reported;
+                   shown.lost = d.lost;
+                   shown.host = dds::View(d.host);
+                   shown.detail = dds::View(d.detail);
                  }
-                 DeviceShown& shown = it->second;
-                 shown.kind = m.kind;
-                 shown.backend = m.backend;
-                 shown.health = m.health;
-                 shown.mode = m.mode;
-                 shown.host = dds::View(m.host);
-                 shown.detail = dds::View(m.detail);
+                 hub_.SetDevice(DeviceJson(d), source_ms);
                }
-               hub_.SetDevice(DeviceJson(m), SourceMs(info));
              });
   requests_reader_ = Listen(participant, dds::topics::SignalRequestStatus(),
                             [this](const msg::SignalRequestStatus& m, const dds::SampleInfo& info) {

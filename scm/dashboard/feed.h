@@ -75,6 +75,7 @@ class Feed {
   /// What the page shows of a device, as last sent.
   struct DeviceShown {
     std::uint8_t kind = 0, backend = 0, health = 0, mode = 0;
+    bool reported = false, lost = false;
     std::string host, detail;
   };
   struct TextHash {
@@ -89,7 +90,7 @@ class Feed {
   std::unique_ptr<dds::Reader<msg::FleetState>> fleet_reader_;
   std::unique_ptr<dds::Reader<msg::TrafficObjects>> traffic_reader_;
   std::unique_ptr<dds::Reader<msg::Event>> events_reader_;
-  std::unique_ptr<dds::Reader<msg::DeviceStatus>> devices_reader_;
+  std::unique_ptr<dds::Reader<msg::DeviceTable>> devices_reader_;
   std::unique_ptr<dds::Reader<msg::SignalRequestStatus>> requests_reader_;
   std::unique_ptr<dds::Reader<msg::FleetState>> eye_reader_;
 };
@@ -99,7 +100,7 @@ class Feed {
 [[nodiscard]] nlohmann::json VehicleJson(const msg::TrackedVehicle& v);
 [[nodiscard]] nlohmann::json TrafficObjectJson(const msg::TrafficObject& o);
 [[nodiscard]] nlohmann::json EventJson(const msg::Event& e);
-[[nodiscard]] nlohmann::json DeviceJson(const msg::DeviceStatus& d);
+[[nodiscard]] nlohmann::json DeviceJson(const msg::DeviceEntry& d);
 [[nodiscard]] nlohmann::json RequestJson(const msg::SignalRequestStatus& r);
 /// The names of the IntersectionState status bits set in `status` ("failure_flash", ...).
 [[nodiscard]] nlohmann::json StatusFlags(std::uint16_t status);

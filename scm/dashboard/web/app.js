@@ -1426,8 +1426,12 @@
   let devShown = []; // those that pass the filter
   const devFilter = { text: '', problems: false };
   const devView = { top: 0, height: 400, queued: false, ageEls: [] };
+  // A device the SCM no longer hears is "lost", whatever it said last.
+  function devHealth(d) {
+    return d.lost ? 'lost' : str(d.health || 'unknown');
+  }
   function devCells(d) {
-    const health = str(d.health || 'unknown');
+    const health = devHealth(d);
     const lampV = d.lamp;
     let lamp = '';
     if (lampV !== undefined && lampV !== null && lampV !== '') {
@@ -1442,7 +1446,7 @@
     );
   }
   function devProblem(d) {
-    return str(d.health) !== 'ok';
+    return devHealth(d) !== 'ok';
   }
   function devVisible(d) {
     const f = devFilter.text;
@@ -1478,7 +1482,7 @@
     if (first > 0) html.push(spacer(first * DEV_ROW_H));
     for (let i = first; i < last; i++) {
       const d = devShown[i].d;
-      html.push('<tr class="dh-' + esc(str(d.health || 'unknown')) + '" data-id="' + esc(d.id) + '">' + devCells(d) + '</tr>');
+      html.push('<tr class="dh-' + esc(devHealth(d)) + '" data-id="' + esc(d.id) + '">' + devCells(d) + '</tr>');
     }
     if (last < n) html.push(spacer((n - last) * DEV_ROW_H));
     if (!n) html.push('<tr class="empty"><td colspan="6">' + (devices.size ? 'no device matches' : 'no device') + '</td></tr>');
@@ -1529,9 +1533,9 @@
     summariseDevices();
   }
   function summariseDevices() {
-    const n = { ok: 0, degraded: 0, fault: 0, offline: 0, other: 0 };
+    const n = { ok: 0, degraded: 0, fault: 0, offline: 0, lost: 0, other: 0 };
     for (const r of devices.values()) {
-      const h = str(r.d.health);
+      const h = devHealth(r.d);
       if (h in n) n[h]++;
       else n.other++;
     }
@@ -1539,6 +1543,7 @@
     if (n.degraded) parts.push('<b class="warn">' + n.degraded + ' degraded</b>');
     if (n.fault) parts.push('<b class="bad">' + n.fault + ' fault</b>');
     if (n.offline) parts.push('<b class="off">' + n.offline + ' offline</b>');
+    if (n.lost) parts.push('<b class="bad">' + n.lost + ' lost</b>');
     $('devices-summary').innerHTML = parts.join(' · ');
   }
   function applyDevFilter() {
