@@ -522,8 +522,11 @@ std::size_t LightCommander::Sync(const CityRuntime& runtime, const DeviceSupervi
     SentCommand& s = sent_[h];
     const bool changed = s.aspect != want;
     const HeadHealth& health = supervisor.head(h);
-    const bool unechoed =
-        !changed && health.seen && health.displayed != s.aspect && now - s.at >= kResendPeriod;
+    // Not shown yet, or shown only by the light's own fail-safe flash (a flashing red sent
+    // before the light had this SCM's heartbeat does not count for it): sent again.
+    const bool unechoed = !changed && health.seen &&
+                          (health.displayed != s.aspect || !health.following) &&
+                          now - s.at >= kResendPeriod;
     if (!changed && !unechoed) continue;
     try {
       writers_[h]->Write(msg::Int32{ToWire(want)});

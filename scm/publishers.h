@@ -170,9 +170,10 @@ class SignalCommandWriters {
 
 /// Each light's `signal_<i>/command` writer and what it was last sent. A command is recorded as
 /// sent only once its write succeeded (a failed write is retried at the next pass); a command
-/// its light does not show yet is re-sent every `resend_period` (a light that restarted, a
-/// monitor that was reset, a sample lost). Built with its city's runtime (off the loop: a
-/// new writer takes time). Not copyable.
+/// its light does not show yet, or shows only by its own fail-safe flash (it reports mode
+/// FLASH: the command came before this SCM's heartbeat, and did not count), is re-sent every
+/// `kResendPeriod` (a light that restarted, a monitor that was reset, a sample lost). Built with
+/// its city's runtime (off the loop: a new writer takes time). Not copyable.
 class LightCommander {
  public:
   static constexpr Duration kResendPeriod = std::chrono::milliseconds(250);

@@ -8,6 +8,8 @@
 namespace autodrive::scm {
 
 namespace {
+// DeviceStatus mode FLASH (DeviceStatus_Constants): the device's own fail-safe flash.
+constexpr std::uint8_t kFlashMode = 1;
 // Strangers reported once each; beyond this many they are only counted.
 constexpr std::size_t kMaxReportedStrangers = 256;
 
@@ -112,6 +114,7 @@ bool DeviceSupervisor::ReportHead(std::size_t h, const DeviceReportView& r, Mono
   head.last_report = now;
   head.health = r.health;
   head.displayed = r.displayed;
+  head.following = r.mode != kFlashMode;
   if (head.detail != r.detail) head.detail = r.detail;
   if (head.lost) {
     head.lost = false;
@@ -174,6 +177,7 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
         all_seen = false;
         continue;
       }
+      if (!head.following) all_seen = false;
       const MonoTime lost_at = head.last_report + params_.timeout;
       if (now > lost_at) {
         if (!head.lost) {

@@ -73,6 +73,9 @@ struct HeadHealth {
   std::optional<MonoTime> mismatch_since;
   bool lost = false;
   bool faulty = false;
+  /// Its last report said it shows what the SCM commands (mode NORMAL or DARK), not its own
+  /// fail-safe flash (FLASH: it has not taken a command of this SCM yet, or lost it).
+  bool following = false;
 };
 
 /// Counts of reports that were not obeyed.
@@ -100,7 +103,10 @@ class DeviceSupervisor {
               EventSink& events);
   /// Applies the rules at `now`: lights not heard for the time-out are lost, faulty lights and
   /// lights showing something other than `sent[h]` for the mismatch time latch their
-  /// intersection; an intersection's start-up waits until all its lights have reported.
+  /// intersection; an intersection's start-up flash lasts until all its lights have reported
+  /// and follow the SCM (out of their own fail-safe flash: they took its flashing red), so that
+  /// a light whose first command is still on its way when a big city starts (its host still
+  /// discovering the SCM's writers) is not taken for one that shows the wrong aspect.
   void Check(MonoTime now, std::span<const SentCommand> sent, CityRuntime& runtime,
              EventSink& events);
   /// Why a reset of intersection `x` must be refused now (a light still lost or faulty), or

@@ -77,6 +77,34 @@ TEST_F(SupervisionTest, StartUpWaitsUntilEveryLightOfTheIntersectionHasReported)
   EXPECT_EQ(supervisor_.lost(), 0u);
 }
 
+TEST_F(SupervisionTest, StartUpWaitsUntilEveryLightFollowsTheScmNotOnlyReports) {
+  // A big city's light host may report before it has discovered the SCM's command writers:
+  // its lights report their own start-up flash (mode FLASH) until the SCM's first command
+  // arrives. Taking them as ready would command red and latch the intersection on a
+  // mismatch that is only a command still on its way.
+  const auto& centre = *runtime_.intersections()[Index("centre")].controller;
+  for (auto& s : sent_) s = SentCommand{Aspect::kFlashingRed, t0_};  // the start-up flash's
+  const auto report_all = [&](MonoTime at, std::uint8_t mode) {
+    for (const auto& h : runtime_.heads()) {
+      DeviceReportView r = Light(h.id.value(), Aspect::kFlashingRed);
+      r.mode = mode;
+      supervisor_.Report(r, at, runtime_, events_);
+    }
+    supervisor_.Check(at, sent_, runtime_, events_);
+    runtime_.Step(ClockReading{at, Time{}, 0}, DayClock::At(std::chrono::hours(12)), nullptr,
+                  events_);
+  };
+  report_all(t0_ + seconds(10), /*FLASH*/ 1);
+  EXPECT_EQ(centre.stage(), Stage::kStartupFlash) << "reported, but not following yet";
+  report_all(t0_ + seconds(20), /*FLASH*/ 1);
+  EXPECT_EQ(centre.stage(), Stage::kStartupFlash);
+  EXPECT_FALSE(centre.latched());
+  EXPECT_TRUE(events_.WithCode("device_mismatch").empty());
+  report_all(t0_ + seconds(21), /*NORMAL: showing the SCM's flashing red*/ 0);
+  EXPECT_EQ(centre.stage(), Stage::kAllRed) << "every light follows: the start-up goes on";
+  EXPECT_FALSE(centre.latched());
+}
+
 TEST_F(SupervisionTest, ALightNotHeardForTheTimeOutIsLostAndLatchesItsIntersectionOnly) {
   ReportAll(t0_);
   // Everyone but signal_5 (centre) reports again.

@@ -263,6 +263,12 @@ def main():
         per_browser = (m1["bytes_out"] - m0["bytes_out"]) / dt / max(1, m1["subscribers"])
         every = [x for v in lat.values() for x in v]
         print(f"measured {dt:.0f} s with {len(drivers)} browser(s), {m1['dropped']} dropped")
+        # A city in fail-safe flash is not the city to measure: say so.
+        state = json.loads(urllib.request.urlopen(url + "api/state", timeout=60).read())
+        latched = [x for x in state.get("intersections", []) if x.get("latched")]
+        print(f"intersections latched in fail-safe flash: {len(latched)} of {intersections}" +
+              (f" (first: {latched[0].get('name')}: {latched[0].get('latched')})" if latched
+               else ""))
         print(f"dashboard CPU: {cpu:.1f}% of one core (goal <= 10%)")
         load = {k: 100.0 * (h1[k] - h0[k]) / dt for k in h1 if k in h0}
         print(f"host ({os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}), % of one "
