@@ -524,9 +524,9 @@ std::size_t LightCommander::Sync(const CityRuntime& runtime, const DeviceSupervi
     const HeadHealth& health = supervisor.head(h);
     // Not shown yet, or shown only by the light's own fail-safe flash (a flashing red sent
     // before the light had this SCM's heartbeat does not count for it): sent again.
-    const bool unechoed = !changed && health.seen &&
-                          (health.displayed != s.aspect || !health.following) &&
-                          now - s.at >= kResendPeriod;
+    const bool unshown = health.displayed != s.aspect;
+    const bool unechoed = !changed && health.seen && (unshown || !health.following) &&
+                          now - s.at >= (unshown ? kResendPeriod : kFollowResendPeriod);
     if (!changed && !unechoed) continue;
     try {
       writers_[h]->Write(msg::Int32{ToWire(want)});

@@ -172,11 +172,16 @@ class SignalCommandWriters {
 /// sent only once its write succeeded (a failed write is retried at the next pass); a command
 /// its light does not show yet, or shows only by its own fail-safe flash (it reports mode
 /// FLASH: the command came before this SCM's heartbeat, and did not count), is re-sent every
-/// `kResendPeriod` (a light that restarted, a monitor that was reset, a sample lost). Built with
+/// `kResendPeriod` (`kFollowResendPeriod` for the latter): a light that restarted, a monitor
+/// that was reset, a sample lost. Built with
 /// its city's runtime (off the loop: a new writer takes time). Not copyable.
 class LightCommander {
  public:
   static constexpr Duration kResendPeriod = std::chrono::milliseconds(250);
+  /// The re-send period for a light that shows the command only by its own fail-safe flash:
+  /// slower, as every light of a city starting is in that state until its host has discovered
+  /// the SCM's writers (4,096 lights re-sent every 250 ms were 16,000 writes a second).
+  static constexpr Duration kFollowResendPeriod = std::chrono::seconds(1);
 
   LightCommander(SignalCommandWriters& writers, const CityRuntime& runtime);
   LightCommander(const LightCommander&) = delete;
