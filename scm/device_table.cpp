@@ -23,7 +23,14 @@ void DeviceTable::Take(const DeviceReportView& r, MonoTime now) {
   const auto health = static_cast<std::uint8_t>(r.health);
   const bool same = row.reported && !row.lost && row.host == r.host && row.kind == r.kind &&
                     row.backend == r.backend && row.health == health && row.mode == r.mode &&
-                    row.displayed_state == r.displayed_state && row.detail == r.detail;
+                    row.detail == r.detail;
+  // The lamps a light shows change every few seconds and have their own topic, read live by
+  // whoever draws them: in the table they go out with the period, not soon after (a 32x32
+  // city's lamps would send the whole table five times a second).
+  if (row.displayed_state != r.displayed_state) {
+    row.displayed_state = r.displayed_state;
+    ++revision_;
+  }
   if (!same) {
     if (row.host != r.host) row.host = r.host;
     if (row.detail != r.detail) row.detail = r.detail;
@@ -31,7 +38,6 @@ void DeviceTable::Take(const DeviceReportView& r, MonoTime now) {
     row.backend = r.backend;
     row.health = health;
     row.mode = r.mode;
-    row.displayed_state = r.displayed_state;
     row.reported = true;
     row.lost = false;
     ++revision_;

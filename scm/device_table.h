@@ -41,7 +41,8 @@ class DeviceTable {
  public:
   /// The table goes out at least this often.
   static constexpr Duration kPeriod = std::chrono::seconds(1);
-  /// ... and soon after a change, but not more often than this.
+  /// ... and soon after a change of a device's health, mode, host or detail (not of the lamps a
+  /// light shows: they go out with the period), but not more often than this.
   static constexpr Duration kMinInterval = std::chrono::milliseconds(200);
 
   /// The rows of `runtime`'s heads; `timeout` is the city's device time-out (a device not
@@ -52,8 +53,8 @@ class DeviceTable {
 
   /// A report the supervisor took as the city's own, received at `now`.
   void Take(const DeviceReportView& report, MonoTime now);
-  /// Whether the table should go out at `now`: its period passed, or a row changed and the
-  /// last one went out at least `kMinInterval` ago.
+  /// Whether the table should go out at `now`: its period passed, or a row's health, mode, host
+  /// or detail changed and the last one went out at least `kMinInterval` ago.
   [[nodiscard]] bool Due(MonoTime now) const;
   /// Updates the lost flags at `now` and marks the table sent: call when it goes out.
   void Refresh(MonoTime now);

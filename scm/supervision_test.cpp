@@ -260,7 +260,15 @@ TEST_F(SupervisionTest, TheDeviceTableGoesOutEveryPeriodAndSoonAfterAChangeButNo
   EXPECT_FALSE(table.Due(t0_ + milliseconds(150))) << "the same report again changes nothing";
   DeviceReportView green = Light(1, Aspect::kGreen);
   green.displayed_state = 3;
+  const std::uint64_t revision = table.revision();
   table.Take(green, t0_ + milliseconds(160));
+  EXPECT_GT(table.revision(), revision);
+  EXPECT_EQ(table.rows()[*runtime_.HeadIndex(SignalHeadId(1))].displayed_state, 3);
+  EXPECT_EQ(table.next_deadline(), t0_ + milliseconds(100) + DeviceTable::kPeriod)
+      << "the lamps a light shows go out with the period";
+  DeviceReportView degraded = green;
+  degraded.health = DeviceHealth::kDegraded;
+  table.Take(degraded, t0_ + milliseconds(170));
   EXPECT_FALSE(table.Due(t0_ + milliseconds(299))) << "at most every kMinInterval";
   EXPECT_EQ(table.next_deadline(), t0_ + milliseconds(100) + DeviceTable::kMinInterval);
   EXPECT_TRUE(table.Due(t0_ + milliseconds(300)));

@@ -163,7 +163,7 @@ void Hub::CloseAll() {
   counters_.subscribers = 0;
 }
 
-void Hub::PublishLocked(const char* event, json data) {
+void Hub::PublishLocked(const char* event, const json& data) {
   auto message = std::make_shared<const std::string>(fmt::format(
       "event: {}\ndata: {}\n\n", event, data.dump(-1, ' ', false, json::error_handler_t::replace)));
   ++counters_.messages;
@@ -223,11 +223,17 @@ void Hub::SetFleet(double now, json vehicles, double rx_ms) {
 
 bool Hub::SetTraffic(json objects, double rx_ms) {
   std::lock_guard lock(mutex_);
-  objects_ = std::move(objects);
   const auto t = std::chrono::steady_clock::now();
-  if (t - traffic_sent_ < options_.traffic_interval) return false;
+  if (traffic_sent_ && t - *traffic_sent_ < options_.traffic_interval) {
+    objects_ = std::move(objects);
+    return false;
+  }
   traffic_sent_ = t;
-  PublishLocked("traffic", {{"rx", rx_ms}, {"objects", objects_}});
+  // Into the message and back: a thousand cars are not copied to be written out.
+  json message = {{"rx", rx_ms}, {"objects", nullptr}};
+  message["objects"] = std::move(objects);
+  PublishLocked("traffic", message);
+  objects_ = std::move(message["objects"]);
   return true;
 }
 

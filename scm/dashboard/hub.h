@@ -123,7 +123,7 @@ class Hub {
   [[nodiscard]] HubCounters counters() const;
 
  private:
-  void PublishLocked(const char* event, nlohmann::json data);
+  void PublishLocked(const char* event, const nlohmann::json& data);
   /// Sends the gathered lamp and device changes (under the lock).
   void FlushLocked();
   void RunFlusher();
@@ -142,7 +142,9 @@ class Hub {
   std::optional<double> spat_now_;
   nlohmann::json vehicles_ = nlohmann::json::array();
   nlohmann::json objects_ = nlohmann::json::array();
-  std::chrono::steady_clock::time_point traffic_sent_{};
+  /// When traffic last went out (none yet: the steady clock's zero is the host's boot, which
+  /// may be less than an interval ago).
+  std::optional<std::chrono::steady_clock::time_point> traffic_sent_;
   std::map<std::string, nlohmann::json> intersections_;  ///< by name
   std::map<std::string, nlohmann::json> devices_;        ///< by id
   nlohmann::json processes_ = nlohmann::json::array();

@@ -165,6 +165,9 @@ TEST(DashboardHub, TrafficIsThinnedToItsIntervalAndAlwaysCurrentInTheState) {
   (void)Drain(*browser);
   EXPECT_TRUE(
       hub.SetTraffic(json::array({json::array({"a", 1, 0.5, 0.5, 0.0, 0.3, 0.2, 0.1})}), 1.0));
+  // The objects sent are the state's too (they go into the message and back, not copied).
+  ASSERT_EQ(hub.State()["objects"].size(), 1u);
+  EXPECT_EQ(hub.State()["objects"][0][0], "a");
   EXPECT_FALSE(hub.SetTraffic(json::array(), 2.0));
   const auto got = Drain(*browser);
   ASSERT_EQ(got.size(), 1u);

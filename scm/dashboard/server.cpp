@@ -598,9 +598,17 @@ void Server::PollIntersections() {
   }
   if (!answer || answer->code != scm::ReplyCode::kOk) return;
   std::vector<json> xs;
-  xs.reserve(answer->values.size());
-  for (const auto& [name, text] : answer->values) xs.push_back(ParseIntersection(name, text));
-  hub_.SetIntersections(xs, NowMs());
+  for (const auto& [name, text] : answer->values) {
+    auto it = intersection_texts_.find(name);
+    if (it == intersection_texts_.end()) {
+      it = intersection_texts_.emplace(name, std::string()).first;
+    } else if (it->second == text) {
+      continue;
+    }
+    it->second = text;
+    xs.push_back(ParseIntersection(name, text));
+  }
+  if (!xs.empty()) hub_.SetIntersections(xs, NowMs());
 }
 
 void Server::PollProcesses() {

@@ -781,6 +781,7 @@
           '</div></div>'
       );
     }
+    if (xObserver) xObserver.disconnect();
     xsecsEl.innerHTML = html.length ? html.join('') : '<div class="empty">no signalised intersection</div>';
     for (const el of xsecsEl.children) {
       const rec = X.get(el.getAttribute('data-xname'));
@@ -789,8 +790,37 @@
       rec.hEl = el.children[0];
       rec.lEl = el.children[1];
       rec.gEl = el.children[2];
+      observeRec(rec);
     }
     listBuilt = true;
+  }
+
+  // The intersections' blocks out of sight (a big city's list is mostly scrolled away) are not
+  // drawn as their data comes: they are marked and drawn when they come into view, so that a
+  // second's changes to a thousand intersections do not hold up the page's other messages.
+  // Their attributes (mode, stage, latch) are always current.
+  const xObserver =
+    typeof IntersectionObserver === 'function'
+      ? new IntersectionObserver(
+          guard('intersections in view', (entries) => {
+            for (const e of entries) {
+              const rec = X.get(e.target.getAttribute('data-xname'));
+              if (!rec || rec.el !== e.target) continue;
+              rec.visible = e.isIntersecting;
+              if (rec.visible && rec.dirty) {
+                rec.dirty = false;
+                renderHead(rec);
+                renderGroups(rec);
+              }
+            }
+          }),
+          { rootMargin: '200px' }
+        )
+      : null;
+  function observeRec(rec) {
+    rec.visible = true; // until the observer says otherwise
+    rec.dirty = false;
+    if (xObserver) xObserver.observe(rec.el);
   }
 
   // A record for an intersection the SCM or SPaT names; null for one the map says is not
@@ -826,6 +856,7 @@
       rec.hEl = el.children[0];
       rec.lEl = el.children[1];
       rec.gEl = el.children[2];
+      observeRec(rec);
       renderRec(rec);
       if (!selected) select(name, false);
     }
@@ -889,7 +920,6 @@
     const x = rec.X;
     const key = JSON.stringify([I, x && x.flags, x && x.plan, x && x.status, rec.name === selected]);
     if (key === rec.hkey) return;
-    rec.hkey = key;
     const el = rec.el;
     const mode = I ? str(I.mode) : '';
     const latched = !!(I && I.latched);
@@ -899,6 +929,11 @@
     el.classList.toggle('latched', latched);
     el.classList.toggle('degraded', mode === 'flash' || mode === 'dark');
     el.classList.toggle('sel', rec.name === selected);
+    if (rec.visible === false && rec.name !== selected) {
+      rec.dirty = true;
+      return;
+    }
+    rec.hkey = key;
     const h = [];
     h.push('<span class="xn">' + esc(rec.name) + '</span>');
     if (I) {
@@ -947,6 +982,10 @@
       ? JSON.stringify([1, groups, rec.spatNow])
       : JSON.stringify([0, groups.map((g) => g && g.state)]);
     if (key === rec.gkey && expanded === rec.expanded) return;
+    if (rec.visible === false && rec.name !== selected) {
+      rec.dirty = true;
+      return;
+    }
     rec.gkey = key;
     rec.expanded = expanded;
     rec.el.classList.toggle('expanded', expanded);
