@@ -261,6 +261,35 @@ TEST(CoSim, CarsStopAtRedAndCrossOnGreen) {
   EXPECT_EQ(sim.stats().teleports, 0);
 }
 
+TEST(CoSim, ALightSetFromTheLampsKeepsOneScheduledSwitchHoweverOftenItChanges) {
+  // Each hold set anew left a descheduled switch in SUMO's event queue (64 bytes a change,
+  // never freed in a run): the hold is set once, and the states that follow keep its switch.
+  const TempDir dir;
+  const scm::City& city = SmallTown();
+  TrafficConfig config;
+  config.vehicles = 0;
+  CoSimulation sim(city, config, InProcess(dir));
+  const auto every_second = [](SignalHeadId, double t) {
+    return static_cast<int>(t) % 2 == 0 ? 1 : 3;
+  };
+  const auto nothing = [](const std::vector<TrafficVehicle>&, double) {};
+  Drive(sim, city, 1.5, every_second, nothing);
+  std::map<std::string, double> first;
+  for (const LightBinding::Light& light : sim.lights().lights()) {
+    if (light.stop_controlled) continue;
+    first[light.tls] = sim.api().LightNextSwitch(light.tls);
+    EXPECT_GT(first[light.tls], sim.time_s() + 1e6) << light.tls << ": held";
+  }
+  ASSERT_FALSE(first.empty());
+  std::set<std::string> shown;
+  Drive(sim, city, 8.0, every_second,
+        [&](const std::vector<TrafficVehicle>&, double) { shown.insert(sim.light_states()[0]); });
+  EXPECT_GE(shown.size(), 2u) << "the lamps changed meanwhile";
+  for (const auto& [tls, next] : first) {
+    EXPECT_EQ(sim.api().LightNextSwitch(tls), next) << tls << ": its switch was not moved";
+  }
+}
+
 TEST(CoSim, ALampReportedBeforeTheStepsTimeReachesSumoAtThatStep) {
   const TempDir dir;
   const scm::City& city = SmallTown();

@@ -101,6 +101,9 @@ class SumoApi {
 
   virtual void SetLightState(const std::string& tls, const std::string& state) = 0;
   [[nodiscard]] virtual std::string LightState(const std::string& tls) = 0;
+  /// SUMO's time of the light's next switch of its own (s): a light set from outside is held,
+  /// its switch far away and not moved by the next state set.
+  [[nodiscard]] virtual double LightNextSwitch(const std::string& tls) = 0;
   /// The internal (via) lanes of each link of a lane: (to lane, via lane).
   [[nodiscard]] virtual std::vector<std::pair<std::string, std::string>> Links(
       const std::string& lane) = 0;

@@ -1537,8 +1537,11 @@
     const now = serverNow();
     for (const [el, rec] of devView.ageEls) {
       if (!rec) continue;
+      // A device the SCM still hears is live: its row comes again only when its status
+      // changes, so the age of its last report is known only for one lost (or never heard).
       const last = num(rec.d.last, NaN);
-      const t = fmtAge(Number.isFinite(last) ? now - last : NaN);
+      const live = rec.d.lost === false && Number.isFinite(last);
+      const t = live ? 'live' : fmtAge(Number.isFinite(last) ? now - last : NaN);
       if (el.textContent !== t) el.textContent = t;
     }
   }
