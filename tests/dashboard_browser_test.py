@@ -178,6 +178,16 @@ def main():
               f"every light is in the devices table with its health "
               f"({len(wanted & set(devices))} of {len(wanted)}: "
               f"{sorted({devices.get(d, '?') for d in wanted})})")
+        # ... and heard: "live" while the SCM hears it (not an age that grows while it is quiet).
+        def heard():
+            return dict(driver.execute_script(
+                "return Array.from(document.querySelectorAll('#devices tbody tr[data-id]'))"
+                ".map((tr) => [tr.getAttribute('data-id'), tr.lastElementChild.textContent]);"))
+        wait_for(lambda: all(heard().get(d) == "live" for d in wanted), 30, "every light live")
+        cells = heard()
+        check(all(cells.get(d) == "live" for d in wanted),
+              f"every light is live in the devices table "
+              f"({sorted({cells.get(d, '?') for d in wanted})})")
         # The page's lamp changes, as they happen, by the host's clock.
         driver.execute_script("""
           window.__lampLog = [];
