@@ -6,6 +6,9 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_2.h>
 
+#include <algorithm>
+#include <cmath>
+#include <iterator>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -83,6 +86,32 @@ std::optional<LaneMatch> MapIndex::NearestLane(const Eigen::Vector2d& p_M,
   m.point = point;
   m.along_m = impl_->along[lane][seg] + (point - c[seg]).norm();
   return m;
+}
+
+std::optional<LaneMatch> MapIndex::NearestLaneHeading(const Eigen::Vector2d& p_M, double yaw_rad,
+                                                      double max_distance_m,
+                                                      double max_angle_rad) const {
+  const Eigen::Vector2d heading(std::cos(yaw_rad), std::sin(yaw_rad));
+  const double min_cos = std::cos(max_angle_rad);
+  const K::Iso_cuboid_3 box(p_M.x() - max_distance_m, p_M.y() - max_distance_m, -1.0,
+                            p_M.x() + max_distance_m, p_M.y() + max_distance_m, 1.0);
+  std::vector<SegmentIterator> near;
+  impl_->tree.all_intersected_primitives(box, std::back_inserter(near));
+  std::optional<LaneMatch> best;
+  for (const SegmentIterator it : near) {
+    const Eigen::Vector2d a(it->source().x(), it->source().y());
+    const Eigen::Vector2d b(it->target().x(), it->target().y());
+    const Eigen::Vector2d ab = b - a;
+    const double n = ab.norm();
+    if (n <= 0 || ab.dot(heading) < min_cos * n) continue;
+    const double t = std::clamp((p_M - a).dot(ab) / (n * n), 0.0, 1.0);
+    const Eigen::Vector2d point = a + t * ab;
+    const double d = (point - p_M).norm();
+    if (d > max_distance_m || (best && d >= best->distance_m)) continue;
+    const auto [lane, seg] = impl_->owner[static_cast<std::size_t>(it - impl_->segments.cbegin())];
+    best = LaneMatch{map_.lanes[lane].id, d, impl_->along[lane][seg] + t * n, point};
+  }
+  return best;
 }
 
 bool MapIndex::IsDrivable(const Eigen::Vector2d& p_M) const {

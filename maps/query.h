@@ -35,6 +35,12 @@ class MapIndex {
   [[nodiscard]] std::optional<LaneMatch> NearestLane(
       const Eigen::Vector2d& p_M,
       double max_distance_m = std::numeric_limits<double>::infinity()) const;
+  /// The lane nearest to `p_M`, within `max_distance_m`, that runs the way of `yaw_rad`: its
+  /// centreline's direction there within `max_angle_rad` of it. A car's lane, where the lane
+  /// beside it (the other way) may be nearer: a car cutting a curve, or near a tile's join.
+  [[nodiscard]] std::optional<LaneMatch> NearestLaneHeading(const Eigen::Vector2d& p_M,
+                                                            double yaw_rad, double max_distance_m,
+                                                            double max_angle_rad) const;
   /// True when `p_M` lies in the drivable area (road surface minus obstacles), boundary
   /// included.
   [[nodiscard]] bool IsDrivable(const Eigen::Vector2d& p_M) const;

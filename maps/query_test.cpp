@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <optional>
 #include <random>
 
 #include "common/test_support.h"
@@ -104,6 +106,45 @@ TEST(MapIndex, NearestLaneAndDrivableMatchBruteForceOnAGridCityWithObstacles) {
   CrossCheck(Build(l), 11);
 }
 
+// Nearest lane that runs a car's way, against brute force: random points and headings on the
+// small town, 0.2 m at most, 60 degrees at most.
+TEST(MapIndex, NearestLaneHeadingMatchesBruteForce) {
+  const Map map = Build(LoadLayout((test::SourceDir() / "config/maps/small_town.yaml").string()));
+  const MapIndex index(map);
+  std::mt19937 rng(5);
+  const Eigen::Vector2d size = map.size_m();
+  std::uniform_real_distribution<double> ux(0, size.x()), uy(0, size.y()), uyaw(-M_PI, M_PI);
+  constexpr double kMax = 0.2, kAngle = M_PI / 3;
+  int found = 0, refused_for_heading = 0;
+  for (int k = 0; k < 4000 * test::SoakFactor(); ++k) {
+    const Eigen::Vector2d p(ux(rng), uy(rng));
+    const double yaw = uyaw(rng);
+    const Eigen::Vector2d heading(std::cos(yaw), std::sin(yaw));
+    std::optional<std::pair<double, LaneId>> best;
+    for (const auto& lane : map.lanes) {
+      for (std::size_t i = 1; i < lane.centreline.size(); ++i) {
+        const Eigen::Vector2d ab = lane.centreline[i] - lane.centreline[i - 1];
+        if (ab.norm() <= 0 || ab.normalized().dot(heading) < std::cos(kAngle)) continue;
+        const double d = SegmentDistance(p, lane.centreline[i - 1], lane.centreline[i]);
+        if (d <= kMax && (!best || d < best->first)) best = {d, lane.id};
+      }
+    }
+    const auto match = index.NearestLaneHeading(p, yaw, kMax, kAngle);
+    ASSERT_EQ(match.has_value(), best.has_value()) << "at " << p.transpose() << ", " << yaw;
+    if (!match) continue;
+    ++found;
+    ASSERT_NEAR(match->distance_m, best->first, 1e-9) << "at " << p.transpose();
+    const auto any = index.NearestLane(p);
+    if (any && any->distance_m < match->distance_m - 1e-9) ++refused_for_heading;
+    const Lane& lane = map.lane(match->lane);
+    EXPECT_GE(match->along_m, 0.0);
+    EXPECT_LE(match->along_m, lane.length_m + 1e-9);
+  }
+  // Both cases are covered: a lane found, and a nearer lane that runs the other way passed over.
+  EXPECT_GT(found, 200);
+  EXPECT_GT(refused_for_heading, 50);
+}
+
 TEST(MapIndex, MaxDistanceAndEmptyMaps) {
   const Map map = Build(GridCity(1, 1));
   const MapIndex index(map);
@@ -116,6 +157,7 @@ TEST(MapIndex, MaxDistanceAndEmptyMaps) {
   const MapIndex none(nothing);
   EXPECT_FALSE(none.NearestLane({0.5, 0.5}).has_value());
   EXPECT_FALSE(none.IsDrivable({0.5, 0.5}));
+  EXPECT_FALSE(none.NearestLaneHeading({0.5, 0.5}, 0.0, 1.0, 1.0).has_value());
 }
 
 }  // namespace

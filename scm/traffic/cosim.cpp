@@ -323,12 +323,13 @@ void CoSimulation::PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime no
                                          [](const auto& kv) { return kv.second.in_sumo; });
 }
 
-void CoSimulation::MoveLabCars(const std::vector<LabCarPose>& cars) {
+void CoSimulation::MoveLabCars() {
   const double s = network_->scale();
   const SumoTypeSize& nigel = TypeSize(network_->files().vehicle_type);
-  for (const LabCarPose& car : cars) {
+  // Every lab car in SUMO, also one not heard from this step: where it was last heard of (left
+  // to itself, SUMO would drive it on along its route, and remove it at the route's end).
+  for (const LabCarPose& car : held_for_) {
     LabCar& lab = lab_cars_.at(car.name);
-    if (!lab.in_sumo) continue;
     const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
     // SUMO's position is the front bumper's middle.
     const Eigen::Vector2d front =
@@ -381,6 +382,13 @@ void CoSimulation::MoveLabCars(const std::vector<LabCarPose>& cars) {
           hint(network_->files().movement(m).to.id());
         }
       }
+    } else if (const auto on = FrontOnItsLane(car, front)) {
+      // On a lane: its front on that lane's SUMO lane (or the next's, once past its end). SUMO
+      // takes a move's lane when the point is beside that lane; else it weighs the lanes near
+      // the point, and at a tile's join (where lanes end) that weighing has put a car on the
+      // lane beside it that runs the other way.
+      at = on->first;
+      hint(on->second);
     } else if (const auto match = index_->NearestLane(
                    car.position + heading * config_.lab_cars.body_centre_ahead_m,
                    config_.lab_cars.max_lane_distance_m)) {
@@ -396,6 +404,44 @@ void CoSimulation::MoveLabCars(const std::vector<LabCarPose>& cars) {
       spdlog::warn("traffic: {} could not be placed in SUMO: {}", car.name, e.what());
     }
   }
+}
+
+std::optional<std::pair<Eigen::Vector2d, std::string>> CoSimulation::FrontOnItsLane(
+    const LabCarPose& car, const Eigen::Vector2d& front) {
+  // Its lane: the nearest to its body's centre that runs its way (the lane beside it runs the
+  // other way, and may be nearer where it cuts a curve).
+  constexpr double kAlignedRad = 1.2;
+  const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
+  const auto on =
+      index_->NearestLaneHeading(car.position + heading * config_.lab_cars.body_centre_ahead_m,
+                                 car.yaw_rad, config_.lab_cars.max_lane_distance_m, kAlignedRad);
+  if (!on) return std::nullopt;
+  const maps::Lane* lane = &city_.map.lane(on->lane);
+  PolylinePoint q = NearestOnPolyline(lane->centreline, front);
+  // SUMO's lanes end where the map's do (a join between tiles is a junction of no size): a
+  // front at or past its lane's end is on the next one.
+  constexpr double kInside = 0.002;  // metres from a lane's ends (SUMO: 2.8 cm)
+  if (q.along_m > q.length_m - kInside) {
+    if (lane->successors.size() != 1) return std::nullopt;  // into an intersection
+    lane = &city_.map.lane(lane->successors.front());
+    q = NearestOnPolyline(lane->centreline, front);
+  }
+  // The point beside the lane, within its width: where SUMO's weighing never decides.
+  const double along = std::clamp(q.along_m, kInside, std::max(kInside, q.length_m - kInside));
+  const auto [p, direction] = PointAlong(lane->centreline, along);
+  const Eigen::Vector2d left(-std::sin(direction), std::cos(direction));
+  const double half = std::max(0.0, lane->width_m / 2 - 0.01);
+  const Eigen::Vector2d at = p + left * std::clamp((front - q.point).dot(left), -half, half);
+  // The SUMO lane of the map lane there (a turning loop runs along two).
+  const std::vector<maps::SumoLaneRef>& pieces = network_->files().lane_pieces.at(lane->id);
+  std::size_t k = 0;
+  double start = 0;
+  const double s = network_->scale();
+  while (k + 1 < pieces.size() && along > start + LaneLength(pieces[k].id()) / s) {
+    start += LaneLength(pieces[k].id()) / s;
+    ++k;
+  }
+  return std::pair{at, pieces[k].id()};
 }
 
 std::string CoSimulation::DescribeLabCars(const std::string& a, const std::string& b) const {
@@ -842,7 +888,7 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
                                                       MonoTime now) {
   PlaceLabCars(lab_cars, now);
   HoldForLabCars();
-  MoveLabCars(lab_cars);
+  MoveLabCars();
   UpdateLights(now);
   // The random vehicles go in once the lab's cars are in the network (placed in the last
   // step), so that none is put where a lab car stands.
@@ -877,10 +923,21 @@ const std::vector<TrafficVehicle>& CoSimulation::Step(const std::vector<LabCarPo
     if (lab_ids_.count(id) == 0) ++stats_.departed;
   }
   for (const std::string& id : events.arrived) {
+    if (lab_ids_.count(id) != 0) {
+      // SUMO ends a vehicle's trip at its route's end, a moved one too: in again at the next
+      // step (a lab car leaves SUMO only off the road or stale).
+      for (auto& [name, lab] : lab_cars_) {
+        if (lab.sumo_id != id || !lab.in_sumo) continue;
+        lab.in_sumo = false;
+        ++stats_.lab_car_misses;
+        spdlog::warn("traffic: SUMO ended {}'s trip at {:.2f} s: it goes in again", name, time_s_);
+      }
+      continue;
+    }
     if (circulating_.erase(id) != 0) {
       ++stats_.arrived_unplanned;
       spdlog::error("traffic: circulating vehicle {} left the network at {:.2f} s", id, time_s_);
-    } else if (lab_ids_.count(id) == 0) {
+    } else {
       ++stats_.arrived_planned;
     }
   }

@@ -78,7 +78,7 @@ struct CoSimStats {
   std::int64_t collisions = 0;         ///< pairs of vehicles that started to overlap
   std::int64_t lab_overlaps = 0;       ///< of two lab cars as SUMO placed them (not collisions)
   std::int64_t lab_cars_placed = 0;    ///< lab cars in SUMO now
-  std::int64_t lab_car_misses = 0;     ///< placements SUMO refused (car off the roads)
+  std::int64_t lab_car_misses = 0;  ///< placements SUMO refused (car off the roads), trips it ended
   std::int64_t route_extensions = 0;
   std::int64_t reroutes = 0;        ///< circulating vehicles that turned elsewhere, their road full
   std::int64_t all_way_grants = 0;  ///< vehicles let through flashing or dark lights
@@ -154,7 +154,11 @@ class CoSimulation {
   void UpdateLights(MonoTime now);
   // Lab cars: into SUMO (or out of it); then, once the claims are up to date, where they are.
   void PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now);
-  void MoveLabCars(const std::vector<LabCarPose>& cars);
+  void MoveLabCars();
+  // For a lab car on a lane (not in a box): where SUMO is to have its front (`front`, on its
+  // lane or the next, within the lane's width) and on which SUMO lane.
+  std::optional<std::pair<Eigen::Vector2d, std::string>> FrontOnItsLane(
+      const LabCarPose& car, const Eigen::Vector2d& front);
   void NoteLabLane(const SumoVehicleState& v);
   // For a collision's log line: where the lab cars among `a` and `b` were.
   [[nodiscard]] std::string DescribeLabCars(const std::string& a, const std::string& b) const;

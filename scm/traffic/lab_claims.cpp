@@ -30,6 +30,20 @@ PolylinePoint NearestOnPolyline(const maps::Polyline& line, const Eigen::Vector2
   return best;
 }
 
+std::pair<Eigen::Vector2d, double> PointAlong(const maps::Polyline& line, double along) {
+  along = std::max(along, 0.0);
+  for (std::size_t i = 1; i < line.size(); ++i) {
+    const Eigen::Vector2d d = line[i] - line[i - 1];
+    const double n = d.norm();
+    if (n <= 0) continue;
+    if (along <= n || i + 1 == line.size()) {
+      return {line[i - 1] + d * std::min(along, n) / n, std::atan2(d.y(), d.x())};
+    }
+    along -= n;
+  }
+  return {line.empty() ? Eigen::Vector2d::Zero() : line.back(), 0.0};
+}
+
 LabCarClaims::LabCarClaims(const maps::Map& map, const maps::MapIndex& index, Options options)
     : map_(map), index_(index), options_(options) {
   foes_.resize(map.movements.size() + 1);

@@ -44,6 +44,9 @@ struct PolylinePoint {
   double length_m = 0.0;                                        ///< the whole line's
 };
 [[nodiscard]] PolylinePoint NearestOnPolyline(const maps::Polyline& line, const Eigen::Vector2d& p);
+/// The point `along` metres along `line` (clamped to its ends) and the line's direction there.
+[[nodiscard]] std::pair<Eigen::Vector2d, double> PointAlong(const maps::Polyline& line,
+                                                            double along);
 
 /// A lab car's pose: its origin (the middle of its rear axle) in the map frame.
 struct LabCarPose {
