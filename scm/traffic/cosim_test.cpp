@@ -587,7 +587,8 @@ TEST(CoSim, ALabCarDrivingThroughABoxIsOnItsOwnWayInSumo) {
 // other way. In a system test SUMO put nigel_4, leaving the south-east curve to the west with
 // its front at the join and turned 0.26 rad off its path, on the lane beside it that runs
 // east, and a SUMO car driving east reported a collision with it that the cars never had.
-// Before the co-simulation put a car's front on its own lane, 12 of these steps were wrong.
+// Before the co-simulation put a car's front on its own lane, a sweep of 45 offsets and turns
+// (up to 6 cm, 0.4 rad) had 12 of its 90,360 steps wrong; these six poses had wrong steps too.
 TEST(CoSim, ALabCarDrivingAlongEveryLaneIsOnItsOwnWayInSumo) {
   const TempDir dir;
   const scm::City& city = SmallTown();
