@@ -410,11 +410,10 @@ std::optional<std::pair<Eigen::Vector2d, std::string>> CoSimulation::FrontOnItsL
     const LabCarPose& car, const Eigen::Vector2d& front) {
   // Its lane: the nearest to its body's centre that runs its way (the lane beside it runs the
   // other way, and may be nearer where it cuts a curve).
-  constexpr double kAlignedRad = 1.2;
   const Eigen::Vector2d heading(std::cos(car.yaw_rad), std::sin(car.yaw_rad));
-  const auto on =
-      index_->NearestLaneHeading(car.position + heading * config_.lab_cars.body_centre_ahead_m,
-                                 car.yaw_rad, config_.lab_cars.max_lane_distance_m, kAlignedRad);
+  const auto on = index_->NearestLaneHeading(
+      car.position + heading * config_.lab_cars.body_centre_ahead_m, car.yaw_rad,
+      config_.lab_cars.max_lane_distance_m, LabCarClaims::kAlignedRad);
   if (!on) return std::nullopt;
   const maps::Lane* lane = &city_.map.lane(on->lane);
   PolylinePoint q = NearestOnPolyline(lane->centreline, front);

@@ -46,6 +46,8 @@ std::pair<Eigen::Vector2d, double> PointAlong(const maps::Polyline& line, double
 
 LabCarClaims::LabCarClaims(const maps::Map& map, const maps::MapIndex& index, Options options)
     : map_(map), index_(index), options_(options) {
+  for (const maps::Lane& l : map.lanes)
+    max_half_width_m_ = std::max(max_half_width_m_, l.width_m / 2);
   foes_.resize(map.movements.size() + 1);
   for (const maps::Intersection& x : map.intersections) {
     for (const auto& [a, b] : x.conflicts) {
@@ -56,13 +58,8 @@ LabCarClaims::LabCarClaims(const maps::Map& map, const maps::MapIndex& index, Op
 }
 
 std::optional<maps::LaneMatch> LabCarClaims::LaneUnder(const Eigen::Vector2d& p, double yaw) const {
-  const auto match = index_.NearestLane(p);
-  if (!match) return std::nullopt;
-  const maps::Lane& lane = map_.lane(match->lane);
-  if (match->distance_m > lane.width_m / 2) return std::nullopt;
-  if (std::abs(WrapAngle(NearestOnPolyline(lane.centreline, p).direction_rad - yaw)) > 1.2) {
-    return std::nullopt;
-  }
+  const auto match = index_.NearestLaneHeading(p, yaw, max_half_width_m_, kAlignedRad);
+  if (!match || match->distance_m > map_.lane(match->lane).width_m / 2) return std::nullopt;
   return match;
 }
 

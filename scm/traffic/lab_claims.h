@@ -66,6 +66,9 @@ class LabCarClaims {
     double on_path_rad = 0.7;              ///< ... and this well aligned is the one it is on
   };
 
+  /// How far a car's heading may turn from its lane's and the car still run along that lane.
+  static constexpr double kAlignedRad = 1.2;
+
   /// `map` and `index` must outlive it.
   LabCarClaims(const maps::Map& map, const maps::MapIndex& index, Options options);
 
@@ -99,13 +102,15 @@ class LabCarClaims {
   void Claim(Car& car, const LabCarPose& pose, const std::function<bool(MovementId)>& may_enter);
   // Whether a car heading along yaw runs the way of the path at q.
   [[nodiscard]] bool Aligned(const PolylinePoint& q, double yaw) const;
-  // The lane under point p heading along yaw, if any.
+  // The lane under point p (within its half width) that runs its way (kAlignedRad),
+  // if any.
   [[nodiscard]] std::optional<maps::LaneMatch> LaneUnder(const Eigen::Vector2d& p,
                                                          double yaw) const;
 
   const maps::Map& map_;
   const maps::MapIndex& index_;
   Options options_;
+  double max_half_width_m_ = 0.0;              // of the map's widest lane
   std::vector<std::vector<MovementId>> foes_;  // by movement id
   std::unordered_map<std::string, Car> cars_;
   std::vector<MovementId> held_;
