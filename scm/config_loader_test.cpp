@@ -77,7 +77,9 @@ TEST_F(ConfigLoaderTest, ARequestIsInFlightUntilItsAnswerAndNotAMomentLonger) {
   });
   EXPECT_TRUE(loader_->busy());
   ASSERT_TRUE(RunUntil(first));
-  EXPECT_TRUE(woken_.load());
+  // The loader wakes the loop just after it queues the completion, so a loop already polling
+  // may run the completion first (as this one did once, under ASan in CI): wait for the wake.
+  EXPECT_TRUE(RunUntil(woken_)) << "the loader never woke the loop";
   EXPECT_FALSE(busy_in_answer);
   EXPECT_FALSE(loader_->busy());
   std::unique_ptr<CityBundle> built;
