@@ -139,8 +139,9 @@ class InfraProcessTest : public ::testing::Test {
       m->state = 1;  // RUNNING
       while (beating_) {
         m->sequence_number = ++scm_sequence_;
-        heartbeat_writer_.Write(m);
+        // Before the write: the host cannot take a heartbeat earlier than this.
         last_beat_ = SteadyClock::now().time_since_epoch().count();
+        heartbeat_writer_.Write(m);
         std::this_thread::sleep_for(100ms);
       }
     });
@@ -281,7 +282,8 @@ TEST_F(InfraProcessTest, FollowsTheScmAndFlashesOnItsOwnWhenTheHeartbeatStops) {
   ASSERT_TRUE(WaitForAspect(1, Aspect::kFlashingRed, kFlash, 5s));
   const auto took = SteadyClock::now() - silent_since;
   EXPECT_GT(took, 950ms);
-  EXPECT_LT(took, 1600ms) << "1 s timeout, 20 ms ticks, and a margin for a loaded machine";
+  EXPECT_LT(took, 3s) << "1 s timeout, 20 ms ticks, and a margin for a sanitizer on a loaded "
+                        "machine (not for a host that never times out)";
   EXPECT_EQ(status_["signal_1"].detail, "lost SCM heartbeat; waiting for the SCM's heartbeat");
   ASSERT_TRUE(Pump([&] { return FindEvent("local_flash", "signal_1") != nullptr; }));
   EXPECT_EQ(FindEvent("local_flash", "signal_1")->source, "infra/proc_test");
@@ -296,7 +298,7 @@ TEST_F(InfraProcessTest, FollowsTheScmAndFlashesOnItsOwnWhenTheHeartbeatStops) {
   Command(1, ToWire(Aspect::kRed));
   EXPECT_TRUE(WaitForAspect(1, Aspect::kRed, kNormal));
 
-  EXPECT_EQ(infra_->Stop(5s), 0);
+  EXPECT_EQ(infra_->Stop(30s), 0);
 }
 
 TEST_F(InfraProcessTest, RefusesIllegalCommandsAndCarriesOn) {
@@ -344,8 +346,10 @@ TEST_F(InfraProcessTest, APhysicalHeadFollowsThroughItsControllerAndReportsItsLa
 TEST_F(InfraProcessTest, StopsPromptlyOnSigtermAndSaysSo) {
   StartInfra();
   ASSERT_EQ(::kill(infra_->pid(), SIGTERM), 0);
-  const auto code = infra_->Wait(5s);
-  ASSERT_TRUE(code.has_value()) << "still running 5 s after SIGTERM";
+  // Promptly: the host stops within its loop's pass (seconds at most under a sanitizer); the
+  // deadline only tells that from a host that ignores SIGTERM.
+  const auto code = infra_->Wait(30s);
+  ASSERT_TRUE(code.has_value()) << "still running 30 s after SIGTERM";
   EXPECT_EQ(*code, 0);
   EXPECT_TRUE(Pump([&] { return infra_state_ == 2; })) << "a STOPPING heartbeat";
   EXPECT_TRUE(
@@ -385,8 +389,10 @@ TEST_F(InfraProcessTest, OnTheSimulatedClockTimeIsTheSimulatorsTime) {
   const Time resumed = sim_time_.load();
   sim_advancing_ = true;
   ASSERT_TRUE(WaitForAspect(1, Aspect::kFlashingRed, kFlash));
-  EXPECT_GE(status_["signal_1"].stamp - resumed, 900ms);
-  EXPECT_EQ(infra_->Stop(5s), 0) << "a blocked simulated clock does not delay shutdown";
+  // The last heartbeat was taken up to a period (and the host's view of /clock) before the
+  // pause: at least half the 1 s time-out was left when the simulation resumed.
+  EXPECT_GE(status_["signal_1"].stamp - resumed, 500ms);
+  EXPECT_EQ(infra_->Stop(30s), 0) << "a blocked simulated clock does not delay shutdown";
 }
 
 TEST_F(InfraProcessTest, ADeviceCommandResetsExactlyTheMonitorItNames) {
@@ -431,7 +437,7 @@ TEST_F(InfraProcessTest, ADeviceCommandResetsExactlyTheMonitorItNames) {
   EXPECT_FALSE(WaitForAspect(4, Aspect::kRed, kNormal, 500ms));
   EXPECT_EQ(status_["mmu_centre"].health, kFault);
   EXPECT_EQ(status_["signal_4"].mode, kFlash);
-  EXPECT_EQ(infra_->Stop(5s), 0);
+  EXPECT_EQ(infra_->Stop(30s), 0);
 }
 
 TEST(InfraProgram, RefusesABadConfigNamingFileLineAndKey) {

@@ -129,8 +129,9 @@ TEST(SerialBackend, AControllerThatStopsAnsweringMakesTheHeadOfflineWithinASecon
   Emulator mcu = StartEmulator();
   SerialBackend backend(Options(mcu.port));
   ShowAndWait(backend, Aspect::kRed);
-  EXPECT_EQ(mcu.Tell("mute"), "ok mute");
+  // Before asking: the controller's last report cannot be later than this.
   const auto muted_at = std::chrono::steady_clock::now();
+  EXPECT_EQ(mcu.Tell("mute"), "ok mute");
   const LampFeedback f = PollUntil(backend, [](const LampFeedback& fb) { return !fb.online; });
   const auto took = std::chrono::steady_clock::now() - muted_at;
   ASSERT_FALSE(f.online);
@@ -152,7 +153,7 @@ TEST(SerialBackend, ReopensThePortWhenItComesBack) {
   ShowAndWait(backend, Aspect::kGreen);
   EXPECT_EQ(backend.connects(), 1u);
 
-  first->process.Stop();  // the controller is unplugged
+  first->process.Stop(std::chrono::seconds(30));  // the controller is unplugged
   first.reset();
   const LampFeedback gone = PollUntil(backend, [](const LampFeedback& fb) { return !fb.online; });
   EXPECT_FALSE(gone.online);
@@ -165,7 +166,7 @@ TEST(SerialBackend, ReopensThePortWhenItComesBack) {
   EXPECT_TRUE(back.online) << back.offline_reason;
   EXPECT_EQ(back.lamps, LampsFor(Aspect::kGreen)) << "the aspect is sent again after reopening";
   EXPECT_EQ(backend.connects(), 2u);
-  second.process.Stop();
+  second.process.Stop(std::chrono::seconds(30));  // time to remove its link, under a sanitizer
   EXPECT_FALSE(fs::exists(fs::symlink_status(link))) << "the emulator removes its link";
 }
 

@@ -17,7 +17,9 @@
 #include <map>
 #include <memory>
 #include <sstream>
+#include <stop_token>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -129,6 +131,16 @@ TEST_F(SimProcess, ACarDrivenOverTheDevkitTopicsMovesAndReportsOnEveryDevkitSens
   };
   EXPECT_TRUE(drive_until([&](const msg::Point& p) { return p.x > x0 + 0.25; }, seconds(60)))
       << "the car did not drive 0.25 m east";
+  // The commands go on while the sensors are checked: a pause of 0.5 s on a loaded machine
+  // would let the simulator's command time-out stop the car (and zero its throttle feedback).
+  // (A jthread: a failed ASSERT below stops and joins it on the way out.)
+  std::jthread driver([&](const std::stop_token& stop) {
+    while (!stop.stop_requested()) {
+      throttle.Write(msg::Float32{0.5F});
+      steering.Write(msg::Float32{0.0F});
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+  });
 
   // Every devkit sensor topic reports, with the devkit's shapes.
   const auto scan = WaitFor(
@@ -158,6 +170,8 @@ TEST_F(SimProcess, ACarDrivenOverTheDevkitTopicsMovesAndReportsOnEveryDevkitSens
   EXPECT_STREQ((*gt)->vehicle_id, "nigel_7");
   EXPECT_EQ((*gt)->source, autodrive_msgs_msg_TrackedVehicle_Constants_SIM_GROUND_TRUTH);
   EXPECT_NEAR((*gt)->twist.twist.linear.x, 0.13, 0.03);  // half of 0.26 m/s
+  driver.request_stop();
+  driver.join();
 
   // The commands stop: after the time-out (0.5 s) the car holds still.
   const auto stopped_by = std::chrono::steady_clock::now() + seconds(60);
