@@ -283,7 +283,7 @@ TEST_F(InfraProcessTest, FollowsTheScmAndFlashesOnItsOwnWhenTheHeartbeatStops) {
   const auto took = SteadyClock::now() - silent_since;
   EXPECT_GT(took, 950ms);
   EXPECT_LT(took, 3s) << "1 s timeout, 20 ms ticks, and a margin for a sanitizer on a loaded "
-                        "machine (not for a host that never times out)";
+                         "machine (not for a host that never times out)";
   EXPECT_EQ(status_["signal_1"].detail, "lost SCM heartbeat; waiting for the SCM's heartbeat");
   ASSERT_TRUE(Pump([&] { return FindEvent("local_flash", "signal_1") != nullptr; }));
   EXPECT_EQ(FindEvent("local_flash", "signal_1")->source, "infra/proc_test");
