@@ -6,8 +6,11 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <chrono>
 #include <fstream>
 #include <set>
+#include <string>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -111,6 +114,12 @@ TEST_F(Launcher, UpThenDownLeavesNoProcessBehind) {
   EXPECT_EQ(names, (std::set<std::string>{"dashboard", "lights", "scm"}));
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   // The address the dashboard serves on (port 0: the one it got), and its operator's token.
+  // The launcher prints it just after it marks every process running: wait for the line.
+  for (const auto end = std::chrono::steady_clock::now() + seconds(30);
+       LauncherLog().find("dashboard: http://") == std::string::npos &&
+       std::chrono::steady_clock::now() < end;) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
   EXPECT_THAT(LauncherLog(), HasSubstr("dashboard: http://127.0.0.1:"));
   EXPECT_THAT(LauncherLog(), ::testing::Not(HasSubstr("http://127.0.0.1:0/")));
   EXPECT_THAT(config::internal::ReadFile(dir_ / "run" / "dashboard.tokens"),
