@@ -4,11 +4,16 @@
 #include <fmt/format.h>
 #include <libsumo/libsumo.h>
 #include <spdlog/spdlog.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <unordered_map>
@@ -20,6 +25,7 @@
 #include "common/dds/participant.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
+#include "common/error.h"
 #include "common/logging.h"
 #include "common/process.h"
 #include "maps/sumo.h"
@@ -27,6 +33,7 @@
 #include "scm/city.h"
 #include "scm/traffic/cosim.h"
 #include "scm/traffic/lamp_inbox.h"
+#include "scm/traffic/lights.h"
 #include "scm/traffic/service.h"
 #include "scm/traffic/standalone.h"
 
@@ -49,6 +56,102 @@ int GridLamp(const maps::Map& map, SignalHeadId h, double t) {
   if (x.approaches[k].id != head.approach) return 1;
   const double in_phase = in_cycle - phase * static_cast<double>(k);
   return in_phase < green ? 3 : in_phase < green + yellow ? 2 : 1;
+}
+
+// What taking the lights' changes costs when the lights run in another process, as
+// `autodrive-infra` does beside `autodrive-traffic`: Cyclone's receive thread takes each
+// change off the socket, acknowledges it (the topic is reliable) and hands it to the
+// LampInbox; that is this process's CPU, which the in-thread figure below ("lamps in", the
+// lights writing in this process) does not see. A forked child writes the grid's changes
+// step by step, `pace` apart (about the co-simulation's step at 100 cars); this process
+// only receives (it blocks meanwhile, so its whole CPU time is the receiving).
+// Call before this process makes any DDS participant (it forks).
+struct LampReceipt {
+  std::uint64_t lamps = 0;
+  int steps = 0;
+  double cpu_s = 0;
+};
+
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+LampReceipt MeasureLampReceipt(const scm::City& city, const std::string& partition, int steps,
+                               std::chrono::microseconds pace) {
+  const std::vector<SignalHeadId> heads = LightBinding(city).heads();
+  int ready[2], go[2];
+  AUTODRIVE_THROW_UNLESS(::pipe(ready) == 0 && ::pipe(go) == 0, "pipe failed");
+  const pid_t child = ::fork();
+  AUTODRIVE_THROW_UNLESS(child >= 0, "fork failed");
+  if (child == 0) {
+    ::close(ready[0]);
+    ::close(go[1]);
+    int code = 1;
+    try {
+      dds::Participant p(dds::ParticipantOptions{{}, partition, {}});
+      std::vector<std::unique_ptr<dds::Writer<msg::Int32>>> lights;
+      for (const SignalHeadId h : heads) {
+        lights.push_back(std::make_unique<dds::Writer<msg::Int32>>(p, dds::topics::SignalState(h)));
+      }
+      bool matched = true;
+      for (const auto& w : lights)
+        matched = matched && w->WaitForReaders(1, std::chrono::seconds(120));
+      std::vector<int> shown(heads.size(), -1);
+      const auto write_step = [&](int k) {
+        for (std::size_t i = 0; i < heads.size(); ++i) {
+          const int lamp = GridLamp(city.map, heads[i], 0.05 * k);
+          if (lamp == shown[i]) continue;
+          dds::Message<msg::Int32> m;
+          m->data = lamp;
+          lights[i]->Write(m);
+          shown[i] = lamp;
+        }
+      };
+      write_step(0);  // every head's first report: not measured
+      for (const auto& w : lights) matched = matched && w->WaitForAcks(std::chrono::seconds(120));
+      char c = matched ? 'r' : 'x';
+      if (::write(ready[1], &c, 1) == 1 && matched && ::read(go[0], &c, 1) == 1) {
+        auto next = std::chrono::steady_clock::now();
+        for (int k = 1; k <= steps; ++k) {
+          write_step(k);
+          next += pace;
+          std::this_thread::sleep_until(next);
+        }
+        for (const auto& w : lights) (void)w->WaitForAcks(std::chrono::seconds(120));
+        code = 0;
+      }
+    } catch (...) {
+    }
+    std::_Exit(code);
+  }
+  ::close(ready[1]);
+  ::close(go[0]);
+  LampReceipt r;
+  {
+    dds::Participant p(dds::ParticipantOptions{{}, partition, {}});
+    LampInbox inbox(p, heads);
+    char c = 0;
+    const bool ok = ::read(ready[0], &c, 1) == 1 && c == 'r';
+    // The first reports are in (the child waited for their acknowledgements).
+    const std::uint64_t first = inbox.received();
+    const double cpu0 = ProcessCpuSeconds();
+    int status = 0;
+    if (ok && ::write(go[1], &c, 1) == 1) ::waitpid(child, &status, 0);
+    r.cpu_s = ProcessCpuSeconds() - cpu0;
+    if (!ok) {
+      ::kill(child, SIGKILL);
+      ::waitpid(child, &status, 0);
+    }
+    AUTODRIVE_THROW_UNLESS(ok && WIFEXITED(status) && WEXITSTATUS(status) == 0,
+                           "the lights' process failed");
+    r.lamps = inbox.received() - first;
+    r.steps = steps;
+  }
+  ::close(ready[0]);
+  ::close(go[1]);
+  return r;
 }
 
 struct Result {
@@ -195,7 +298,9 @@ int main(int argc, char** argv) {
       "SUMO cars on an n x n grid city (each step: lamps to SUMO's lights, SUMO's step, the cars "
       "read back and published as TrafficObjects on DDS), with the SCM running the city's "
       "intersections in its own process, and the overhead over libsumo alone on the same "
-      "network and demand. Goals: >= 1,000 cars at >= 1x real time, overhead <= 1.5x."};
+      "network and demand; first, what receiving the lights' changes from another process costs "
+      "(as autodrive-traffic receives them from autodrive-infra). Goals: >= 1,000 cars at >= 1x "
+      "real time, overhead <= 1.5x."};
   std::vector<int> cars{100, 1000, 5000};
   int grid = 32;
   double seconds = 60;
@@ -208,6 +313,11 @@ int main(int argc, char** argv) {
   app.add_flag("!--no-scm", with_scm, "do not run the SCM beside it");
   app.add_option("--repeat", repeat, "runs per size (each figure is their median)")
       ->check(CLI::Range(1, 99));
+  int lamp_steps = 4000;
+  app.add_option("--lamp-steps", lamp_steps,
+                 "steps of the lights' changes received from another process, to measure what "
+                 "receiving them costs (0: skip)")
+      ->check(CLI::Range(0, 1000000));
   CLI11_PARSE(app, argc, argv);
   InitLogging("autodrive-bench-traffic", spdlog::level::warn);
   const std::filesystem::path dir = std::filesystem::temp_directory_path() /
@@ -218,6 +328,22 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
   const scm::City city = scm::LoadCity(city_file);
   const std::string partition = fmt::format("bench_traffic_{}", ::getpid());
+  // Before any participant of this process (it forks).
+  std::optional<LampReceipt> receipt;
+  if (lamp_steps > 0) {
+    std::printf("receiving the lights' changes from another process (%d steps)...\n", lamp_steps);
+    std::fflush(stdout);
+    receipt =
+        MeasureLampReceipt(city, partition + "_lamps", lamp_steps, std::chrono::microseconds(500));
+    std::printf(
+        "lights' changes received from another process (as autodrive-traffic receives them "
+        "from autodrive-infra), %d steps 0.5 ms apart: %llu changes, %.2f us of this process's "
+        "CPU each, %.3f ms per step\n",
+        receipt->steps, static_cast<unsigned long long>(receipt->lamps),
+        1e6 * receipt->cpu_s / static_cast<double>(std::max<std::uint64_t>(receipt->lamps, 1)),
+        1e3 * receipt->cpu_s / receipt->steps);
+    std::fflush(stdout);
+  }
   std::unique_ptr<ChildProcess> scm;
   if (with_scm) {
     scm = std::make_unique<ChildProcess>(std::vector<std::string>{
@@ -267,6 +393,14 @@ int main(int argc, char** argv) {
         "%.3f ms, TrafficObjects out %.3f ms; all of it over SUMO's own step: %.2fx\n",
         1000 * r.lamps_cpu_s / steps, 1000 * r.sumo_cpu_s / steps, 1000 * r.alone_cpu_s / steps,
         1000 * r.step_cpu_s / steps, 1000 * r.publish_cpu_s / steps, r.cosim_cpu_s / r.sumo_cpu_s);
+    if (receipt) {
+      // The lamps as received from another process in place of the in-process figure.
+      const double received_s = receipt->cpu_s / receipt->steps * steps;
+      std::printf(
+          "         with the lamps received from another process instead (%.3f ms a step): "
+          "overhead %.2fx\n",
+          1000 * received_s / steps, (r.cosim_cpu_s - r.lamps_cpu_s + received_s) / r.alone_cpu_s);
+    }
     if (r.late_lamps > 0) {
       std::printf(
           "         (in %lld steps the lamps reached the inbox on another thread: its CPU is "
