@@ -134,7 +134,12 @@ LampReceipt MeasureLampReceipt(const scm::City& city, const std::string& partiti
     LampInbox inbox(p, heads);
     char c = 0;
     const bool ok = ::read(ready[0], &c, 1) == 1 && c == 'r';
-    // The first reports are in (the child waited for their acknowledgements).
+    // Every head's first report is acknowledged; wait until each is taken too (an
+    // acknowledgement may go out before the delivery), so that none counts as measured.
+    for (const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+         ok && inbox.received() < heads.size() && std::chrono::steady_clock::now() < end;) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
     const std::uint64_t first = inbox.received();
     const double cpu0 = ProcessCpuSeconds();
     int status = 0;
