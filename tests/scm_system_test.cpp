@@ -7,6 +7,7 @@
 #include <csignal>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "autodrive_msgs/msg/DeviceCommand.h"
@@ -77,11 +78,26 @@ TEST_F(ScmSystem, DrivingSchoolRunsSpatAtTenHertzAndTheLightsFollowThePlan) {
   ASSERT_NE(green_group, 0u);
   // The light of the green group (the Driving School's heads are numbered like its groups'
   // approaches: group g is shown by signal_g) shows green on its devkit state topic.
+  // (The reader may match only after that green ended: wait for a SPaT that shows the group
+  // green again while its head's latest state is in, and compare the two then.)
   dds::Reader<msg::Int32> state(*participant_, dds::topics::SignalState(SignalHeadId(green_group)));
-  ASSERT_TRUE(state.WaitForData(seconds(10)));
-  auto s = state.TakeAll();
-  ASSERT_FALSE(s.empty());
-  EXPECT_EQ(s.back()->data, 3) << "signal_" << green_group;
+  std::optional<std::int32_t> lamp;
+  const auto group_green = [&](const msg::Spat& m) {
+    for (const auto& g : dds::Elements(First(m).signal_groups)) {
+      if (g.signal_group == green_group) return test::IsGreen(g.event_state);
+    }
+    return false;
+  };
+  bool compared = false;
+  ASSERT_TRUE(WaitSpat(
+      [&](const msg::Spat& m) {
+        for (auto& sample : state.TakeAll()) lamp = sample->data;
+        if (!lamp || !group_green(m)) return false;
+        compared = true;
+        return *lamp == 3;
+      },
+      seconds(60)))
+      << "signal_" << green_group << (compared ? " did not show green while SPaT did" : "");
 }
 
 TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
@@ -284,7 +300,7 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   EXPECT_EQ(r.code, 105);  // CLI11: not one of spat, fleet, events
 }
 
-TEST_F(ScmSystem, KillingTheDevicesPutsTheIntersectionInFlashWithinOneSecond) {
+TEST_F(ScmSystem, KillingTheDevicesPutsTheIntersectionInFlashOnTheDeviceTimeOut) {
   StartInfra();
   StartScm();
   // The SCM's device table: every light of the city, whether the SCM still hears it.
