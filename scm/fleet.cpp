@@ -7,6 +7,7 @@
 
 #include "common/dds/conversions.h"
 #include "common/error.h"
+#include "maps/polyline.h"
 
 namespace autodrive::scm {
 namespace {
@@ -29,39 +30,6 @@ int Rank(PoseSource source) {
 const FleetRegistryParams& Validated(const FleetRegistryParams& params) {
   params.Validate();
   return params;
-}
-
-// The point of `line` nearest to p, brute force over its segments.
-struct LineProjection {
-  double distance_m = std::numeric_limits<double>::infinity();
-  double along_m = 0.0;
-  Eigen::Vector2d tangent = Eigen::Vector2d::UnitX();
-};
-
-LineProjection Project(const maps::Polyline& line, const Eigen::Vector2d& p) {
-  LineProjection best;
-  double s = 0.0;
-  for (std::size_t i = 1; i < line.size(); ++i) {
-    const Eigen::Vector2d a = line[i - 1];
-    const Eigen::Vector2d ab = line[i] - a;
-    const double length = ab.norm();
-    if (length == 0.0) continue;
-    const double t = std::clamp((p - a).dot(ab) / (length * length), 0.0, 1.0);
-    const double d = (a + t * ab - p).norm();
-    if (d < best.distance_m) {
-      best.distance_m = d;
-      best.along_m = s + t * length;
-      best.tangent = ab / length;
-    }
-    s += length;
-  }
-  return best;
-}
-
-double Length(const maps::Polyline& line) {
-  double s = 0.0;
-  for (std::size_t i = 1; i < line.size(); ++i) s += (line[i] - line[i - 1]).norm();
-  return s;
 }
 
 // Background vehicles are placed on lanes and movements simplified to within this (m).
@@ -144,7 +112,7 @@ FleetRegistry::FleetRegistry(const maps::Map& map, FleetRegistryParams params)
   for (const auto& lane : map_.lanes) {
     Place p;
     p.line = Simplified(lane.centreline, kCoarseTolerance_m);
-    p.length_m = Length(p.line);
+    p.length_m = maps::PolylineLength(p.line);
     p.lane = lane.id;
     if (lane.ingress_of && lane.ingress_approach) {
       p.intersection = lane.ingress_of;
@@ -155,7 +123,7 @@ FleetRegistry::FleetRegistry(const maps::Map& map, FleetRegistryParams params)
   for (const auto& mv : map_.movements) {
     Place p;
     p.line = Simplified(mv.path, kCoarseTolerance_m);
-    p.length_m = Length(p.line);
+    p.length_m = maps::PolylineLength(p.line);
     p.lane = mv.from;
     p.intersection = mv.intersection;
     p.approach = mv.from_approach;
@@ -174,10 +142,9 @@ FleetRegistry::FleetRegistry(const maps::Map& map, FleetRegistryParams params)
   lane_fill_.assign(map_.lanes.size(), 0);
 }
 
-bool FleetRegistry::HeadingFits(const Eigen::Vector2d& tangent,
-                                std::optional<double> yaw_rad) const {
+bool FleetRegistry::HeadingFits(double direction_rad, std::optional<double> yaw_rad) const {
   if (!yaw_rad) return true;
-  const double error = std::abs(WrapAngle(*yaw_rad - std::atan2(tangent.y(), tangent.x())));
+  const double error = std::abs(WrapAngle(*yaw_rad - direction_rad));
   return error <= params_.max_heading_error_rad;
 }
 
@@ -201,14 +168,14 @@ const maps::Intersection* FleetRegistry::BoxAt(const Eigen::Vector2d& p) const {
 
 std::optional<std::pair<LaneId, double>> FleetRegistry::NearestLane(
     const Eigen::Vector2d& p, std::optional<double> yaw_rad) const {
-  const auto fits = [&](const maps::Lane& lane, const LineProjection& q) {
+  const auto fits = [&](const maps::Lane& lane, const maps::PolylinePoint& q) {
     return q.distance_m <= lane.width_m / 2 + params_.lane_margin_m &&
-           HeadingFits(q.tangent, yaw_rad);
+           HeadingFits(q.direction_rad, yaw_rad);
   };
   // The common case: the nearest lane (CGAL's AABB tree) is the one.
   if (const auto m = index_.NearestLane(p, max_reach_m_)) {
     const maps::Lane& lane = map_.lane(m->lane);
-    const LineProjection q = Project(lane.centreline, p);
+    const maps::PolylinePoint q = maps::NearestOnPolyline(lane.centreline, p);
     if (fits(lane, q)) return std::pair{lane.id, q.along_m};
   } else {
     return std::nullopt;  // no lane within reach at all
@@ -220,7 +187,7 @@ std::optional<std::pair<LaneId, double>> FleetRegistry::NearestLane(
   for (std::size_t i = 0; i < map_.lanes.size(); ++i) {
     if (!lane_boxes_[i].contains(p)) continue;
     const maps::Lane& lane = map_.lanes[i];
-    const LineProjection q = Project(lane.centreline, p);
+    const maps::PolylinePoint q = maps::NearestOnPolyline(lane.centreline, p);
     if (!fits(lane, q)) continue;
     if (q.distance_m < best_distance_m) {
       best = std::pair{lane.id, q.along_m};
@@ -238,12 +205,12 @@ VehicleLocation FleetRegistry::Locate(const RigidTransform2& X_MV, bool heading_
   if (const maps::Intersection* x = BoxAt(p)) {
     loc.intersection = x->id;
     const maps::Movement* best = nullptr;
-    LineProjection best_q;
+    maps::PolylinePoint best_q;
     for (const MovementId id : x->movements) {
       const maps::Movement& mv = map_.movement(id);
-      const LineProjection q = Project(mv.path, p);
+      const maps::PolylinePoint q = maps::NearestOnPolyline(mv.path, p);
       const double reach = map_.lane(mv.from).width_m / 2 + params_.lane_margin_m;
-      if (q.distance_m > reach || !HeadingFits(q.tangent, yaw)) continue;
+      if (q.distance_m > reach || !HeadingFits(q.direction_rad, yaw)) continue;
       if (best == nullptr || q.distance_m < best_q.distance_m) {
         best = &mv;
         best_q = q;
@@ -416,7 +383,7 @@ void FleetRegistry::PlaceBackground(const TrafficObservation& o, std::uint32_t p
   b.half_length_m = o.length_m / 2;
   b.distance_to_stop_line_m = 0.0;
   if (!p.intersection) return;  // a lane that enters no intersection: no stop line
-  const double along = Project(p.line, o.p_MC).along_m;
+  const double along = maps::NearestOnPolyline(p.line, o.p_MC).along_m;
   b.distance_to_stop_line_m = p.movement ? -along : p.length_m - along;
 }
 

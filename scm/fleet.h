@@ -279,8 +279,8 @@ class FleetRegistry {
   // Observed within `staleness` of `now`, either side.
   [[nodiscard]] bool FreshAt(Time observed, Time now) const;
   // Heading compatible; any heading fits when `yaw_rad` is nothing (unknown heading).
-  [[nodiscard]] bool HeadingFits(const Eigen::Vector2d& tangent,
-                                 std::optional<double> yaw_rad) const;
+  // `direction_rad`: the lane's (or path's) direction at the car.
+  [[nodiscard]] bool HeadingFits(double direction_rad, std::optional<double> yaw_rad) const;
   // The nearest lane that fits (within reach, heading-compatible) and the arc length along it.
   [[nodiscard]] std::optional<std::pair<LaneId, double>> NearestLane(
       const Eigen::Vector2d& p, std::optional<double> yaw_rad) const;

@@ -10,6 +10,7 @@
 #include "common/error.h"
 #include "common/ids.h"
 #include "maps/map.h"
+#include "maps/polyline.h"
 
 namespace autodrive::vehicle_sim {
 
@@ -148,19 +149,11 @@ std::vector<RigidTransform2> SpawnPoses(const SimConfig& sim, const maps::Map& m
   const auto pose_on = [&](const maps::Lane& lane, double along, const std::string& car) {
     const maps::Polyline& c = lane.centreline;
     AUTODRIVE_THROW_UNLESS(c.size() >= 2, car << ": lane " << lane.name << " has no centreline");
-    double left = along;
-    for (std::size_t i = 0; i + 1 < c.size(); ++i) {
-      const Eigen::Vector2d d = c[i + 1] - c[i];
-      const double n = d.norm();
-      if (left <= n || i + 2 == c.size()) {
-        AUTODRIVE_THROW_UNLESS(left <= n + 1e-9, car << ": along_m " << along
-                                                     << " is beyond the end of lane " << lane.name
-                                                     << " (" << lane.length_m << " m)");
-        return RigidTransform2(c[i] + d * (left / n), std::atan2(d.y(), d.x()));
-      }
-      left -= n;
-    }
-    return RigidTransform2(c.front(), 0.0);
+    AUTODRIVE_THROW_UNLESS(along <= maps::PolylineLength(c) + 1e-9,
+                           car << ": along_m " << along << " is beyond the end of lane "
+                               << lane.name << " (" << lane.length_m << " m)");
+    const auto [p, yaw] = maps::PointAlong(c, along);
+    return RigidTransform2(p, yaw);
   };
   for (const SimVehicleConfig& v : sim.vehicles) {
     if (v.spawn && v.spawn->lane) {

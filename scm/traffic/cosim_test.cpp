@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <map>
 #include <set>
 #include <string>
@@ -386,6 +387,16 @@ TEST(CoSim, ASumoCarStopsBehindAStandingLabCar) {
   EXPECT_EQ(sim.stats().collisions, 0);
 }
 
+// The polylines one after another, each starting where the one before ends (a lane, the
+// movement's path, the next lane).
+maps::Polyline Joined(std::initializer_list<const maps::Polyline*> parts) {
+  maps::Polyline out;
+  for (const maps::Polyline* part : parts) {
+    out.insert(out.end(), part->begin() + (out.empty() ? 0 : 1), part->end());
+  }
+  return out;
+}
+
 // A lab car the fleet does not report for a few steps (the Eye missed it) stays in SUMO where
 // it was last seen: SUMO does not drive it on by itself (it did, and removed it at its route's
 // end, after which taking the stale car out of SUMO threw). Once stale it leaves SUMO, and
@@ -450,9 +461,7 @@ TEST(CoSim, ALabCarCrossingAnIntersectionStaysInSumoAndItsCarsWaitForIt) {
   ASSERT_NE(through, nullptr);
   const maps::Lane& from = city.map.lane(through->from);
   const maps::Lane& to = city.map.lane(through->to);
-  maps::Polyline path(from.centreline.begin(), from.centreline.end());
-  path.insert(path.end(), through->path.begin() + 1, through->path.end());
-  path.insert(path.end(), to.centreline.begin() + 1, to.centreline.end());
+  const maps::Polyline path = Joined({&from.centreline, &through->path, &to.centreline});
   const double start = from.length_m - 0.45;  // its origin 0.45 m before the line
   // SUMO's cars: a flow from the south approach's lane, through the centre.
   const maps::Lane& south_in = city.map.lane([&] {
@@ -547,9 +556,7 @@ TEST(CoSim, ALabCarDrivingThroughABoxIsOnItsOwnWayInSumo) {
       const maps::Movement& m = city.map.movement(mid);
       const maps::Lane& from = city.map.lane(m.from);
       const maps::Lane& to = city.map.lane(m.to);
-      maps::Polyline path(from.centreline.begin(), from.centreline.end());
-      path.insert(path.end(), m.path.begin() + 1, m.path.end());
-      path.insert(path.end(), to.centreline.begin() + 1, to.centreline.end());
+      const maps::Polyline path = Joined({&from.centreline, &m.path, &to.centreline});
       // Its way in SUMO.
       std::set<std::string> way{sumo.lane(from.id).id(), sumo.lane(to.id).id()};
       for (const MovementId sibling : from.movements_out) {
@@ -598,8 +605,7 @@ TEST(CoSim, ALabCarDrivingAlongEveryLaneIsOnItsOwnWayInSumo) {
   for (const maps::Lane& from : city.map.lanes) {
     for (const LaneId next : from.successors) {
       const maps::Lane& to = city.map.lane(next);
-      maps::Polyline path(from.centreline.begin(), from.centreline.end());
-      path.insert(path.end(), to.centreline.begin() + 1, to.centreline.end());
+      const maps::Polyline path = Joined({&from.centreline, &to.centreline});
       std::set<std::string> way;
       for (const LaneId l : {from.id, to.id}) {
         for (const maps::SumoLaneRef& piece : sumo.lane_pieces.at(l)) way.insert(piece.id());
@@ -667,8 +673,7 @@ TEST(CoSim, SumoCarsPassingALabCarTurningInABoxOnAPathThatDoesNotCrossTheirsDoNo
   const Eigen::Vector2d centre =
       there.position + 0.07077 * Eigen::Vector2d(std::cos(there.yaw_rad), std::sin(there.yaw_rad));
   const maps::Lane& from = city.map.lane(left->from);
-  maps::Polyline path(from.centreline.begin(), from.centreline.end());
-  path.insert(path.end(), left->path.begin() + 1, left->path.end());
+  const maps::Polyline path = Joined({&from.centreline, &left->path});
   const PolylinePoint on = NearestOnPolyline(path, centre);
   ASSERT_LT(on.distance_m, 0.005);
   ASSERT_GT(on.along_m, from.length_m + 0.3) << "in the box";

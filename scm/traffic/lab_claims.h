@@ -31,22 +31,15 @@
 
 #include "common/ids.h"
 #include "maps/map.h"
+#include "maps/polyline.h"
 #include "maps/query.h"
 
 namespace autodrive::traffic {
 
-/// The point of a polyline nearest to a query point.
-struct PolylinePoint {
-  Eigen::Vector2d point = Eigen::Vector2d::Zero();
-  double along_m = 0.0;  ///< its arc length from the line's start
-  double distance_m = std::numeric_limits<double>::infinity();  ///< from the query point
-  double direction_rad = 0.0;                                   ///< of the line's segment there
-  double length_m = 0.0;                                        ///< the whole line's
-};
-[[nodiscard]] PolylinePoint NearestOnPolyline(const maps::Polyline& line, const Eigen::Vector2d& p);
-/// The point `along` metres along `line` (clamped to its ends) and the line's direction there.
-[[nodiscard]] std::pair<Eigen::Vector2d, double> PointAlong(const maps::Polyline& line,
-                                                            double along);
+// The polyline helpers this component uses (maps/polyline.h).
+using maps::NearestOnPolyline;
+using maps::PointAlong;
+using maps::PolylinePoint;
 
 /// A lab car's pose: its origin (the middle of its rear axle) in the map frame.
 struct LabCarPose {
