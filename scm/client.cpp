@@ -1,7 +1,10 @@
 #include "scm/client.h"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include <cstdlib>
+#include <random>
 #include <thread>
 
 #include "autodrive_msgs/msg/OperatorReply.h"
@@ -15,23 +18,6 @@
 
 namespace autodrive::scm {
 
-namespace {
-
-ReplyCode FromWire(std::uint8_t result) {
-  switch (result) {
-    case autodrive_msgs_msg_OperatorReply_Constants_OK:
-      return ReplyCode::kOk;
-    case autodrive_msgs_msg_OperatorReply_Constants_REJECTED:
-      return ReplyCode::kRejected;
-    case autodrive_msgs_msg_OperatorReply_Constants_INVALID:
-      return ReplyCode::kInvalid;
-    default:
-      return ReplyCode::kFailed;
-  }
-}
-
-}  // namespace
-
 OperatorClient::OperatorClient(dds::Participant& participant, std::string client_id,
                                std::optional<std::string> operator_name)
     : participant_(participant),
@@ -43,6 +29,16 @@ OperatorClient::OperatorClient(dds::Participant& participant, std::string client
     operator_writer_ = std::make_unique<dds::Writer<msg::OperatorRequest>>(
         participant_, dds::topics::OperatorRequests(*operator_name_));
   }
+  std::random_device entropy;
+  next_id_ = 1 + ((static_cast<std::uint64_t>(entropy()) << 16) ^ entropy());
+}
+
+std::string UniqueClientId(std::string_view program) {
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  const char* user = std::getenv("USER");
+  std::random_device entropy;
+  return fmt::format("{}/{}@{}/{}-{:08x}", program, user ? user : "?", host, ::getpid(), entropy());
 }
 
 bool OperatorClient::WaitForScm(std::chrono::steady_clock::duration timeout) {
@@ -50,6 +46,16 @@ bool OperatorClient::WaitForScm(std::chrono::steady_clock::duration timeout) {
   // The SCM reads the shared topic and writes replies; requests are sent again until answered,
   // so a match seen from our side only is enough to start.
   if (!shared_writer_.WaitForReaders(1, timeout)) return false;
+  // A state-changing command goes on the operator's own topic: the SCM must read it too, or
+  // the first request goes to nobody and is answered only after a resend. An SCM whose city
+  // does not allow this operator opens a reader for it within a second or so, to refuse it
+  // (or never, past its bound of strangers): a resend then covers it.
+  if (operator_writer_) {
+    const auto left = std::max<std::chrono::steady_clock::duration>(
+        deadline - std::chrono::steady_clock::now(), std::chrono::milliseconds(0));
+    (void)operator_writer_->WaitForReaders(
+        1, std::min<std::chrono::steady_clock::duration>(left, kOperatorTopicWait));
+  }
   while (reader_.matched_writers() == 0) {
     if (std::chrono::steady_clock::now() >= deadline) return false;
     reader_.WaitForData(std::chrono::milliseconds(10));
@@ -95,7 +101,7 @@ std::optional<OperatorAnswer> OperatorClient::Call(const std::string& command,
     while (reader_.TakeOne(r)) {
       if (dds::View(r->client_id) != client_id_ || r->request_id != m->request_id) continue;
       OperatorAnswer a;
-      a.code = FromWire(r->result);
+      a.code = ReplyCodeFromWire(r->result);
       a.message = std::string(dds::View(r->message));
       for (const auto& v : dds::Elements(r->values)) {
         a.values.emplace_back(dds::View(v.key), dds::View(v.value));

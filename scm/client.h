@@ -22,7 +22,6 @@
 #include "common/dds/reader.h"
 #include "common/dds/writer.h"
 #include "scm/operator.h"
-#include "scm/publishers.h"
 
 namespace autodrive::scm {
 
@@ -41,17 +40,22 @@ class OperatorClient {
   /// every 250 ms while the SCM builds it).
   static constexpr std::chrono::milliseconds kResendAfter{250};
   static constexpr std::chrono::milliseconds kResendAtMost{4000};
+  /// How long `WaitForScm` waits for the SCM to read the operator's own topic, at most.
+  static constexpr std::chrono::milliseconds kOperatorTopicWait{3000};
 
   /// Joins DDS on `participant` (which must outlive it). `client_id` should be unique per
-  /// session (e.g. "scmctl/user@host/pid"). With `operator_name`, state-changing commands go on
-  /// that operator's topic; without, only read-only commands can be sent.
+  /// session (`UniqueClientId`). With `operator_name`, state-changing commands go on that
+  /// operator's topic; without, only read-only commands can be sent. Request ids start at a
+  /// random number, so that a client that gets the id of one gone before it (a dashboard
+  /// restarted, a recycled pid) does not reuse that one's request ids either.
   OperatorClient(dds::Participant& participant, std::string client_id,
                  std::optional<std::string> operator_name = std::nullopt);
   OperatorClient(const OperatorClient&) = delete;
   OperatorClient& operator=(const OperatorClient&) = delete;
 
-  /// Waits (steady clock) until an SCM is discovered: a reader of our requests and a writer of
-  /// replies. Returns false on timeout.
+  /// Waits (steady clock) until an SCM is discovered: a reader of our requests on the shared
+  /// topic and on our operator's topic (when we have one), and a writer of replies. Returns
+  /// false on timeout.
   bool WaitForScm(std::chrono::steady_clock::duration timeout);
   /// Sends `command` with `args` and waits for the reply, re-sending the same request until one
   /// comes or `timeout` passes (then nothing). Throws `InputError` for a state-changing command
@@ -72,13 +76,17 @@ class OperatorClient {
   dds::Participant& participant_;
   std::string client_id_;
   std::optional<std::string> operator_name_;
-  std::uint64_t next_id_ = 1;
+  std::uint64_t next_id_ = 1;  // random start (constructor)
   std::uint64_t resends_ = 0;
   std::uint64_t resends_skipped_ = 0;
   dds::Writer<msg::OperatorRequest> shared_writer_;
   std::unique_ptr<dds::Writer<msg::OperatorRequest>> operator_writer_;
   dds::Reader<msg::OperatorReply> reader_;
 };
+
+/// A client id that no other invocation has: "<program>/<user>@<host>/<pid>-<8 random hex
+/// digits>" (a pid alone is recycled: pids wrapped within 30 minutes on a lab PC).
+[[nodiscard]] std::string UniqueClientId(std::string_view program);
 
 /// JSON objects of the SCM's messages and answers (`scmctl --json`, one object per line).
 [[nodiscard]] nlohmann::json ToJson(const msg::Spat& spat);

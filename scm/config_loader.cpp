@@ -1,7 +1,10 @@
 #include "scm/config_loader.h"
 
+#include <fmt/format.h>
 #include <malloc.h>
 #include <spdlog/spdlog.h>
+
+#include <algorithm>
 
 #include "common/error.h"
 
@@ -64,20 +67,55 @@ void ConfigLoader::RunCompletions() {
   for (auto& c : ready) c();
 }
 
-std::unique_ptr<City> ConfigLoader::Load(const std::string& yaml, const std::string& label) const {
+std::vector<std::string> AllowedOperators(const CityConfig& city,
+                                          std::span<const std::string> extra) {
+  std::vector<std::string> names;
+  for (const auto& list : {std::span<const std::string>(city.operators.allowed), extra}) {
+    for (const auto& n : list) {
+      if (std::ranges::find(names, n) == names.end()) names.push_back(n);
+    }
+  }
+  return names;
+}
+
+std::optional<std::string> ConfigRefusal(const CityConfig& next, std::string_view running_city,
+                                         std::span<const std::string> extra) {
+  if (next.name != running_city) {
+    return fmt::format(
+        "the configuration is of city \"{}\", but this SCM runs city \"{}\": its lights, "
+        "database and topics are that city's, so every intersection would wait for lights that "
+        "never report. To run another city, start autodrive-scm with that city's file "
+        "(--config) and its own database",
+        next.name, running_city);
+  }
+  if (AllowedOperators(next, extra).empty()) {
+    return "the configuration allows no operator to change state (its operators: allowed: is "
+           "empty or missing, and this SCM was started with no --operator): once applied, no "
+           "one could reset a latched intersection or apply another configuration. List at "
+           "least one operator under operators: allowed:";
+  }
+  return std::nullopt;
+}
+
+std::unique_ptr<City> ConfigLoader::Load(const std::string& yaml, const std::string& label,
+                                         const Policy& policy) const {
   auto city = std::make_unique<City>(LoadCityString(yaml, label, resolution_));
   city->config_path = label;
+  if (policy) {
+    if (auto refusal = policy(*city)) throw InputError(label + ": " + *refusal);
+  }
   return city;
 }
 
-void ConfigLoader::Check(std::string yaml, std::string label,
+void ConfigLoader::Check(std::string yaml, std::string label, Policy policy,
                          std::function<void(std::unique_ptr<City>, std::string)> done) {
   ++requests_in_flight_;
-  Post([this, yaml = std::move(yaml), label = std::move(label), done = std::move(done)]() mutable {
+  Post([this, yaml = std::move(yaml), label = std::move(label), policy = std::move(policy),
+        done = std::move(done)]() mutable {
     std::unique_ptr<City> city;
     std::string error;
     try {
-      city = Load(yaml, label);
+      city = Load(yaml, label, policy);
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -89,15 +127,15 @@ void ConfigLoader::Check(std::string yaml, std::string label,
   });
 }
 
-void ConfigLoader::Build(std::string yaml, std::string label, std::uint32_t revision,
+void ConfigLoader::Build(std::string yaml, std::string label, std::uint32_t revision, Policy policy,
                          std::function<void(std::unique_ptr<CityBundle>, std::string)> done) {
   ++requests_in_flight_;
   Post([this, yaml = std::move(yaml), label = std::move(label), revision,
-        done = std::move(done)]() mutable {
+        policy = std::move(policy), done = std::move(done)]() mutable {
     std::unique_ptr<CityBundle> bundle;
     std::string error;
     try {
-      auto city = Load(yaml, label);
+      auto city = Load(yaml, label, policy);
       bundle = std::make_unique<CityBundle>(std::move(city), participant_, writers_,
                                             store_.LoadIntersectionStates(), revision);
     } catch (const std::exception& e) {

@@ -11,7 +11,10 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -22,6 +25,19 @@
 #include "scm/store.h"
 
 namespace autodrive::scm {
+
+/// The operators who may change state in `city`: those its file allows, then `extra` (the
+/// SCM's `--operator`, which no configuration can take away), each once.
+[[nodiscard]] std::vector<std::string> AllowedOperators(const CityConfig& city,
+                                                        std::span<const std::string> extra);
+
+/// Why an operator-supplied configuration `next` must not replace the running city named
+/// `running_city`, or nothing when it may: it names another city (whose lights, topics and
+/// database are not this SCM's), or it would leave no operator able to change state (no one
+/// could then reset a latched intersection or apply a better configuration), counting `extra`.
+[[nodiscard]] std::optional<std::string> ConfigRefusal(const CityConfig& next,
+                                                       std::string_view running_city,
+                                                       std::span<const std::string> extra);
 
 /// Loads cities on a thread of its own. Not copyable or movable.
 class ConfigLoader {
@@ -36,12 +52,19 @@ class ConfigLoader {
   /// Finishes the job under way, drops the rest, stops.
   ~ConfigLoader();
 
-  /// Loads `yaml` (named `label`) and checks it; then `done(city or nullptr, error)` on the loop.
-  void Check(std::string yaml, std::string label,
+  /// What the SCM requires of a configuration beyond the safety rules (`ConfigRefusal`): the
+  /// reason to refuse a loaded city, or nothing. Runs on the loader's thread, so it holds
+  /// copies, never references to the loop's state.
+  using Policy = std::function<std::optional<std::string>(const City&)>;
+
+  /// Loads `yaml` (named `label`) and checks it, and `policy` when given; then
+  /// `done(city or nullptr, error)` on the loop.
+  void Check(std::string yaml, std::string label, Policy policy,
              std::function<void(std::unique_ptr<City>, std::string error)> done);
-  /// Loads `yaml`, checks it and builds its bundle (restoring the saved operator states, map
-  /// revision `revision`); then `done(bundle or nullptr, error)` on the loop.
-  void Build(std::string yaml, std::string label, std::uint32_t revision,
+  /// Loads `yaml`, checks it (and `policy`) and builds its bundle (restoring the saved operator
+  /// states, map revision `revision`); then `done(bundle or nullptr, error)` on the loop. A
+  /// city the policy refuses is not built.
+  void Build(std::string yaml, std::string label, std::uint32_t revision, Policy policy,
              std::function<void(std::unique_ptr<CityBundle>, std::string error)> done);
   /// Destroys `bundle` on the loader's thread (deleting DDS entities takes time).
   void Dispose(std::unique_ptr<CityBundle> bundle);
@@ -55,7 +78,8 @@ class ConfigLoader {
  private:
   void Post(internal::Task job);
   void Complete(internal::Task completion);
-  std::unique_ptr<City> Load(const std::string& yaml, const std::string& label) const;
+  std::unique_ptr<City> Load(const std::string& yaml, const std::string& label,
+                             const Policy& policy) const;
 
   const dds::Participant& participant_;
   SignalCommandWriters& writers_;

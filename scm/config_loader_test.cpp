@@ -70,11 +70,12 @@ TEST_F(ConfigLoaderTest, ARequestIsInFlightUntilItsAnswerAndNotAMomentLonger) {
   EXPECT_FALSE(loader_->busy());
   std::atomic<bool> first{false}, second{false};
   bool busy_in_answer = true;
-  loader_->Check(yaml_, "driving_school.yaml", [&](std::unique_ptr<City> city, std::string error) {
-    EXPECT_TRUE(city) << error;
-    busy_in_answer = loader_->busy();
-    first = true;
-  });
+  loader_->Check(yaml_, "driving_school.yaml", {},
+                 [&](std::unique_ptr<City> city, std::string error) {
+                   EXPECT_TRUE(city) << error;
+                   busy_in_answer = loader_->busy();
+                   first = true;
+                 });
   EXPECT_TRUE(loader_->busy());
   ASSERT_TRUE(RunUntil(first));
   // The loader wakes the loop just after it queues the completion, so a loop already polling
@@ -83,7 +84,7 @@ TEST_F(ConfigLoaderTest, ARequestIsInFlightUntilItsAnswerAndNotAMomentLonger) {
   EXPECT_FALSE(busy_in_answer);
   EXPECT_FALSE(loader_->busy());
   std::unique_ptr<CityBundle> built;
-  loader_->Build(yaml_, "driving_school.yaml", 2,
+  loader_->Build(yaml_, "driving_school.yaml", 2, {},
                  [&](std::unique_ptr<CityBundle> bundle, std::string error) {
                    EXPECT_TRUE(bundle) << error;
                    built = std::move(bundle);
@@ -105,11 +106,12 @@ TEST_F(ConfigLoaderTest, ACityBuiltAgainSharesTheLightsWritersOfTheCityItReplace
   auto build = [&](const std::string& yaml) {
     std::atomic<bool> done{false};
     std::unique_ptr<CityBundle> built;
-    loader_->Build(yaml, "city.yaml", 2, [&](std::unique_ptr<CityBundle> bundle, std::string e) {
-      EXPECT_TRUE(bundle) << e;
-      built = std::move(bundle);
-      done = true;
-    });
+    loader_->Build(yaml, "city.yaml", 2, {},
+                   [&](std::unique_ptr<CityBundle> bundle, std::string e) {
+                     EXPECT_TRUE(bundle) << e;
+                     built = std::move(bundle);
+                     done = true;
+                   });
     EXPECT_TRUE(RunUntil(done));
     return built;
   };
@@ -159,18 +161,19 @@ TEST_F(ConfigLoaderTest, ReplacingACityAgainAndAgainKeepsNothingOfTheOldOnes) {
   auto build = [&] {
     std::atomic<bool> done{false};
     std::unique_ptr<CityBundle> built;
-    loader_->Build(yaml, grid.string(), 2, [&](std::unique_ptr<CityBundle> bundle, std::string e) {
-      EXPECT_TRUE(bundle) << e;
-      built = std::move(bundle);
-      done = true;
-    });
+    loader_->Build(yaml, grid.string(), 2, {},
+                   [&](std::unique_ptr<CityBundle> bundle, std::string e) {
+                     EXPECT_TRUE(bundle) << e;
+                     built = std::move(bundle);
+                     done = true;
+                   });
     EXPECT_TRUE(RunUntil(done));
     return built;
   };
   // Waits until the loader has disposed of what it was given (its jobs run in order).
   auto settle = [&] {
     std::atomic<bool> done{false};
-    loader_->Check("name: x\n", "settle.yaml",
+    loader_->Check("name: x\n", "settle.yaml", {},
                    [&](std::unique_ptr<City>, std::string) { done = true; });
     EXPECT_TRUE(RunUntil(done));
   };
@@ -199,7 +202,7 @@ TEST_F(ConfigLoaderTest, ReplacingACityAgainAndAgainKeepsNothingOfTheOldOnes) {
 TEST_F(ConfigLoaderTest, ABrokenConfigurationIsAnsweredWithItsErrorAndEndsTheRequest) {
   std::atomic<bool> done{false};
   std::string got;
-  loader_->Check("name: broken\nmap: nowhere.yaml\n", "broken.yaml",
+  loader_->Check("name: broken\nmap: nowhere.yaml\n", "broken.yaml", {},
                  [&](std::unique_ptr<City> city, std::string error) {
                    EXPECT_FALSE(city);
                    got = std::move(error);
@@ -208,6 +211,65 @@ TEST_F(ConfigLoaderTest, ABrokenConfigurationIsAnsweredWithItsErrorAndEndsTheReq
   ASSERT_TRUE(RunUntil(done));
   EXPECT_NE(got.find("broken.yaml"), std::string::npos) << got;
   EXPECT_FALSE(loader_->busy());
+}
+
+// Found from outside (issue 30): a city file without `operators:` was validated and applied,
+// and from then on every state change, reset included, was refused; applying another city's
+// file left every intersection in start-up flash. Both are refused with the reason, and the
+// refused city is never built.
+TEST_F(ConfigLoaderTest, APolicyRefusesAnotherCityAndACityWithNoOperatorBeforeBuildingIt) {
+  const City running = LoadCity(test::SourceDir() / "config/cities/driving_school.yaml");
+  const std::vector<std::string> none;
+  ASSERT_FALSE(running.config.operators.allowed.empty());
+  EXPECT_EQ(ConfigRefusal(running.config, "driving_school", none), std::nullopt);
+
+  CityConfig other = running.config;
+  other.name = "small_town";
+  const auto refusal = ConfigRefusal(other, "driving_school", none);
+  ASSERT_TRUE(refusal);
+  EXPECT_NE(refusal->find("the configuration is of city \"small_town\", but this SCM runs city "
+                          "\"driving_school\""),
+            std::string::npos)
+      << *refusal;
+
+  CityConfig locked = running.config;
+  locked.operators.allowed.clear();
+  const auto lockout = ConfigRefusal(locked, "driving_school", none);
+  ASSERT_TRUE(lockout);
+  EXPECT_NE(lockout->find("allows no operator to change state"), std::string::npos) << *lockout;
+  // An operator of the SCM's own command line is one no configuration takes away.
+  const std::vector<std::string> rescue{"rescue"};
+  EXPECT_EQ(ConfigRefusal(locked, "driving_school", rescue), std::nullopt);
+  EXPECT_EQ(AllowedOperators(locked, rescue), rescue);
+  EXPECT_EQ(AllowedOperators(running.config, std::vector<std::string>{"lab", "rescue"}).back(),
+            "rescue");
+
+  // Through the loader: the text without its operators section is refused by Check and Build.
+  std::string text = yaml_;
+  const auto at = text.find("\noperators:");
+  ASSERT_NE(at, std::string::npos);
+  text = text.substr(0, at + 1);
+  ConfigLoader::Policy policy = [none](const City& c) {
+    return ConfigRefusal(c.config, "driving_school", none);
+  };
+  std::atomic<bool> checked{false}, built{false};
+  std::string check_error, build_error;
+  loader_->Check(text, "locked.yaml", policy, [&](std::unique_ptr<City> city, std::string e) {
+    EXPECT_FALSE(city);
+    check_error = e;
+    checked = true;
+  });
+  ASSERT_TRUE(RunUntil(checked));
+  EXPECT_NE(check_error.find("locked.yaml: the configuration allows no operator"),
+            std::string::npos)
+      << check_error;
+  loader_->Build(text, "locked.yaml", 2, policy, [&](std::unique_ptr<CityBundle> b, std::string e) {
+    EXPECT_FALSE(b);
+    build_error = e;
+    built = true;
+  });
+  ASSERT_TRUE(RunUntil(built));
+  EXPECT_EQ(build_error, check_error);
 }
 
 }  // namespace

@@ -44,33 +44,97 @@ void ControlPlane::Log(std::string_view what, const std::string& client,
   }
 }
 
+namespace {
+
+void Mix(std::uint64_t& h, std::string_view bytes) {
+  for (const char c : bytes) {
+    h ^= static_cast<std::uint8_t>(c);
+    h *= 0x100000001b3ULL;
+  }
+}
+void MixField(std::uint64_t& h, std::string_view field) {
+  Mix(h, std::to_string(field.size()));
+  Mix(h, ":");
+  Mix(h, field);
+}
+
+// "mode centre manual", "config_apply city.yaml": what a request asked for, for a refusal.
+std::string Describe(const OperatorCommand& cmd) {
+  std::string out = cmd.name;
+  if (!cmd.intersection.empty()) out += " " + cmd.intersection;
+  for (const auto& [key, value] : cmd.args) {
+    if (key == "intersection" || key == "yaml" || key == "yaml_bytes" || key == "yaml_hash") {
+      continue;
+    }
+    out += " " + value.substr(0, 64);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::uint64_t RequestDigest(const OperatorCommand& command, std::string_view operator_name) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  MixField(h, operator_name);
+  MixField(h, command.name);
+  MixField(h, command.intersection);
+  for (const auto& [key, value] : command.args) {  // ordered by key
+    MixField(h, key);
+    MixField(h, value);
+  }
+  return h;
+}
+
+Reply ControlPlane::ReusedId(const OperatorCommand& cmd, std::string_view earlier) {
+  return Reply::Invalid(fmt::format(
+      "request id {} of client \"{}\" was already used for another request ({}), not for "
+      "\"{}\"; nothing was run: a new request needs a new id",
+      cmd.request_id, cmd.client, earlier, Describe(cmd)));
+}
+
 Admission ControlPlane::Admit(const msg::OperatorRequest& request, std::string_view operator_name,
                               MonoTime now) {
   ++counters_.received;
   Admission a;
-  // Who to answer: the client id as given, cut to the limit (a legitimate client never sends
-  // more, so a cut id simply matches nobody).
+  // Who to answer: the client id as given, so that even a refusal of an id over the limit
+  // reaches its sender; beyond kMaxAnsweredClientIdBytes it is cut (and reaches nobody).
   const std::string_view raw_client = dds::View(request.client_id);
-  a.client = std::string(raw_client.substr(0, params_.limits.client_id_bytes));
+  a.client = std::string(raw_client.substr(0, kMaxAnsweredClientIdBytes));
   a.request_id = request.request_id;
   OperatorCommand cmd;
   try {
     cmd = ParseOperatorRequest(request, params_.limits);
   } catch (const InputError& e) {
     ++counters_.invalid;
-    Log("invalid", a.client, e.what());
+    Log("invalid", a.client.substr(0, params_.limits.client_id_bytes), e.what());
     a.reply = Reply::Invalid(e.what());
     return a;
   }
   Client& client = ClientState(cmd.client, now);
-  for (const auto& [id, reply] : client.replies) {
-    if (id == cmd.request_id) {
-      ++counters_.repeats;
-      a.reply = reply;
+  const std::uint64_t digest = RequestDigest(cmd, operator_name);
+  while (!client.replies.empty() && client.replies.front().expires <= now) {
+    client.replies.pop_front();
+  }
+  for (const Answered& answered : client.replies) {
+    if (answered.request_id != cmd.request_id) continue;
+    if (answered.digest != digest) {
+      ++counters_.reused_ids;
+      Log("id reused", a.client, cmd.name);
+      a.reply = ReusedId(cmd, answered.command);
       return a;
     }
+    ++counters_.repeats;
+    a.reply = answered.reply;
+    return a;
   }
-  if (std::ranges::find(client.running, cmd.request_id) != client.running.end()) {
+  for (const Running& running : client.running) {
+    if (running.request_id != cmd.request_id) continue;
+    if (running.digest != digest) {
+      ++counters_.reused_ids;
+      Log("id reused", a.client, cmd.name);
+      a.reply = ReusedId(cmd, running.command + ", still running");
+      return a;
+    }
     ++counters_.repeats_running;
     a.kind = Admission::Kind::kRunning;
     return a;
@@ -106,21 +170,26 @@ Admission ControlPlane::Admit(const msg::OperatorRequest& request, std::string_v
     }
   }
   ++counters_.accepted;
-  client.running.push_back(cmd.request_id);
+  client.running.push_back(Running{cmd.request_id, digest, cmd.spec->changes_state, Describe(cmd)});
   while (client.running.size() > kRepliesPerClient) client.running.pop_front();
   a.kind = Admission::Kind::kRun;
   a.command = std::move(cmd);
   return a;
 }
 
-void ControlPlane::Remember(const std::string& client, std::uint64_t request_id,
-                            const Reply& reply) {
+void ControlPlane::Remember(const std::string& client, std::uint64_t request_id, const Reply& reply,
+                            MonoTime now) {
   const auto it = clients_.find(client);
   if (it == clients_.end()) return;
   auto& running = it->second.running;
-  if (const auto r = std::ranges::find(running, request_id); r != running.end()) running.erase(r);
+  const auto r = std::ranges::find(running, request_id, &Running::request_id);
+  if (r == running.end()) return;  // forgotten (over the per-client bound)
+  Running done = std::move(*r);
+  running.erase(r);
+  if (!done.changes_state) return;
   auto& replies = it->second.replies;
-  replies.emplace_back(request_id, reply);
+  replies.push_back(
+      Answered{request_id, done.digest, now + kReplyLifetime, std::move(done.command), reply});
   while (replies.size() > kRepliesPerClient) replies.pop_front();
 }
 

@@ -2,9 +2,12 @@
 /// @file
 /// The guard in front of the operator commands: size caps, a rate limit per client, the
 /// operators a city allows to change state, and a cache of recent replies so that a client's
-/// repeated request (same id, sent again when a reply was lost) is answered without running the
-/// command twice. Every refusal is counted, logged (rate-limited) and answered. No DDS, no
-/// clock of its own: tested in-process.
+/// repeated request (same client, same id and the same request, sent again when a reply was
+/// lost) is answered without running a state-changing command twice. The cache knows each
+/// request by a digest of all it says (command, arguments, the operator topic it came on): the
+/// same client and id with another request is refused, never answered with another command's
+/// reply. Every refusal is counted, logged (rate-limited) and answered. No DDS, no clock of its
+/// own: tested in-process.
 
 #include <cstdint>
 #include <deque>
@@ -18,20 +21,8 @@
 #include "common/dds/messages.h"
 #include "common/time.h"
 #include "scm/operator.h"
-#include "scm/publishers.h"
 
 namespace autodrive::scm {
-
-/// An answer as sent to a client.
-struct Reply {
-  ReplyCode code = ReplyCode::kOk;
-  std::string message;
-  std::vector<std::pair<std::string, std::string>> values;
-  static Reply Ok(std::string m) { return {ReplyCode::kOk, std::move(m), {}}; }
-  static Reply Rejected(std::string m) { return {ReplyCode::kRejected, std::move(m), {}}; }
-  static Reply Invalid(std::string m) { return {ReplyCode::kInvalid, std::move(m), {}}; }
-  static Reply Failed(std::string m) { return {ReplyCode::kFailed, std::move(m), {}}; }
-};
 
 /// The guard's settings (from the city file's `operators` section; docs/scm.md).
 struct ControlPlaneParams {
@@ -51,6 +42,8 @@ struct ControlPlaneCounters {
   std::uint64_t not_allowed = 0;      ///< state-changing commands from no allowed operator
   std::uint64_t repeats = 0;          ///< answered again from the cache
   std::uint64_t repeats_running = 0;  ///< repeats of a command still running: left to its answer
+  /// A client's id and request id used again for a different request: refused, nothing run.
+  std::uint64_t reused_ids = 0;
 };
 
 /// The guard's decision on one request.
@@ -61,17 +54,32 @@ struct Admission {
   OperatorCommand command;  ///< kRun: the checked command
   /// kAnswer: the reply to send (a refusal, or the cached reply of a repeat).
   Reply reply;
-  std::string client;  ///< who to answer (capped at the client-id limit)
+  /// Who to answer: the client id as it came, even when it is over the limit (a refusal then
+  /// still reaches it), cut at `ControlPlane::kMaxAnsweredClientIdBytes`.
+  std::string client;
   std::uint64_t request_id = 0;
 };
+
+/// A digest of everything a request asks for: the operator topic it came on, the command, the
+/// intersection id and every argument (key and value). Two requests with the same digest ask
+/// for the same thing. FNV-1a 64 over a length-prefixed encoding: not a defence against a
+/// forger (who could simply use a fresh id), a check against a client that reuses an id.
+[[nodiscard]] std::uint64_t RequestDigest(const OperatorCommand& command,
+                                          std::string_view operator_name);
 
 /// Single-threaded (the loop's). Not copyable.
 class ControlPlane {
  public:
   /// Clients remembered (rate buckets and reply caches) at most; the oldest is forgotten.
   static constexpr std::size_t kMaxClients = 1024;
-  /// Replies remembered per client.
+  /// Replies remembered per client (so at most kMaxClients x kRepliesPerClient in all).
   static constexpr std::size_t kRepliesPerClient = 16;
+  /// How long a reply is remembered after it was sent. A client re-sends a request whose answer
+  /// is late within seconds (OperatorClient::kResendAtMost); a minute covers every retry.
+  static constexpr Duration kReplyLifetime = std::chrono::seconds(60);
+  /// The longest client id a reply is addressed to (longer ones are refused, and answered at
+  /// this length).
+  static constexpr std::size_t kMaxAnsweredClientIdBytes = 4096;
 
   explicit ControlPlane(ControlPlaneParams params);
   ControlPlane(const ControlPlane&) = delete;
@@ -81,10 +89,14 @@ class ControlPlane {
   /// read-only topic), at `now`.
   [[nodiscard]] Admission Admit(const msg::OperatorRequest& request, std::string_view operator_name,
                                 MonoTime now);
-  /// Remembers the reply to a command that ran, for repeats; until then, a repeat of it is
+  /// Takes the reply, sent at `now`, to a command that ran: until then a repeat of it was
   /// admitted as kRunning (a client re-sends when an answer is late, and a configuration can
-  /// take longer to load than that).
-  void Remember(const std::string& client, std::uint64_t request_id, const Reply& reply);
+  /// take longer to load than that). The reply of a state-changing command is remembered for
+  /// kReplyLifetime, so that a repeat is answered without running the command twice; a
+  /// read-only command's repeat simply runs again (its answer may have changed, and a large
+  /// answer is not kept).
+  void Remember(const std::string& client, std::uint64_t request_id, const Reply& reply,
+                MonoTime now);
   /// Replaces the allowed operators (a configuration was applied).
   void SetParams(ControlPlaneParams params);
 
@@ -92,13 +104,27 @@ class ControlPlane {
   [[nodiscard]] const ControlPlaneParams& params() const { return params_; }
 
  private:
+  struct Answered {
+    std::uint64_t request_id = 0;
+    std::uint64_t digest = 0;
+    MonoTime expires{};
+    std::string command;
+    Reply reply;
+  };
+  struct Running {
+    std::uint64_t request_id = 0;
+    std::uint64_t digest = 0;
+    bool changes_state = false;
+    std::string command;  // for the refusal of a reused id
+  };
   struct Client {
     double tokens = 0.0;
     MonoTime refilled{};
     MonoTime last_seen{};
-    std::deque<std::pair<std::uint64_t, Reply>> replies;
-    std::deque<std::uint64_t> running;  // admitted, not answered yet
+    std::deque<Answered> replies;  // oldest first; expiry times rise
+    std::deque<Running> running;   // admitted, not answered yet
   };
+  static Reply ReusedId(const OperatorCommand& cmd, std::string_view earlier);
   Client& ClientState(const std::string& id, MonoTime now);
   void Log(std::string_view what, const std::string& client, const std::string& detail);
 

@@ -61,7 +61,8 @@ TEST(ControlPlane, RefusesOversizeStringsNamingTheFieldAndTheSizes) {
     EXPECT_EQ(a.kind, Admission::Kind::kAnswer);
     EXPECT_EQ(a.reply.code, ReplyCode::kInvalid);
     EXPECT_THAT(a.reply.message, HasSubstr(c.expected));
-    EXPECT_LE(a.client.size(), 128u);
+    // The refusal goes to the client id as it came (a cut id would reach nobody).
+    EXPECT_EQ(a.client, std::string(dds::View(c.request->client_id)));
   }
   EXPECT_EQ(cp.counters().invalid, std::size(cases));
 }
@@ -115,7 +116,7 @@ TEST(ControlPlane, ARepeatedRequestIsAnsweredFromTheCacheNotRunAgain) {
   ControlPlane cp(Params());
   const auto advance = Request("c", 9, "advance", {{"intersection", "centre"}});
   ASSERT_EQ(cp.Admit(*advance, "lab", t0).kind, Admission::Kind::kRun);
-  cp.Remember("c", 9, Reply::Ok("advancing"));
+  cp.Remember("c", 9, Reply::Ok("advancing"), t0);
   const Admission again = cp.Admit(*advance, "lab", t0 + milliseconds(300));
   EXPECT_EQ(again.kind, Admission::Kind::kAnswer);
   EXPECT_EQ(again.reply.code, ReplyCode::kOk);
@@ -136,7 +137,7 @@ TEST(ControlPlane, ARepeatOfACommandStillRunningWaitsForItsAnswer) {
   EXPECT_EQ(cp.Admit(*apply, "lab", t0 + milliseconds(500)).kind, Admission::Kind::kRunning);
   EXPECT_EQ(cp.counters().repeats_running, 2u);
   EXPECT_EQ(cp.counters().accepted, 1u);
-  cp.Remember("c", 5, Reply::Ok("applied"));
+  cp.Remember("c", 5, Reply::Ok("applied"), t0 + milliseconds(600));
   const Admission after = cp.Admit(*apply, "lab", t0 + milliseconds(750));
   EXPECT_EQ(after.kind, Admission::Kind::kAnswer);
   EXPECT_EQ(after.reply.message, "applied");
@@ -148,14 +149,103 @@ TEST(ControlPlane, RemembersABoundedNumberOfClients) {
   ControlPlane cp(Params());
   for (std::size_t i = 0; i < ControlPlane::kMaxClients + 100; ++i) {
     const std::string client = "c" + std::to_string(i);
-    (void)cp.Admit(*Request(client, 1, "status"), "", t0 + milliseconds(i));
-    cp.Remember(client, 1, Reply::Ok("x"));
+    const auto advance = Request(client, 1, "advance", {{"intersection", "centre"}});
+    ASSERT_EQ(cp.Admit(*advance, "lab", t0 + milliseconds(i)).kind, Admission::Kind::kRun);
+    cp.Remember(client, 1, Reply::Ok("x"), t0 + milliseconds(i));
   }
   // The oldest were forgotten: their repeat runs again (no cached answer).
-  EXPECT_EQ(cp.Admit(*Request("c0", 1, "status"), "", t0 + seconds(10)).kind,
-            Admission::Kind::kRun);
-  EXPECT_EQ(cp.Admit(*Request("c1100", 1, "status"), "", t0 + seconds(10)).kind,
+  EXPECT_EQ(
+      cp.Admit(*Request("c0", 1, "advance", {{"intersection", "centre"}}), "lab", t0 + seconds(10))
+          .kind,
+      Admission::Kind::kRun);
+  EXPECT_EQ(cp.Admit(*Request("c1100", 1, "advance", {{"intersection", "centre"}}), "lab",
+                     t0 + seconds(10))
+                .kind,
             Admission::Kind::kAnswer);
+}
+
+// Found from outside (issue 30): with one client id and request id 1, `mode centre manual` was
+// answered ok; then `mode centre flash` with the same ids was answered "ok: centre mode manual"
+// and not run. A recycled pid gave a new scmctl an old one's id and so an old answer.
+TEST(ControlPlane, TheSameIdWithAnotherRequestIsRefusedAndRunsNothing) {
+  ControlPlane cp(Params());
+  const auto manual =
+      Request("scmctl/u@h/4242", 1, "mode", {{"intersection", "centre"}, {"mode", "manual"}});
+  ASSERT_EQ(cp.Admit(*manual, "lab", t0).kind, Admission::Kind::kRun);
+  // Another request under the same ids while the first still runs.
+  const auto flash =
+      Request("scmctl/u@h/4242", 1, "mode", {{"intersection", "centre"}, {"mode", "flash"}});
+  Admission a = cp.Admit(*flash, "lab", t0 + milliseconds(10));
+  EXPECT_EQ(a.kind, Admission::Kind::kAnswer);
+  EXPECT_EQ(a.reply.code, ReplyCode::kInvalid);
+  EXPECT_THAT(a.reply.message, HasSubstr("mode centre manual, still running"));
+  cp.Remember("scmctl/u@h/4242", 1, Reply::Ok("centre mode manual"), t0 + milliseconds(20));
+  a = cp.Admit(*flash, "lab", t0 + seconds(3));
+  EXPECT_EQ(a.kind, Admission::Kind::kAnswer);
+  EXPECT_EQ(a.reply.code, ReplyCode::kInvalid);
+  EXPECT_EQ(a.reply.message,
+            "request id 1 of client \"scmctl/u@h/4242\" was already used for another request "
+            "(mode centre manual), not for \"mode centre flash\"; nothing was run: a new request "
+            "needs a new id");
+  // Each part of a request counts: the intersection, a read-only command, another operator's
+  // topic.
+  EXPECT_EQ(cp.Admit(*Request("scmctl/u@h/4242", 1, "mode",
+                              {{"intersection", "west"}, {"mode", "manual"}}),
+                     "lab", t0 + seconds(3))
+                .reply.code,
+            ReplyCode::kInvalid);
+  EXPECT_EQ(cp.Admit(*Request("scmctl/u@h/4242", 1, "status"), "", t0 + seconds(3)).reply.code,
+            ReplyCode::kInvalid);
+  EXPECT_EQ(cp.Admit(*manual, "alice", t0 + seconds(3)).reply.code, ReplyCode::kInvalid);
+  EXPECT_EQ(cp.counters().reused_ids, 5u);
+  EXPECT_EQ(cp.counters().accepted, 1u);
+  // The same request again is the repeat it looks like.
+  a = cp.Admit(*manual, "lab", t0 + seconds(3));
+  EXPECT_EQ(a.reply.code, ReplyCode::kOk);
+  EXPECT_EQ(a.reply.message, "centre mode manual");
+  // The next id is a new request.
+  EXPECT_EQ(cp.Admit(*Request("scmctl/u@h/4242", 2, "mode",
+                              {{"intersection", "centre"}, {"mode", "flash"}}),
+                     "lab", t0 + seconds(3))
+                .kind,
+            Admission::Kind::kRun);
+}
+
+TEST(ControlPlane, ARememberedReplyExpiresAndReadOnlyRepeatsRunAgain) {
+  ControlPlane cp(Params());
+  const auto advance = Request("c", 3, "advance", {{"intersection", "centre"}});
+  ASSERT_EQ(cp.Admit(*advance, "lab", t0).kind, Admission::Kind::kRun);
+  cp.Remember("c", 3, Reply::Ok("advancing"), t0);
+  EXPECT_EQ(cp.Admit(*advance, "lab", t0 + ControlPlane::kReplyLifetime - milliseconds(1)).kind,
+            Admission::Kind::kAnswer);
+  // After its lifetime the id is free again.
+  EXPECT_EQ(cp.Admit(*advance, "lab", t0 + ControlPlane::kReplyLifetime).kind,
+            Admission::Kind::kRun);
+  // A read-only command's answer is not kept: its repeat runs (a fresh answer, nothing changes).
+  const auto status = Request("c", 4, "status");
+  ASSERT_EQ(cp.Admit(*status, "", t0).kind, Admission::Kind::kRun);
+  EXPECT_EQ(cp.Admit(*status, "", t0).kind, Admission::Kind::kRunning);
+  cp.Remember("c", 4, Reply::Ok("fine"), t0);
+  EXPECT_EQ(cp.Admit(*status, "", t0 + milliseconds(300)).kind, Admission::Kind::kRun);
+}
+
+TEST(ControlPlane, RepliesStayBoundedPerClient) {
+  ControlPlane cp(Params());
+  for (std::uint64_t id = 1; id <= 3 * ControlPlane::kRepliesPerClient; ++id) {
+    const auto advance = Request("c", id, "advance", {{"intersection", "centre"}});
+    const MonoTime at = t0 + seconds(static_cast<int>(id));  // within the rate limit
+    ASSERT_EQ(cp.Admit(*advance, "lab", at).kind, Admission::Kind::kRun);
+    cp.Remember("c", id, Reply::Ok("advancing"), at);
+  }
+  const MonoTime later = t0 + seconds(3 * ControlPlane::kRepliesPerClient + 1);
+  // The newest kRepliesPerClient are answered from the cache; the oldest are forgotten.
+  EXPECT_EQ(cp.Admit(*Request("c", 3 * ControlPlane::kRepliesPerClient, "advance",
+                              {{"intersection", "centre"}}),
+                     "lab", later)
+                .kind,
+            Admission::Kind::kAnswer);
+  EXPECT_EQ(cp.Admit(*Request("c", 1, "advance", {{"intersection", "centre"}}), "lab", later).kind,
+            Admission::Kind::kRun);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include "common/config.h"
 #include "common/dds/conversions.h"
 #include "common/dds/discovery.h"
+#include "common/dds/identity.h"
 #include "common/dds/loop_waitset.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
@@ -21,8 +22,10 @@
 #include "scm/city_bundle.h"
 #include "scm/config_loader.h"
 #include "scm/control_plane.h"
+#include "scm/device_inbox.h"
 #include "scm/operator_commands.h"
 #include "scm/publishers.h"
+#include "scm/reply_outbox.h"
 #include "scm/v2i.h"
 
 namespace autodrive::scm {
@@ -41,11 +44,11 @@ DayClock DayAt(Time now) {
   return DayClock::At(std::chrono::seconds(tm.tm_hour * 3600 + tm.tm_min * 60 + tm.tm_sec) + sub);
 }
 
-// String caps on what devices report (the rest of a longer detail is cut).
-constexpr std::size_t kMaxDeviceIdBytes = 64;
-constexpr std::size_t kMaxCityBytes = 64;
-constexpr std::size_t kMaxHostBytes = 128;
-constexpr std::size_t kMaxDetailBytes = 1024;
+// A pass that begins this long after its deadline is a stall of the loop (the tick is 20 ms;
+// a busy machine delays a wake-up by a few ms); from kStallEvent on it is also an event.
+constexpr Duration kStallThreshold = std::chrono::milliseconds(100);
+constexpr Duration kStallEvent = std::chrono::milliseconds(250);
+constexpr Duration kStallEventPeriod = std::chrono::minutes(10);
 // Topics of operators the city does not allow that are still answered (with a refusal).
 constexpr std::size_t kMaxStrangerOperators = 32;
 
@@ -56,9 +59,9 @@ constexpr std::size_t kRequestsBeforeSpat = 4;
 constexpr std::string_view kOperatorTopicPrefix = "rt/autodrive/scm/operator/";
 constexpr std::string_view kOperatorTopicSuffix = "/request";
 
-ControlPlaneParams ControlParamsOf(const City& city) {
+ControlPlaneParams ControlParamsOf(const City& city, const std::vector<std::string>& extra) {
   ControlPlaneParams p;
-  p.operators = city.config.operators.allowed;
+  p.operators = AllowedOperators(city.config, extra);
   p.rate_per_s = city.config.operators.rate_per_s;
   p.burst = city.config.operators.burst;
   return p;
@@ -84,11 +87,20 @@ struct Scm::Impl final : EventSink, ConfigService {
   void Apply(std::string yaml, std::string label, std::string by, Responder respond) override;
 
   std::unique_ptr<City> LoadStartupCity();
+  /// What an operator's configuration must satisfy here (`ConfigRefusal` against the running
+  /// city and `--operator`), as copies for the loader's thread.
+  [[nodiscard]] ConfigLoader::Policy ConfigPolicy() const;
+  /// Raises an alarm when the running city allows no operator to change state.
+  void WarnIfLockedOut();
   void Install(std::unique_ptr<CityBundle> bundle, const ClockReading& now);
   void OpenInboxes(const City& city);
   void WatchStrangers();
   void NewSession(const ClockReading& now);
-  void TakeDeviceStatuses(const ClockReading& now);
+  /// Gives supervision the reports the receiving thread took since the last pass.
+  void TakeDeviceStatuses();
+  /// Notices a pass that starts late (a stall of the loop or the process): logs it and tells
+  /// supervision, which then re-checks before it latches anything on the devices' silence.
+  void NoteStall(const ClockReading& now);
   /// True once SPaT's deadline has come: requests then wait for the next pass (the waitset
   /// wakes it at once) so that a flood, or a slow machine, never holds SPaT back.
   [[nodiscard]] bool SpatDue() const { return clock.Read().mono >= next_spat; }
@@ -137,11 +149,19 @@ struct Scm::Impl final : EventSink, ConfigService {
   std::size_t stranger_inboxes = 0;
   std::unique_ptr<dds::PublicationWatcher> publications;
   std::unique_ptr<dds::Reader<msg::SignalRequest>> signal_requests;
-  std::unique_ptr<dds::Reader<msg::DeviceStatus>> device_statuses;
+  std::unique_ptr<DeviceStatusInbox> device_statuses;
+  std::vector<ReceivedReport> reports;  // drained from device_statuses, reused each pass
   dds::Message<msg::OperatorRequest> request_sample;
+  dds::SampleInfo request_info;
+  // The participants of the requests' writers (a thousand clients at once fit).
+  dds::WriterParticipants requesters{2048};
+  std::unique_ptr<ReplyOutbox> replies;
   dds::Message<msg::SignalRequest> signal_sample;
-  dds::Message<msg::DeviceStatus> status_sample;
 
+  MonoTime planned_wake{};  // the deadline the loop waits for after a pass (NextDeadline)
+  MonoTime last_stall_event{};
+  std::uint64_t stalls_unreported = 0;  // long stalls since the last scm_stall event
+  std::uint64_t device_malformed_seen = 0;
   MonoTime next_spat{};
   bool spat_gave_way = false;            // SPaT's filling stopped once for this deadline
   std::size_t requests_before_spat = 0;  // requests still allowed past SPaT's deadline
@@ -167,16 +187,13 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   loader = std::make_unique<ConfigLoader>(participant, *signal_writers, persistence->store(),
                                           resolution, [this] { waitset.Wake(); });
   auto city = LoadStartupCity();
-  figures.config_path = city->config_path.string();
   figures.clock = clock.kind();
   publishers = std::make_unique<ScmPublishers>(participant, city->config.name, session);
-  control = std::make_unique<ControlPlane>(ControlParamsOf(*city));
+  control = std::make_unique<ControlPlane>(ControlParamsOf(*city, options.operators));
+  replies = std::make_unique<ReplyOutbox>(participant);
   signal_requests =
       std::make_unique<dds::Reader<msg::SignalRequest>>(participant, dds::topics::SignalRequests());
-  // Every light and monitor has its own keep-last-1 writer on this keyless topic: the reader
-  // keeps more, or one device's status would push out another's between two passes.
-  device_statuses = std::make_unique<dds::Reader<msg::DeviceStatus>>(
-      participant, dds::topics::Devices().name, dds::Qos::LatchedState(4096));
+  device_statuses = std::make_unique<DeviceStatusInbox>(participant, clock);
   waitset.Attach(*signal_requests);
   publications = std::make_unique<dds::PublicationWatcher>(participant);
   const ClockReading now = clock.Read();
@@ -193,6 +210,7 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
                          bundle->city().config.name, bundle->runtime->intersections().size(),
                          bundle->runtime->heads().size(), ToString(clock.kind())),
              IntersectionId(0), "", "scm", false});
+  WarnIfLockedOut();
 }
 
 Scm::Impl::~Impl() {
@@ -228,12 +246,29 @@ std::unique_ptr<City> Scm::Impl::LoadStartupCity() {
   return city;
 }
 
+ConfigLoader::Policy Scm::Impl::ConfigPolicy() const {
+  return [running = bundle->city().config.name, extra = options.operators](const City& next) {
+    return ConfigRefusal(next.config, running, extra);
+  };
+}
+
+void Scm::Impl::WarnIfLockedOut() {
+  if (!AllowedOperators(bundle->city().config, options.operators).empty()) return;
+  Emit(Event{Severity::kAlarm, "no_operator",
+             fmt::format("city {} allows no operator to change state (its file {} lists none under "
+                         "operators: allowed:): no mode, plan, reset or configuration can be "
+                         "applied. Restart autodrive-scm with --operator NAME to let an operator "
+                         "in without editing the file (docs/scm.md, \"Operators\")",
+                         bundle->city().config.name, figures.config_path),
+             IntersectionId(0), "", "scm", true});
+}
+
 void Scm::Impl::OpenInboxes(const City& city) {
   inboxes.clear();
   stranger_inboxes = 0;
   inboxes.push_back(OperatorInbox{"", std::make_unique<dds::Reader<msg::OperatorRequest>>(
                                           participant, dds::topics::OperatorRequests())});
-  for (const auto& name : city.config.operators.allowed) {
+  for (const auto& name : AllowedOperators(city.config, options.operators)) {
     inboxes.push_back(OperatorInbox{name, std::make_unique<dds::Reader<msg::OperatorRequest>>(
                                               participant, dds::topics::OperatorRequests(name))});
   }
@@ -274,9 +309,11 @@ void Scm::Impl::WatchStrangers() {
 
 void Scm::Impl::Install(std::unique_ptr<CityBundle> next, const ClockReading& now) {
   next->Start(now.mono);
+  // What runs: the file the SCM started with, or the configuration an operator applied since.
+  figures.config_path = next->city().config_path.string();
   publishers->Reset(*next->runtime, next->city().config.name);
   publishers->PublishMap(next->map, now.wire);
-  control->SetParams(ControlParamsOf(next->city()));
+  control->SetParams(ControlParamsOf(next->city(), options.operators));
   OpenInboxes(next->city());
   std::unique_ptr<CityBundle> old = std::move(bundle);
   bundle = std::move(next);
@@ -316,7 +353,7 @@ void Scm::Impl::Validate(std::string yaml, std::string label, Responder respond)
     return;
   }
   loader->Check(
-      std::move(yaml), label,
+      std::move(yaml), label, ConfigPolicy(),
       [respond = std::move(respond), label](std::unique_ptr<City> city, std::string error) {
         if (!city) {
           respond(Reply::Rejected(error));
@@ -333,7 +370,7 @@ void Scm::Impl::Apply(std::string yaml, std::string label, std::string by, Respo
     return;
   }
   loader->Build(
-      yaml, label, map_revision + 1,
+      yaml, label, map_revision + 1, ConfigPolicy(),
       [this, yaml, label, by, respond = std::move(respond)](std::unique_ptr<CityBundle> built,
                                                             std::string error) mutable {
         if (!built) {
@@ -389,33 +426,54 @@ void Scm::Impl::NewSession(const ClockReading& now) {
              IntersectionId(0), "", "scm", false});
 }
 
-void Scm::Impl::TakeDeviceStatuses(const ClockReading& now) {
-  while (device_statuses->TakeOne(status_sample)) {
-    const msg::DeviceStatus& m = *status_sample;
-    const std::string_view id = dds::View(m.device_id);
-    const std::string_view city = dds::View(m.city);
-    const std::string_view host = dds::View(m.host);
-    if (id.size() > kMaxDeviceIdBytes || city.size() > kMaxCityBytes ||
-        host.size() > kMaxHostBytes || m.health > 3) {
-      ++figures.malformed_inputs;
-      continue;
+void Scm::Impl::TakeDeviceStatuses() {
+  const std::size_t n = device_statuses->Drain(reports);
+  for (std::size_t i = 0; i < n; ++i) {
+    const ReceivedReport& received = reports[i];
+    const DeviceReportView r = received.View();
+    // Judged on when the report arrived (the receiving thread's stamp), not on this pass.
+    if (bundle->supervisor->Report(r, received.received, *bundle->runtime, *this)) {
+      bundle->devices->Take(r, received.received);
     }
-    DeviceReportView r;
-    r.device_id = id;
-    r.city = city;
-    r.host = host;
-    r.health = static_cast<DeviceHealth>(m.health);
-    r.displayed = AspectFromWire(m.displayed_state);
-    r.last_command_id = m.last_command_id;
-    r.detail = dds::View(m.detail).substr(0, kMaxDetailBytes);
-    r.kind = m.kind;
-    r.backend = m.backend;
-    r.mode = m.mode;
-    r.displayed_state = m.displayed_state;
-    r.stamp = dds::FromMsg(m.header.stamp);
-    if (bundle->supervisor->Report(r, now.mono, *bundle->runtime, *this)) {
-      bundle->devices->Take(r, now.mono);
-    }
+  }
+  const std::uint64_t malformed = device_statuses->malformed() + device_statuses->dropped();
+  figures.malformed_inputs += malformed - device_malformed_seen;
+  device_malformed_seen = malformed;
+}
+
+void Scm::Impl::NoteStall(const ClockReading& now) {
+  // A pass that starts well after the deadline it waited for: the loop (or the whole process,
+  // or the machine) stalled. The devices' reports of that time may still be on their way in:
+  // supervision waits a moment for them before it declares any device lost.
+  if (planned_wake == MonoTime{} || now.mono <= planned_wake + kStallThreshold) return;
+  const Duration stall = now.mono - planned_wake;
+  ++figures.stalls;
+  figures.longest_stall = std::max(figures.longest_stall, stall);
+  bundle->supervisor->OnStall(now.mono);
+  if (figures.stalls <= 20 || figures.stalls % 100 == 0) {
+    spdlog::warn(
+        "the SCM's loop stalled: this pass began {:.0f} ms after its deadline ({} "
+        "stalls so far, the longest {:.0f} ms); devices get {:.0f} ms to be heard "
+        "before any is declared lost",
+        ToSeconds(stall) * 1000.0, figures.stalls, ToSeconds(figures.longest_stall) * 1000.0,
+        ToSeconds(bundle->supervisor->stall_settle()) * 1000.0);
+  }
+  // An event for a long stall, at most one per kStallEventPeriod (a simulated clock far ahead
+  // of a slow SCM would otherwise fill the event log).
+  if (stall >= kStallEvent) ++stalls_unreported;
+  if (stall >= kStallEvent &&
+      (last_stall_event == MonoTime{} || now.mono - last_stall_event >= kStallEventPeriod)) {
+    Emit(Event{
+        Severity::kWarning, "scm_stall",
+        fmt::format("the SCM's loop stalled for {:.0f} ms (SPaT, heartbeat and "
+                    "supervision paused; {} stalls over {:.0f} ms since the last such "
+                    "event); no device is declared lost before it has had {:.0f} ms to be "
+                    "heard again",
+                    ToSeconds(stall) * 1000.0, stalls_unreported, ToSeconds(kStallEvent) * 1000.0,
+                    ToSeconds(bundle->supervisor->stall_settle()) * 1000.0),
+        IntersectionId(0), "", "scm", false});
+    last_stall_event = now.mono;
+    stalls_unreported = 0;
   }
 }
 
@@ -427,26 +485,27 @@ void Scm::Impl::HandleOperatorRequests(const ClockReading& now, const DayClock& 
     auto* reader = inboxes[i].reader.get();
     const std::string& operator_name = inboxes[i].operator_name;
     while (handled < options.max_requests_per_pass && MayHandleRequest() &&
-           reader->TakeOne(request_sample)) {
+           reader->TakeOne(request_sample, &request_info)) {
       ++handled;
       CountRequestPastSpat();
       ++counters.operator_requests;
+      // Whose participant asked: the reply waits until the reply writer has matched its reader.
+      const std::optional<dds::ParticipantKey> requester =
+          requesters.Find(reader->handle(), request_info.publication_handle);
       Admission a = control->Admit(*request_sample, operator_name, now.mono);
       if (a.kind == Admission::Kind::kRunning) continue;  // its answer is on the way
       if (a.kind == Admission::Kind::kAnswer) {
         if (a.reply.code != ReplyCode::kOk) ++counters.refused_requests;
-        publishers->Reply(a.client, a.request_id, a.reply.code, a.reply.message, a.reply.values,
-                          now.wire);
+        replies->Send(a.client, a.request_id, a.reply, requester, now.wire, now.mono);
         continue;
       }
       OperatorCommand cmd = std::move(a.command);
       if (!operator_name.empty()) cmd.actor = operator_name + " (" + cmd.client + ")";
       const std::string client = cmd.client;
       const std::uint64_t request_id = cmd.request_id;
-      Responder respond = [this, client, request_id](Reply reply) {
-        control->Remember(client, request_id, reply);
-        publishers->Reply(client, request_id, reply.code, reply.message, reply.values,
-                          current.wire);
+      Responder respond = [this, client, request_id, requester](Reply reply) {
+        control->Remember(client, request_id, reply, current.mono);
+        replies->Send(client, request_id, reply, requester, current.wire, current.mono);
       };
       CommandContext ctx{*bundle->runtime,
                          *bundle->supervisor,
@@ -518,7 +577,11 @@ void Scm::Impl::Pass() {
   current = now;
   ++counters.passes;
   ++figures.passes;
-  if (now.session != clock_session) NewSession(now);
+  if (now.session != clock_session) {
+    NewSession(now);
+  } else {
+    NoteStall(now);
+  }
   persistence->RunCompletions();
   loader->RunCompletions();
   const DayClock day = DayAt(now.wire);
@@ -528,8 +591,11 @@ void Scm::Impl::Pass() {
     counters.fleet_observations += source->Poll(now, *c.fleet);
     figures.malformed_inputs += source->malformed() - malformed;
   }
-  TakeDeviceStatuses(now);
+  TakeDeviceStatuses();
   HandleOperatorRequests(now, day);
+  replies->Flush(now.mono);
+  figures.replies = replies->counters();
+  figures.reply_write_refusals = replies->write_failures();
   HandleSignalRequests(now, day);
   c.supervisor->Check(now.mono, c.lights->sent(), *c.runtime, *this);
   const StepReport report = c.runtime->Step(now, day, c.fleet.get(), *this);
@@ -554,6 +620,7 @@ void Scm::Impl::Pass() {
   }
   if (now.mono >= next_housekeeping) Housekeeping(now);
   while (next_tick <= now.mono) next_tick += options.tick;
+  planned_wake = NextDeadline();
 }
 
 MonoTime Scm::Impl::NextDeadline() const {
@@ -587,8 +654,8 @@ ScmCounters Scm::counters() const {
   c.spat_published = d.publishers->counters().spat;
   c.light_commands = d.bundle->lights->counters().writes;
   c.light_resends = d.bundle->lights->counters().resends;
-  c.write_failures =
-      d.publishers->counters().write_failures + d.bundle->lights->counters().failures;
+  c.write_failures = d.publishers->counters().write_failures +
+                     d.bundle->lights->counters().failures + d.replies->counters().dropped;
   c.foreign_devices =
       d.bundle->supervisor->counters().foreign_city + d.bundle->supervisor->counters().foreign_host;
   c.events_dropped += d.persistence->stats().events_dropped;

@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "common/dds/participant.h"
 #include "common/time.h"
@@ -32,6 +33,9 @@ struct ScmOptions {
   /// Configurations sent by operators may name maps only under this folder. Default: the
   /// parent of the city file's folder (`config/` for `config/cities/x.yaml`).
   std::optional<std::filesystem::path> config_root;
+  /// Operators allowed to change state whatever the configuration says (`--operator`): the
+  /// way back into a city whose configuration allows no one (docs/scm.md, "Operators").
+  std::vector<std::string> operators;
   Duration tick = std::chrono::milliseconds(20);          ///< the loop's longest sleep
   Duration spat_period = std::chrono::milliseconds(100);  ///< SPaT, fleet and heartbeat
   Duration prune_period = std::chrono::minutes(10);       ///< event log retention, checked

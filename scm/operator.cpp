@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 
+#include "autodrive_msgs/msg/OperatorReply.h"
+
 #include "common/dds/message.h"
 #include "common/error.h"
 
@@ -41,6 +43,51 @@ void CheckSize(std::string_view what, std::size_t size, std::size_t limit) {
 }
 
 }  // namespace
+
+std::string_view ToString(ReplyCode code) {
+  switch (code) {
+    case ReplyCode::kOk:
+      return "ok";
+    case ReplyCode::kRejected:
+      return "rejected";
+    case ReplyCode::kInvalid:
+      return "invalid";
+    case ReplyCode::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+std::uint8_t ToWire(ReplyCode code) {
+  static_assert(autodrive_msgs_msg_OperatorReply_Constants_OK == 0 &&
+                autodrive_msgs_msg_OperatorReply_Constants_REJECTED == 1 &&
+                autodrive_msgs_msg_OperatorReply_Constants_INVALID == 2 &&
+                autodrive_msgs_msg_OperatorReply_Constants_FAILED == 3);
+  switch (code) {
+    case ReplyCode::kOk:
+      return autodrive_msgs_msg_OperatorReply_Constants_OK;
+    case ReplyCode::kRejected:
+      return autodrive_msgs_msg_OperatorReply_Constants_REJECTED;
+    case ReplyCode::kInvalid:
+      return autodrive_msgs_msg_OperatorReply_Constants_INVALID;
+    case ReplyCode::kFailed:
+      return autodrive_msgs_msg_OperatorReply_Constants_FAILED;
+  }
+  return autodrive_msgs_msg_OperatorReply_Constants_FAILED;
+}
+
+ReplyCode ReplyCodeFromWire(std::uint8_t result) {
+  switch (result) {
+    case autodrive_msgs_msg_OperatorReply_Constants_OK:
+      return ReplyCode::kOk;
+    case autodrive_msgs_msg_OperatorReply_Constants_REJECTED:
+      return ReplyCode::kRejected;
+    case autodrive_msgs_msg_OperatorReply_Constants_INVALID:
+      return ReplyCode::kInvalid;
+    default:
+      return ReplyCode::kFailed;
+  }
+}
 
 std::span<const CommandSpec> Commands() { return kCommands; }
 

@@ -34,6 +34,25 @@
 
 namespace autodrive::scm {
 
+/// The result of a request (OperatorReply's `result`).
+enum class ReplyCode { kOk, kRejected, kInvalid, kFailed };
+/// "ok", "rejected", "invalid", "failed".
+[[nodiscard]] std::string_view ToString(ReplyCode code);
+/// The wire value (OperatorReply_Constants) of `code`, and back (an unknown value is kFailed).
+[[nodiscard]] std::uint8_t ToWire(ReplyCode code);
+[[nodiscard]] ReplyCode ReplyCodeFromWire(std::uint8_t result);
+
+/// An answer as sent to a client: a result, a line for people and named values.
+struct Reply {
+  ReplyCode code = ReplyCode::kOk;
+  std::string message;
+  std::vector<std::pair<std::string, std::string>> values;
+  static Reply Ok(std::string m) { return {ReplyCode::kOk, std::move(m), {}}; }
+  static Reply Rejected(std::string m) { return {ReplyCode::kRejected, std::move(m), {}}; }
+  static Reply Invalid(std::string m) { return {ReplyCode::kInvalid, std::move(m), {}}; }
+  static Reply Failed(std::string m) { return {ReplyCode::kFailed, std::move(m), {}}; }
+};
+
 /// Size caps on what a request may carry: nothing from the network grows without bound.
 struct RequestLimits {
   std::size_t client_id_bytes = 128;

@@ -64,6 +64,16 @@ std::optional<Reply> Status(const OperatorCommand&, const ClockReading& now, Com
   add("signal_requests", std::to_string(ctx.figures.signal_requests));
   add("background_vehicles", std::to_string(ctx.fleet.BackgroundVehicles(now.wire)));
   add("monitor_violations", std::to_string(ctx.figures.monitor_violations));
+  add("stalls", std::to_string(ctx.figures.stalls));
+  add("longest_stall_ms", fmt::format("{:.0f}", ToSeconds(ctx.figures.longest_stall) * 1000.0));
+  add("reused_request_ids", std::to_string(cp.reused_ids));
+  const ReplyCounters& rc = ctx.figures.replies;
+  add("replies_sent", std::to_string(rc.sent));
+  add("replies_waited_for_reader", std::to_string(rc.waited_for_match));
+  add("replies_waited_for_writer", std::to_string(rc.waited_for_writer));
+  add("replies_unmatched", std::to_string(rc.unmatched));
+  add("replies_dropped", std::to_string(rc.dropped));
+  add("reply_write_refusals", std::to_string(ctx.figures.reply_write_refusals));
   return r;
 }
 
@@ -153,7 +163,16 @@ std::optional<Reply> SetPlan(const OperatorCommand& cmd, const ClockReading& now
   Reply error;
   const auto xi = Intersection(cmd, ctx, error);
   if (!xi) return error;
-  if (cmd.Arg("plan").empty()) return Reply::Invalid("plan needs a plan name (or auto)");
+  const std::string& plan = cmd.Arg("plan");
+  if (plan.empty()) return Reply::Invalid("plan needs a plan name (or auto)");
+  const IntersectionModel& model = *ctx.runtime.intersections()[*xi].model;
+  if (plan != "auto" && !model.PlanIndex(plan)) {
+    // An argument that names nothing, as an unknown mode or intersection is.
+    std::string names;
+    for (const auto& p : model.plans) names += (names.empty() ? "" : ", ") + p.name;
+    return Reply::Invalid(
+        fmt::format("{} has no plan \"{}\" (plans: {}, or auto)", model.name, plan, names));
+  }
   auto& c = *ctx.runtime.intersections()[*xi].controller;
   return Changed(cmd, *xi, c.SetPlan(cmd.Arg("plan"), now.mono), now, ctx);
 }
@@ -242,26 +261,31 @@ std::optional<Reply> Events(const OperatorCommand& cmd, const ClockReading&, Com
   return std::nullopt;
 }
 
-/// The YAML of a configuration request, checked against what the client says it sent: a
-/// string on the wire ends at its first NUL byte, so a file with one arrives cut short.
+/// The YAML of a configuration request, checked against what the client says it sent: its
+/// length and hash are required, because a string on the wire ends at its first NUL byte, so
+/// a file with one arrives cut short, and a text cut short can still be a valid city.
 std::optional<Reply> CheckConfigText(const OperatorCommand& cmd) {
   const std::string& yaml = cmd.Arg("yaml");
   if (yaml.empty()) return Reply::Invalid(cmd.name + " needs the configuration's text (yaml)");
-  if (!cmd.Arg("yaml_bytes").empty()) {
-    const std::string& text = cmd.Arg("yaml_bytes");
-    std::size_t bytes = 0;
-    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), bytes);
-    if (ec != std::errc() || end != text.data() + text.size()) {
-      return Reply::Invalid(fmt::format("yaml_bytes must be a number, got \"{}\"", text));
-    }
-    if (bytes != yaml.size()) {
-      return Reply::Invalid(fmt::format(
-          "the configuration arrived with {} bytes but was sent with {} (a NUL byte cuts a "
-          "string on the wire): refused",
-          yaml.size(), bytes));
-    }
+  if (cmd.Arg("yaml_bytes").empty() || cmd.Arg("yaml_hash").empty()) {
+    return Reply::Invalid(fmt::format(
+        "{} needs yaml_bytes (the text's length in bytes) and yaml_hash (its FNV-1a 64 hash, 16 "
+        "hex digits) beside yaml, so that a text cut on the way is refused rather than applied",
+        cmd.name));
   }
-  if (!cmd.Arg("yaml_hash").empty() && cmd.Arg("yaml_hash") != ContentHash(yaml)) {
+  const std::string& text = cmd.Arg("yaml_bytes");
+  std::size_t bytes = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), bytes);
+  if (ec != std::errc() || end != text.data() + text.size()) {
+    return Reply::Invalid(fmt::format("yaml_bytes must be a number, got \"{}\"", text));
+  }
+  if (bytes != yaml.size()) {
+    return Reply::Invalid(fmt::format(
+        "the configuration arrived with {} bytes but was sent with {} (a NUL byte cuts a "
+        "string on the wire): refused",
+        yaml.size(), bytes));
+  }
+  if (cmd.Arg("yaml_hash") != ContentHash(yaml)) {
     return Reply::Invalid(fmt::format("the configuration's hash is {}, not the {} it was sent with",
                                       ContentHash(yaml), cmd.Arg("yaml_hash")));
   }

@@ -18,6 +18,7 @@
 #include "scm/operator.h"
 #include "scm/persistence.h"
 #include "scm/publishers.h"
+#include "scm/reply_outbox.h"
 #include "scm/runtime.h"
 #include "scm/supervision.h"
 
@@ -50,6 +51,10 @@ struct DaemonFigures {
   std::uint64_t malformed_inputs = 0;
   std::uint64_t signal_requests = 0;
   std::uint64_t events_emitted = 0;
+  ReplyCounters replies;                   ///< operator replies (scm/reply_outbox.h)
+  std::uint64_t reply_write_refusals = 0;  ///< reply writes refused for a while, then retried
+  std::uint64_t stalls = 0;                ///< passes that began over 100 ms after their deadline
+  Duration longest_stall{};
 };
 
 /// The parts a command acts on.

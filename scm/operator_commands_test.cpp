@@ -29,7 +29,7 @@ class LoaderService final : public ConfigService {
   explicit LoaderService(ConfigLoader& loader) : loader_(loader) {}
   void Validate(std::string yaml, std::string label, Responder respond) override {
     loader_.Check(
-        std::move(yaml), label,
+        std::move(yaml), label, {},
         [respond = std::move(respond)](std::unique_ptr<City> city, std::string error) {
           respond(city ? Reply::Ok("valid: city " + city->config.name) : Reply::Rejected(error));
         });
@@ -145,6 +145,15 @@ class OperatorCommandsTest : public ::testing::Test {
   std::uint64_t request_id_ = 0;
 };
 
+/// The arguments of a configuration command for `yaml`, with the length and hash a client sends.
+std::map<std::string, std::string> ConfigArgs(const std::string& yaml, std::string path = "") {
+  std::map<std::string, std::string> args{{"yaml", yaml},
+                                          {"yaml_bytes", std::to_string(yaml.size())},
+                                          {"yaml_hash", ContentHash(yaml)}};
+  if (!path.empty()) args["path"] = std::move(path);
+  return args;
+}
+
 TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
   RunFor(seconds(8));  // through the start-up sequence, into the plan
   for (int i = 0; i < 7; ++i) {
@@ -182,7 +191,7 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
        "north_t runs plan evening from the next safe point"},
       {"plan",
        {{"intersection", "north_t"}, {"plan", "nope"}},
-       ReplyCode::kRejected,
+       ReplyCode::kInvalid,
        "north_t has no plan \"nope\""},
       {"reset",
        {{"intersection", "centre"}},
@@ -190,20 +199,31 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
        "centre is not in fail-safe flash; nothing to reset"},
       {"events", {{"limit", "0"}}, ReplyCode::kInvalid, "limit must be a number in 1..10000"},
       {"events", {{"limit", "5"}}, ReplyCode::kOk, "5 events"},
-      {"config_validate", {{"yaml", "name: x\n"}}, ReplyCode::kRejected, "map"},
+      {"config_validate", ConfigArgs("name: x\n"), ReplyCode::kRejected, "map"},
+      {"config_validate", ConfigArgs("name: x\nmap: /etc/passwd\nintersections: []\n", "evil.yaml"),
+       ReplyCode::kRejected, "is outside the SCM's configuration root"},
       {"config_validate",
-       {{"yaml", "name: x\nmap: /etc/passwd\nintersections: []\n"}, {"path", "evil.yaml"}},
-       ReplyCode::kRejected,
-       "is outside the SCM's configuration root"},
-      {"config_validate",
-       {{"yaml", "name: x\n"}, {"yaml_bytes", "9999"}},
+       {{"yaml", "name: x\n"}, {"yaml_bytes", "9999"}, {"yaml_hash", ContentHash("name: x\n")}},
        ReplyCode::kInvalid,
        "the configuration arrived with 8 bytes but was sent with 9999"},
+      // Length and hash are required: a client that leaves them out could have a text cut at a
+      // NUL byte applied.
       {"config_validate",
-       {{"yaml", config::internal::ReadFile(test::SourceDir() / "config/cities/small_town.yaml")},
-        {"path", (test::SourceDir() / "config/cities/small_town.yaml").string()}},
-       ReplyCode::kOk,
-       "valid: city small_town"},
+       {{"yaml", "name: x\n"}},
+       ReplyCode::kInvalid,
+       "config_validate needs yaml_bytes (the text's length in bytes) and yaml_hash"},
+      {"config_apply",
+       {{"yaml", "name: x\n"}, {"yaml_bytes", "8"}},
+       ReplyCode::kInvalid,
+       "config_apply needs yaml_bytes"},
+      {"config_validate",
+       {{"yaml", "name: x\n"}, {"yaml_bytes", "8"}, {"yaml_hash", "0123456789abcdef"}},
+       ReplyCode::kInvalid,
+       "not the 0123456789abcdef it was sent with"},
+      {"config_validate",
+       ConfigArgs(config::internal::ReadFile(test::SourceDir() / "config/cities/small_town.yaml"),
+                  (test::SourceDir() / "config/cities/small_town.yaml").string()),
+       ReplyCode::kOk, "valid: city small_town"},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.command);

@@ -13,7 +13,6 @@
 #include "autodrive_msgs/msg/Event.h"
 #include "autodrive_msgs/msg/Heartbeat.h"
 #include "autodrive_msgs/msg/IntersectionState.h"
-#include "autodrive_msgs/msg/OperatorReply.h"
 #include "autodrive_msgs/msg/SignalGroupState.h"
 #include "autodrive_msgs/msg/SignalRequestStatus.h"
 #include "autodrive_msgs/msg/TrackedVehicle.h"
@@ -60,20 +59,6 @@ std::uint8_t ToWire(RequestStatus status) {
       return autodrive_msgs_msg_SignalRequestStatus_Constants_CANCELLED;
   }
   AUTODRIVE_CHECK(false, "unknown request status " << static_cast<int>(status));
-}
-
-std::uint8_t ToWire(ReplyCode code) {
-  switch (code) {
-    case ReplyCode::kOk:
-      return autodrive_msgs_msg_OperatorReply_Constants_OK;
-    case ReplyCode::kRejected:
-      return autodrive_msgs_msg_OperatorReply_Constants_REJECTED;
-    case ReplyCode::kInvalid:
-      return autodrive_msgs_msg_OperatorReply_Constants_INVALID;
-    case ReplyCode::kFailed:
-      return autodrive_msgs_msg_OperatorReply_Constants_FAILED;
-  }
-  AUTODRIVE_CHECK(false, "unknown reply code " << static_cast<int>(code));
 }
 
 std::uint8_t ToWire(ScmState state) {
@@ -218,20 +203,6 @@ class LoopSender {
   std::thread thread_;  // last: starts once everything above exists
 };
 
-std::string_view ToString(ReplyCode code) {
-  switch (code) {
-    case ReplyCode::kOk:
-      return "ok";
-    case ReplyCode::kRejected:
-      return "rejected";
-    case ReplyCode::kInvalid:
-      return "invalid";
-    case ReplyCode::kFailed:
-      return "failed";
-  }
-  return "?";
-}
-
 MapMessages BuildMapMessages(const City& city, std::uint32_t revision) {
   SignalGroupAssignment groups;
   for (const auto& model : city.intersections) {
@@ -265,8 +236,6 @@ ScmPublishers::ScmPublishers(const dds::Participant& p, std::string city, std::u
                         NonBlocking(dds::topics::Heartbeat().qos)),
       request_status_writer_(p, dds::topics::SignalRequestStatus().name,
                              NonBlocking(dds::topics::SignalRequestStatus().qos)),
-      reply_writer_(p, dds::topics::OperatorReplies().name,
-                    NonBlocking(dds::topics::OperatorReplies().qos)),
       device_command_writer_(p, dds::topics::DeviceCommands().name,
                              NonBlocking(dds::topics::DeviceCommands().qos)),
       spat_(std::make_unique<LoopSender<msg::Spat>>(p, dds::topics::Spat())),
@@ -445,25 +414,6 @@ void ScmPublishers::PublishRequestStatus(const RequestUpdate& u, std::uint32_t i
   if (u.expected_green) s->expected_green = dds::ToMsg(now.ToWire(*u.expected_green));
   dds::SetString(s->reason, u.reason);
   TryWrite(request_status_writer_, s.get());
-}
-
-void ScmPublishers::Reply(std::string_view client, std::uint64_t request_id, ReplyCode code,
-                          std::string_view message,
-                          const std::vector<std::pair<std::string, std::string>>& values,
-                          Time now) {
-  dds::Message<msg::OperatorReply> m;
-  m->header.stamp = dds::ToMsg(now);
-  dds::SetString(m->client_id, client);
-  m->request_id = request_id;
-  m->result = ToWire(code);
-  dds::SetString(m->message, message);
-  dds::ResizeSequence(m->values, static_cast<std::uint32_t>(values.size()));
-  auto kv = dds::Elements(m->values);
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    dds::SetString(kv[i].key, values[i].first);
-    dds::SetString(kv[i].value, values[i].second);
-  }
-  TryWrite(reply_writer_, m.get());
 }
 
 std::optional<std::uint64_t> ScmPublishers::ResetMonitor(const IntersectionModel& x,

@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// The SCM's DDS edge for what it publishes: SPaT, fleet state, heartbeat, events, MAP and
-/// signs, V2I request status, operator replies, device commands, and each light's command. The
+/// signs, V2I request status, device commands, and each light's command (operator replies:
+/// scm/reply_outbox.h). The
 /// only place where the SCM's domain values (aspects, modes, request status, severities, pose
 /// sources) become wire numbers. Every writer is non-blocking (`Qos::NonBlocking`): a write
 /// that would wait for slow readers fails at once and is counted, so the loop never blocks.
@@ -30,11 +31,6 @@
 #include "scm/supervision.h"
 
 namespace autodrive::scm {
-
-/// The answer to an operator request (domain side; `ReplyCode` becomes OperatorReply's result).
-enum class ReplyCode { kOk, kRejected, kInvalid, kFailed };
-/// "ok", "rejected", "invalid", "failed".
-[[nodiscard]] std::string_view ToString(ReplyCode code);
 
 /// The SCM's process state in its heartbeat.
 enum class ScmState { kStarting, kRunning, kStopping };
@@ -95,10 +91,6 @@ class ScmPublishers {
   /// A V2I request's status (`expected_green` on the control timeline, converted with `now`).
   void PublishRequestStatus(const RequestUpdate& update, std::uint32_t intersection_id,
                             std::uint32_t signal_group, const ClockReading& now);
-  /// The reply to request `request_id` of `client`.
-  void Reply(std::string_view client, std::uint64_t request_id, ReplyCode code,
-             std::string_view message,
-             const std::vector<std::pair<std::string, std::string>>& values, Time now);
   /// Asks the infrastructure to reset the conflict monitor of `x`; returns the command id, or
   /// nothing when the write failed.
   std::optional<std::uint64_t> ResetMonitor(const IntersectionModel& x, std::string_view issued_by,
@@ -121,7 +113,6 @@ class ScmPublishers {
   dds::Writer<msg::Event> event_writer_;
   dds::Writer<msg::Heartbeat> heartbeat_writer_;
   dds::Writer<msg::SignalRequestStatus> request_status_writer_;
-  dds::Writer<msg::OperatorReply> reply_writer_;
   dds::Writer<msg::DeviceCommand> device_command_writer_;
   std::unique_ptr<LoopSender<msg::Spat>> spat_;
   std::unique_ptr<LoopSender<msg::DeviceTable>> device_table_;

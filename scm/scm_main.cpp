@@ -10,6 +10,7 @@
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
+#include "scm/city_config.h"
 #include "scm/daemon.h"
 
 int main(int argc, char** argv) {
@@ -43,6 +44,16 @@ int main(int argc, char** argv) {
   app.add_option("--config-root", config_root,
                  "configurations sent by operators may name maps only under this folder "
                  "(default: the parent of the city file's folder)");
+  app.add_option("--operator", options.operators,
+                 "an operator allowed to change state whatever the city's configuration says "
+                 "(repeat for more): the way back into a city whose configuration allows no one, "
+                 "with no edit of its file (docs/scm.md, \"Operators\")")
+      ->check([](const std::string& name) {
+        return scm::IsOperatorName(name) ? std::string()
+                                         : "an operator name is 1 to 64 letters, digits or '_', "
+                                           "not starting with a digit, got '" +
+                                               name + "'";
+      });
   app.add_option("--clock", clock_kind,
                  "wall: the computer's clock (real track); sim: /clock from the simulator (waits "
                  "for the first message)")

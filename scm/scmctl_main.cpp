@@ -21,6 +21,7 @@
 #include "common/shutdown.h"
 #include "scm/city.h"
 #include "scm/client.h"
+#include "scm/config_loader.h"
 #include "scm/store.h"
 
 namespace {
@@ -48,13 +49,6 @@ int Print(const OperatorAnswer& a, bool json) {
     default:
       return kRefused;
   }
-}
-
-std::string ClientId() {
-  char host[256] = {};
-  ::gethostname(host, sizeof host - 1);
-  const char* user = std::getenv("USER");
-  return fmt::format("scmctl/{}@{}/{}", user ? user : "?", host, ::getpid());
 }
 
 /// The city file's text, refused when it cannot travel intact: a string on the wire ends at
@@ -130,8 +124,15 @@ int main(int argc, char** argv) {
   watch->add_flag("--json", json, "one JSON object per line");
   auto* config = app.add_subcommand("config", "check or apply a city configuration");
   config->require_subcommand(1);
-  auto* validate = config->add_subcommand("validate", "check a city file (no SCM needed)");
+  bool validate_on_scm = false;
+  auto* validate = config->add_subcommand(
+      "validate",
+      "check a city file here (no SCM needed): the safety rules and that it allows an operator; "
+      "with --scm, ask the running SCM, which also checks it is the city it runs");
   validate->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
+  validate->add_flag("--scm", validate_on_scm,
+                     "send the file to the running SCM to check (as config apply would, without "
+                     "applying it)");
   auto* apply =
       config->add_subcommand("apply", "check a city file and make the SCM run it (operator)");
   apply->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
@@ -148,9 +149,15 @@ int main(int argc, char** argv) {
   try {
     const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
         std::chrono::duration<double>(timeout_s));
-    if (validate->parsed()) {
+    if (validate->parsed() && !validate_on_scm) {
       try {
         const City city = LoadCity(file);
+        // What an SCM would refuse of it whatever city it runs: no operator able to change
+        // state (an SCM's own --operator aside, which only the SCM knows: --scm asks it).
+        if (auto refusal = ConfigRefusal(city.config, city.config.name, {})) {
+          std::cout << "rejected: " << file << ": " << *refusal << "\n";
+          return kRefused;
+        }
         std::cout << "ok: " << file << " is valid: city " << city.config.name << ", "
                   << city.intersections.size() << " signalised intersections\n";
         return 0;
@@ -277,8 +284,8 @@ int main(int argc, char** argv) {
       if (!since.empty()) args["since"] = since;
       args["limit"] = std::to_string(limit);
     }
-    if (apply->parsed()) {
-      command = "config_apply";
+    if (apply->parsed() || validate->parsed()) {
+      command = apply->parsed() ? "config_apply" : "config_validate";
       std::string text;
       try {
         text = ReadCityText(file);
@@ -300,7 +307,7 @@ int main(int argc, char** argv) {
     }
     dds::Participant participant(dds_options);
     OperatorClient client(
-        participant, ClientId(),
+        participant, UniqueClientId("scmctl"),
         operator_name.empty() ? std::nullopt : std::optional<std::string>(operator_name));
     if (!client.WaitForScm(timeout)) {
       std::cerr << "scmctl: no SCM answered within " << timeout_s

@@ -157,7 +157,7 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
     IntersectionRuntime& x = xs[xi];
     IntersectionController& c = *x.controller;
     Monitor& m = monitors_[xi];
-    if (m.reset_command && now - m.reset_at > params_.reset_ack_timeout) {
+    if (m.reset_command && now - m.reset_at > params_.reset_ack_timeout && now >= settle_until_) {
       events.Emit(Event{Severity::kAlarm, "mmu_reset_unconfirmed",
                         fmt::format("{}: its infrastructure monitor did not confirm the reset "
                                     "within {:.1f} s; its reports count again",
@@ -165,7 +165,8 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
                         x.model->id, monitor_ids_[xi], "scm", true});
       m.reset_command.reset();
     } else if (m.reset_command) {
-      next_deadline_ = std::min(next_deadline_, m.reset_at + params_.reset_ack_timeout);
+      next_deadline_ =
+          std::min(next_deadline_, std::max(m.reset_at + params_.reset_ack_timeout, settle_until_));
     }
     bool all_seen = true;
     const char* lost_first = nullptr;
@@ -178,7 +179,9 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
         continue;
       }
       if (!head.following) all_seen = false;
-      const MonoTime lost_at = head.last_report + params_.timeout;
+      // Silence is judged on when reports arrived; after the SCM's own stall, not before the
+      // re-check (OnStall).
+      const MonoTime lost_at = std::max(head.last_report + params_.timeout, settle_until_);
       if (now > lost_at) {
         if (!head.lost) {
           head.lost = true;
@@ -207,7 +210,7 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
       if (s.aspect && head.displayed && !head.lost && *head.displayed != *s.aspect &&
           !c.latched()) {
         if (!head.mismatch_since) head.mismatch_since = std::max(now, s.at);
-        const MonoTime due = *head.mismatch_since + params_.mismatch;
+        const MonoTime due = std::max(*head.mismatch_since + params_.mismatch, settle_until_);
         if (now > due) {
           const std::string reason = fmt::format("{} shows {} but was commanded {}", slot.name,
                                                  ToString(*head.displayed), ToString(*s.aspect));
@@ -232,6 +235,12 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
                         x.model->id, "", "scm", true});
     }
   }
+}
+
+void DeviceSupervisor::OnStall(MonoTime resumed) {
+  // The same wait whatever the stall's length: what is owed is the backlog, which is short.
+  settle_until_ = std::max(settle_until_, resumed + stall_settle());
+  next_deadline_ = std::min(next_deadline_, settle_until_ + Duration(1));
 }
 
 std::optional<std::string> DeviceSupervisor::ResetRefusal(std::size_t x) const {

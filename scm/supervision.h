@@ -112,6 +112,13 @@ class DeviceSupervisor {
   /// Why a reset of intersection `x` must be refused now (a light still lost or faulty), or
   /// nothing.
   [[nodiscard]] std::optional<std::string> ResetRefusal(std::size_t x) const;
+  /// The SCM's own loop stalled and resumed at `resumed`: reports sent meanwhile
+  /// may still be on their way in, so no device is declared lost, mismatched or unconfirmed
+  /// before `resumed + stall_settle()` (the re-check; a device still silent then is lost as
+  /// before). Devices are never blamed for the SCM's stall.
+  void OnStall(MonoTime resumed);
+  /// How long after a stall the rules wait for reports: half the device time-out.
+  [[nodiscard]] Duration stall_settle() const { return params_.timeout / 2; }
   /// After the SCM accepted a reset of `x` at `now` and asked the infrastructure's monitor to
   /// reset with `monitor_command` (when it runs one): forgets mismatch timers, and ignores the
   /// monitor's latch reports older than that command until it confirms it.
@@ -150,6 +157,7 @@ class DeviceSupervisor {
   SupervisionCounters counters_;
   std::set<std::tuple<std::string, std::string, std::string>> reported_;  ///< bounded
   MonoTime next_deadline_ = MonoTime::max();
+  MonoTime settle_until_{};  ///< after a stall: no rule fires on silence before this
 };
 
 }  // namespace autodrive::scm

@@ -123,6 +123,54 @@ TEST_F(SupervisionTest, ALightNotHeardForTheTimeOutIsLostAndLatchesItsIntersecti
   EXPECT_FALSE(supervisor_.ResetRefusal(Index("north_t")));
 }
 
+// Found from outside (issue 30): a 0.49 s stall of the SCM (no fault, no command) was read as
+// every light's silence and latched the city, although the lights' reports came 40 ms later.
+TEST_F(SupervisionTest, AfterTheScmsOwnStallDevicesAreReCheckedBeforeAnyIsDeclaredLost) {
+  ReportAll(t0_);
+  supervisor_.Check(t0_, sent_, runtime_, events_);
+  // The SCM stalls for 0.6 s: at the pass that follows, every light's last report is older than
+  // the time-out, because the reports sent meanwhile have not been taken yet.
+  const MonoTime resumed = t0_ + milliseconds(600);
+  supervisor_.OnStall(resumed);
+  EXPECT_EQ(supervisor_.stall_settle(), milliseconds(250));
+  supervisor_.Check(resumed, sent_, runtime_, events_);
+  EXPECT_EQ(supervisor_.lost(), 0u);
+  EXPECT_FALSE(Latched("centre"));
+  EXPECT_FALSE(Latched("north_t"));
+  // The loop is told when to re-check.
+  EXPECT_LE(supervisor_.next_deadline(), resumed + supervisor_.stall_settle() + milliseconds(1));
+  // The backlog arrives 40 ms later, for every light but signal_5, which is really gone.
+  const MonoTime backlog = resumed + milliseconds(40);
+  for (const auto& h : runtime_.heads()) {
+    if (h.id.value() != 5) {
+      supervisor_.Report(Light(h.id.value(), Aspect::kRed), backlog, runtime_, events_);
+    }
+  }
+  supervisor_.Check(backlog, sent_, runtime_, events_);
+  EXPECT_EQ(supervisor_.lost(), 0u) << "still within the re-check";
+  // At the re-check only the light that stayed silent is lost, and only its intersection
+  // latches.
+  const MonoTime recheck = resumed + supervisor_.stall_settle() + milliseconds(1);
+  supervisor_.Check(recheck, sent_, runtime_, events_);
+  EXPECT_EQ(supervisor_.lost(), 1u);
+  EXPECT_TRUE(Latched("centre"));
+  EXPECT_FALSE(Latched("north_t"));
+  ASSERT_EQ(events_.WithCode("device_lost").size(), 1u);
+  EXPECT_THAT(events_.WithCode("device_lost")[0].message, HasSubstr("signal_5 lost"));
+}
+
+TEST_F(SupervisionTest, WithNoStallALostLightLatchesOnTheTimeOutAsBefore) {
+  ReportAll(t0_);
+  supervisor_.Check(t0_, sent_, runtime_, events_);
+  supervisor_.Check(t0_ + milliseconds(500), sent_, runtime_, events_);
+  EXPECT_EQ(supervisor_.lost(), 0u);
+  EXPECT_EQ(supervisor_.next_deadline(), t0_ + milliseconds(500) + Duration(1));
+  supervisor_.Check(t0_ + milliseconds(501), sent_, runtime_, events_);
+  EXPECT_EQ(supervisor_.lost(), runtime_.heads().size());
+  EXPECT_TRUE(Latched("centre"));
+  EXPECT_TRUE(Latched("north_t"));
+}
+
 TEST_F(SupervisionTest, AnotherCitysLightsAreIgnoredAndReportedOnce) {
   DeviceReportView r = Light(1, Aspect::kGreen);
   r.city = "driving_school";

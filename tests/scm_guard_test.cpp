@@ -21,6 +21,7 @@
 
 #include "common/config.h"
 #include "common/dds/writer.h"
+#include "scm/store.h"
 #include "tests/scm_processes.h"
 
 namespace autodrive {
@@ -48,19 +49,6 @@ bool NoneFlashing(const msg::Spat& s) {
 
 class ScmGuard : public test::ScmProcesses {
  protected:
-  /// A shipped city file with its map named by absolute path, so that a copy in the test's
-  /// folder still finds it (the path stays under the SCM's configuration root).
-  std::string CityText(const std::string& city) const {
-    std::string text = config::internal::ReadFile(Config("config/cities/" + city + ".yaml"));
-    const std::string rel = "../maps/" + city + ".yaml";
-    text.replace(text.find(rel), rel.size(), Config("config/maps/" + city + ".yaml"));
-    return text;
-  }
-  std::string Write(const std::string& name, const std::string& text) const {
-    const auto path = (dir_ / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
   /// Takes SPaT until `n` more samples arrived (up to `timeout`); every one must satisfy `ok`.
   template <typename P>
   bool WatchSpat(std::size_t n, P ok, Clock::duration timeout) {
@@ -138,42 +126,62 @@ TEST_F(ScmGuard, ANulByteIsRefusedByValidateAndApply) {
   dds::Reader<msg::OperatorReply> replies(*participant_, dds::topics::OperatorReplies());
   ASSERT_TRUE(lab.WaitForReaders(1, seconds(10)));
   ASSERT_TRUE(replies.WaitForWriters(1, seconds(10)));
-  dds::Message<msg::OperatorRequest> req;
-  dds::SetString(req->client_id, "raw/nul");
-  req->request_id = 1;
-  dds::SetString(req->command, "config_apply");
   const std::string cut = text.substr(0, text.find('\0'));
   const std::string bytes = std::to_string(text.size());
-  std::vector<msg::KeyValue> args(2);
-  dds::BorrowString(args[0].key, "yaml");
-  dds::BorrowString(args[0].value, cut.c_str());
-  dds::BorrowString(args[1].key, "yaml_bytes");
-  dds::BorrowString(args[1].value, bytes.c_str());
-  dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>(args));
-  // Sent again with the same id until answered, as every client does (docs/messaging.md): a
-  // match seen from this side only does not mean the SCM has matched this writer and this
-  // reader yet, and under a sanitizer on a loaded machine the first copy can go unanswered.
-  std::optional<dds::Message<msg::OperatorReply>> reply;
-  auto next_send = Clock::now();
-  for (const auto end = Clock::now() + seconds(60); !reply && Clock::now() < end;) {
-    if (Clock::now() >= next_send) {
-      try {
-        lab.Write(req);
-      } catch (const DdsError&) {
-        // The earlier copy is not acknowledged yet: it is on its way.
+  const std::string hash = scm::ContentHash(text);
+  // A raw config_apply of `cut`, with the arguments `with` of (length, hash) that the client
+  // gives; the reply, sent again with the same id until answered, as every client does
+  // (docs/messaging.md): a match seen from this side only does not mean the SCM has matched
+  // this writer and this reader yet, and under a sanitizer on a loaded machine the first copy
+  // can go unanswered.
+  auto apply_raw = [&](std::uint64_t id, bool with_length_and_hash) {
+    dds::Message<msg::OperatorRequest> req;
+    const std::string client = "raw/nul/" + std::to_string(id);
+    dds::SetString(req->client_id, client);
+    req->request_id = id;
+    dds::SetString(req->command, "config_apply");
+    std::vector<msg::KeyValue> args(with_length_and_hash ? 3 : 1);
+    dds::BorrowString(args[0].key, "yaml");
+    dds::BorrowString(args[0].value, cut.c_str());
+    if (with_length_and_hash) {
+      dds::BorrowString(args[1].key, "yaml_bytes");
+      dds::BorrowString(args[1].value, bytes.c_str());
+      dds::BorrowString(args[2].key, "yaml_hash");
+      dds::BorrowString(args[2].value, hash.c_str());
+    }
+    dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>(args));
+    std::optional<dds::Message<msg::OperatorReply>> reply;
+    auto next_send = Clock::now();
+    for (const auto end = Clock::now() + seconds(60); !reply && Clock::now() < end;) {
+      if (Clock::now() >= next_send) {
+        try {
+          lab.Write(req);
+        } catch (const DdsError&) {
+          // The earlier copy is not acknowledged yet: it is on its way.
+        }
+        next_send = Clock::now() + milliseconds(500);
       }
-      next_send = Clock::now() + milliseconds(500);
+      replies.WaitForData(milliseconds(100));
+      for (auto& m : replies.TakeAll()) {
+        if (dds::View(m->client_id) == client) reply = std::move(m);
+      }
     }
-    replies.WaitForData(milliseconds(100));
-    for (auto& m : replies.TakeAll()) {
-      if (dds::View(m->client_id) == "raw/nul") reply = std::move(m);
-    }
-  }
-  dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>());  // not ours to free
+    dds::BorrowSequence(req->arguments, std::span<msg::KeyValue>());  // not ours to free
+    return reply;
+  };
+  // Cut at the NUL as a C string would be: the SCM sees the length does not match.
+  auto reply = apply_raw(1, true);
   ASSERT_TRUE(reply);
   EXPECT_EQ((*reply)->result, autodrive_msgs_msg_OperatorReply_Constants_INVALID);
   EXPECT_THAT(std::string(dds::View((*reply)->message)),
               HasSubstr("a NUL byte cuts a string on the wire"));
+  // Without length and hash the cut text (a valid city on its own) is refused all the same.
+  reply = apply_raw(2, false);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)->result, autodrive_msgs_msg_OperatorReply_Constants_INVALID);
+  EXPECT_THAT(
+      std::string(dds::View((*reply)->message)),
+      HasSubstr("config_apply needs yaml_bytes (the text's length in bytes) and yaml_hash"));
   EXPECT_THAT(Scmctl({"events", "--limit", "1000"}).text, Not(HasSubstr("config_applied")));
 }
 

@@ -25,6 +25,7 @@
 #include "autodrive_msgs/msg/SignalGroupState.h"
 #include "autodrive_msgs/msg/Spat.h"
 
+#include "common/config.h"
 #include "common/dds/conversions.h"
 #include "common/dds/participant.h"
 #include "common/dds/reader.h"
@@ -141,6 +142,20 @@ class ScmProcesses : public ::testing::Test {
     argv.insert(argv.end(), extra.begin(), extra.end());
     env.push_back(NoonTimeZone());
     scm_ = std::make_unique<ChildProcess>(argv, env);
+  }
+  /// A shipped city file with its map named by absolute path, so that a copy in the test's
+  /// folder still finds it (the path stays under the SCM's configuration root).
+  std::string CityText(const std::string& city) const {
+    std::string text = config::internal::ReadFile(Config("config/cities/" + city + ".yaml"));
+    const std::string rel = "../maps/" + city + ".yaml";
+    text.replace(text.find(rel), rel.size(), Config("config/maps/" + city + ".yaml"));
+    return text;
+  }
+  /// Writes `text` to `name` in the test's folder; returns its path.
+  std::string Write(const std::string& name, const std::string& text) const {
+    const auto path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
   }
   /// Runs scmctl; with `as_operator`, as that operator (state-changing commands need one).
   Output Scmctl(std::vector<std::string> args, const std::string& as_operator = "") const {

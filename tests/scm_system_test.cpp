@@ -254,7 +254,7 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   r = Lab({"plan", "driving_school_crossing", "evening"});
   EXPECT_EQ(r.code, 0) << r.text;
   r = Lab({"plan", "driving_school_crossing", "rush"});
-  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.code, 2) << "invalid, as an unknown mode is";
   EXPECT_THAT(r.text, HasSubstr("has no plan \"rush\""));
   r = Lab({"reset", "driving_school_crossing"});
   EXPECT_EQ(r.code, 1);

@@ -299,7 +299,7 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
       options_(std::move(options)),
       rates_(std::move(rates)),
       http_(std::make_unique<httplib::Server>()) {
-  const std::string client = fmt::format("dashboard/{}", ::getpid());
+  const std::string client = scm::UniqueClientId("dashboard");
   reader_ = std::make_unique<scm::OperatorClient>(participant_, client + "/poll");
   if (!options_.operator_name.empty()) {
     actor_ = std::make_unique<scm::OperatorClient>(participant_, client, options_.operator_name);
