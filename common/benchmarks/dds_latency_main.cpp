@@ -7,8 +7,8 @@
 // protection (SIGN, ENCRYPT), each with a keystore made by autodrive-keystore in a temporary
 // folder (or the one given with --keystore), interleaved with the unsecured layers.
 //
-// This program is the one place outside common/dds that calls dds_* directly: the baseline
-// must not go through the layer it is compared with.
+// This program is one of the two places outside common/dds that call dds_* directly (with
+// tests/dds_security_probe.c): the baseline must not go through the layer it is compared with.
 #include <dds/dds.h>
 #include <stdlib.h>
 #include <unistd.h>
