@@ -184,7 +184,7 @@ struct DeviceHost::Dds {
   explicit Dds(const dds::Participant& p)
       : participant(p),
         heartbeats(p, dds::topics::Heartbeat()),
-        heartbeat(LoopWriter(p, dds::topics::Heartbeat())),
+        heartbeat(LoopWriter(p, dds::topics::InfraHeartbeat())),
         events(LoopWriter(p, dds::topics::Events())) {}
 };
 
@@ -476,7 +476,9 @@ void DeviceHost::TakeHeartbeats(const ClockReading& now) {
   dds::Message<msg::Heartbeat> m;
   dds::SampleInfo info;
   while (dds_->heartbeats.TakeOne(m, &info)) {
-    if (dds::View(m->sender) != kScmSender) continue;  // device hosts, including us
+    // Only the SCM writes this topic (device hosts have their own), and with DDS Security only
+    // the SCM's identity can; without it, a sender that is not the SCM is still not followed.
+    if (dds::View(m->sender) != kScmSender) continue;
     ++counters_.scm_heartbeats;
     const std::string_view city = dds::View(m->city);
     if (city != config_.city) {

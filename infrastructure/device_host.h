@@ -62,12 +62,13 @@ struct HostCounters {
 /// its readers hold (no listener threads), so everything happens on the caller's thread; `Run`
 /// is the loop that calls it. Not copyable or movable (it owns readers and writers).
 ///
-/// Topics: reads `/autodrive/signal_<i>/command` per head, the heartbeat topic, and device
-/// commands (`/autodrive/scm/device_command`); writes `/autodrive/signal_<i>/state` per head (the
-/// lamps at that instant, 0..3, on change), DeviceStatus per head and per monitor (one writer
-/// each, every status period and on change), events, and its heartbeat (sender "infra/<name>",
-/// every status period). Every writer is non-blocking: a write that would wait for slow
-/// readers fails at once and is counted.
+/// Topics: reads `/autodrive/signal_<i>/command` per head, the SCM's heartbeat
+/// (`/autodrive/scm/heartbeat`), and device commands (`/autodrive/scm/device_command`); writes
+/// `/autodrive/signal_<i>/state` per head (the lamps at that instant, 0..3, on change),
+/// DeviceStatus per head and per monitor (one writer each, every status period and on change),
+/// events, and its own heartbeat on the device hosts' topic (`/autodrive/infra/heartbeat`,
+/// sender "infra/<name>", every status period). Every writer is non-blocking: a write that would
+/// wait for slow readers fails at once and is counted.
 ///
 /// Whom it obeys (docs/infrastructure.md): it follows the heartbeat of sender "scm" whose city
 /// is its own (others are ignored, counted and reported once per session: "foreign_scm"), and

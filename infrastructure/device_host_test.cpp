@@ -78,7 +78,7 @@ class DeviceHostTest : public ::testing::Test {
         // depth of 1 would keep only the latest of all the devices' statuses.
         statuses_(scm_side_, dds::topics::Devices().name, dds::Qos::LatchedState(256)),
         events_(scm_side_, dds::topics::Events()),
-        host_heartbeats_(scm_side_, dds::topics::Heartbeat()) {
+        host_heartbeats_(scm_side_, dds::topics::InfraHeartbeat()) {
     config_.name = "test";
     config_.city = map;
     config_.map = (test::SourceDir() / "config" / "maps" / (map + ".yaml")).string();
@@ -319,11 +319,41 @@ TEST_F(DeviceHostTest, HeadsFollowCommandsAndPublishTheirLampsAndStatus) {
   EXPECT_EQ(host_->counters().scm_changes, 1u) << "one SCM followed from the start";
 }
 
-TEST_F(DeviceHostTest, HostHeartbeatsAreNotTakenForTheScms) {
+// The host's heartbeat goes on the device hosts' topic, never on the SCM's, and the host does
+// not read the device hosts' topic: an "scm" heartbeat there (what any light host's identity may
+// write) is not followed.
+TEST_F(DeviceHostTest, HostHeartbeatsGoOnTheirOwnTopicAndAreNotTakenForTheScms) {
   scm_alive_ = false;
+  dds::Participant other = Join(partition_);
+  dds::Reader<msg::Heartbeat> scm_topic(other, dds::topics::Heartbeat());
+  dds::Reader<msg::Heartbeat> infra_topic(other, dds::topics::InfraHeartbeat());
+  dds::Writer<msg::Heartbeat> forger(other, dds::topics::InfraHeartbeat());
+  ASSERT_TRUE(scm_topic.WaitForWriters(1, kPatience)) << "the test's SCM heartbeat writer";
+  ASSERT_TRUE(forger.WaitForReaders(2, kPatience)) << "this test's two readers";
+  dds::Message<msg::Heartbeat> forged;
+  dds::SetString(forged->sender, "scm");
+  dds::SetString(forged->city, config_.city);
+  forged->session_id = scm_session_;
+  forged->state = 1;  // RUNNING
   Command(1, Aspect::kRed);
-  for (int i = 0; i < 100; ++i) Tick();
+  for (int i = 0; i < 100; ++i) {
+    forged->sequence_number = static_cast<std::uint64_t>(i);
+    if (i % 5 == 0) forger.Write(forged);
+    Tick();
+  }
   EXPECT_FALSE(host_heartbeat_states_.empty()) << "our own heartbeat went round";
+  // Once the other participant has heard the host's heartbeat it knows the host's endpoints:
+  // none of them reads the device hosts' topic or writes the SCM's.
+  const auto deadline = SteadyClock::now() + kPatience;
+  bool host_heard = false;
+  dds::Message<msg::Heartbeat> m;
+  while (!host_heard && SteadyClock::now() < deadline) {
+    infra_topic.WaitForData(100ms);
+    while (infra_topic.TakeOne(m)) host_heard = host_heard || dds::View(m->sender) == "infra/test";
+  }
+  ASSERT_TRUE(host_heard);
+  EXPECT_EQ(scm_topic.matched_writers(), 1u) << "the host writes no SCM heartbeat";
+  EXPECT_EQ(forger.matched_readers(), 2u) << "the host reads no device host's heartbeat";
   EXPECT_EQ(host_->device(SignalHeadId(1)).aspect(), Aspect::kFlashingRed);
   EXPECT_EQ(status_["signal_1"].mode, kFlash);
   EXPECT_EQ(status_["signal_1"].detail, "start-up; waiting for the SCM's heartbeat");
@@ -670,7 +700,7 @@ TEST_F(DeviceHostTest, AnScmHeartbeatFromAnotherParticipantIsAnScmRestart) {
   dds::SetString(m->city, config_.city);
   m->session_id = scm_session_;
   m->state = 1;
-  ASSERT_TRUE(other_heartbeat.WaitForReaders(2, kPatience));  // the host's and the test's
+  ASSERT_TRUE(other_heartbeat.WaitForReaders(1, kPatience));  // the host's
   other_heartbeat.Write(m);
   ++sent_heartbeats_;
   Tick();

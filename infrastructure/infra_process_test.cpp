@@ -61,7 +61,7 @@ class InfraProcessTest : public ::testing::Test {
         dir_(fs::temp_directory_path() / partition_),
         participant_(Join(partition_)),
         heartbeat_writer_(participant_, dds::topics::Heartbeat()),
-        heartbeats_(participant_, dds::topics::Heartbeat()),
+        heartbeats_(participant_, dds::topics::InfraHeartbeat()),
         statuses_(participant_, dds::topics::Devices().name, dds::Qos::LatchedState(256)),
         events_(participant_, dds::topics::Events()),
         device_commands_(participant_, dds::topics::DeviceCommands()) {

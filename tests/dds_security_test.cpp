@@ -39,11 +39,14 @@ constexpr char kLightState[] = "rt/autodrive/signal_1/state";
 constexpr char kSharedRequest[] = "rt/autodrive/scm/operator/request";
 constexpr char kAliceRequest[] = "rt/autodrive/scm/operator/alice/request";
 constexpr char kBobRequest[] = "rt/autodrive/scm/operator/bob/request";
+constexpr char kScmHeartbeat[] = "rt/autodrive/scm/heartbeat";
+constexpr char kInfraHeartbeat[] = "rt/autodrive/infra/heartbeat";
 
 constexpr char kScm[] = "/autodrive/scm";
 constexpr char kLights[] = "/autodrive/infra/lights1";
 constexpr char kAlice[] = "/autodrive/operator/alice";
 constexpr char kCarol[] = "/autodrive/viewer/carol";
+constexpr char kLauncher[] = "/autodrive/launcher";
 
 struct ToolResult {
   int exit_code = -1;
@@ -283,7 +286,10 @@ TEST_F(DdsSecurity, OperatorsPublishOnTheirOwnRequestTopicOnly) {
       StartPeer("write", partition, kAlice, kBobRequest, "operator_request", {"--value", "8"});
   const auto refused = alice_as_bob.Await("refused");
   ASSERT_TRUE(refused) << alice_as_bob.Transcript();
-  EXPECT_NE(refused->find(std::string("dds_create_writer(") + kBobRequest), std::string::npos)
+  // Alice may neither write nor read Bob's topic, so even the topic is refused.
+  EXPECT_NE(refused->find(std::string("dds_create_topic(") + kBobRequest), std::string::npos)
+      << *refused;
+  EXPECT_NE(refused->find("DDS Security permissions do not allow it"), std::string::npos)
       << *refused;
 
   Peer carol_as_alice =
@@ -491,7 +497,9 @@ TEST_F(DdsSecurity, TheKeystoreToolIsIdempotentAndNeverReplacesACa) {
 // The secured lab with the real programs: autodrive-infra and autodrive-scm with their
 // identities, scmctl as an operator the city allows (alice), as one it does not (bob, who has
 // a DDS identity and his own request topic), and as a viewer borrowing alice's name (carol).
-// A participant without the SCM's identity cannot make a light change its lamps.
+// A participant without the SCM's identity cannot make a light change its lamps, and the light
+// host's identity cannot forge the SCM's heartbeat (its own goes on the device hosts' topic,
+// where the launcher's identity hears it).
 TEST_F(DdsSecurity, TheSecuredLabRunsAndOnlyItsScmCommandsTheLights) {
   const std::string partition = Partition("secured_lab");
   const fs::path dir = dir_ / partition;
@@ -553,6 +561,27 @@ TEST_F(DdsSecurity, TheSecuredLabRunsAndOnlyItsScmCommandsTheLights) {
     return false;
   };
   ASSERT_TRUE(wait_spat(any_green)) << "the secured SCM and lights run the plan";
+  // Each heartbeat on its own topic, both heard by the launcher's identity.
+  Peer scm_beats = StartPeer("read", partition, kLauncher, kScmHeartbeat, "heartbeat");
+  Peer infra_beats = StartPeer("read", partition, kLauncher, kInfraHeartbeat, "heartbeat");
+  EXPECT_EQ(scm_beats.Await("got"), "got scm") << scm_beats.Transcript();
+  EXPECT_EQ(infra_beats.Await("got"), "got infra/driving_school_lights")
+      << infra_beats.Transcript();
+  // The light host's identity cannot write the SCM's heartbeat (a forged one made every head
+  // flash and latched the city before the device hosts had a topic of their own).
+  Peer forger =
+      StartPeer("write", partition, kLights, kScmHeartbeat, "heartbeat", {"--value", "1"});
+  const auto forged = forger.Await("refused");
+  ASSERT_TRUE(forged) << forger.Transcript();
+  EXPECT_NE(forged->find(std::string("dds_create_writer(") + kScmHeartbeat), std::string::npos)
+      << *forged;
+  EXPECT_NE(forged->find("DDS Security permissions do not allow it"), std::string::npos) << *forged;
+  EXPECT_EQ(forger.Finish(), 3) << forger.Transcript();
+  EXPECT_EQ(scm_beats.Finish(), 0) << scm_beats.Transcript();
+  EXPECT_EQ(infra_beats.Finish(), 0) << infra_beats.Transcript();
+  for (const auto& line : scm_beats.lines) {
+    EXPECT_TRUE(!line.starts_with("got") || line == "got scm") << scm_beats.Transcript();
+  }
   // The viewer cannot command a light: no writer can be created.
   EXPECT_THROW(
       {

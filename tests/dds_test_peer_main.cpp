@@ -6,15 +6,16 @@
 //                                       "ready", and keep it available until stdin closes
 //   dds_test_peer late PARTITION        join late, print "map REV CITY" for the latched MapData
 //
-// and for tests/dds_security_test.cpp, with --topic T --type int32|operator_request:
+// and for tests/dds_security_test.cpp, with --topic T --type int32|operator_request|heartbeat:
 //   dds_test_peer write PARTITION --value V   create a writer on T ("refused <error>" if that
 //                                       fails), print "matched N" once a reader matched or
 //                                       "unmatched" after --match-timeout-ms, write V (an
-//                                       Int32's data, an OperatorRequest's request_id), print
+//                                       Int32's data, an OperatorRequest's request_id, a
+//                                       Heartbeat's sequence number with sender "scm"), print
 //                                       "written", and keep the sample until stdin closes
 //   dds_test_peer read PARTITION        create a reader on T, print "ready", then "got V" per
-//                                       sample and "matched N" when the matched writers
-//                                       change, until stdin closes
+//                                       sample (a Heartbeat's V is its sender) and "matched N"
+//                                       when the matched writers change, until stdin closes
 // Every mode joins with the DDS Security settings of the environment (as ROS 2), overridden by
 // --keystore and --enclave, or by --unsecured; write and read first print "joined secured
 // ENCLAVE" or "joined unsecured".
@@ -69,15 +70,14 @@ void WaitForStdinToClose() {
 
 struct Endpoint {
   std::string topic;
-  std::string type;  // int32 | operator_request
+  std::string type;  // int32 | operator_request | heartbeat
   std::int64_t value = 0;
   int match_timeout_ms = 20000;
 };
 
-std::int64_t ValueOf(const msg::Int32& m) { return m.data; }
-std::int64_t ValueOf(const msg::OperatorRequest& m) {
-  return static_cast<std::int64_t>(m.request_id);
-}
+std::string ValueOf(const msg::Int32& m) { return std::to_string(m.data); }
+std::string ValueOf(const msg::OperatorRequest& m) { return std::to_string(m.request_id); }
+std::string ValueOf(const msg::Heartbeat& m) { return std::string(dds::View(m.sender)); }
 void SetValue(dds::Message<msg::Int32>& m, std::int64_t v) {
   m->data = static_cast<std::int32_t>(v);
 }
@@ -86,10 +86,16 @@ void SetValue(dds::Message<msg::OperatorRequest>& m, std::int64_t v) {
   dds::SetString(m->client_id, "dds_test_peer");
   dds::SetString(m->command, "status");
 }
+void SetValue(dds::Message<msg::Heartbeat>& m, std::int64_t v) {
+  dds::SetString(m->sender, "scm");
+  m->sequence_number = static_cast<std::uint64_t>(v);
+  m->state = 1;  // RUNNING
+}
 // The QoS the system uses on such topics: light commands are latched, operator requests are
-// commands.
+// commands, heartbeats a stream.
 dds::Qos QosOf(const msg::Int32*) { return dds::Qos::LatchedState(); }
 dds::Qos QosOf(const msg::OperatorRequest*) { return dds::Qos::Command(); }
+dds::Qos QosOf(const msg::Heartbeat*) { return dds::topics::Heartbeat().qos; }
 
 template <typename T>
 int WriteOne(const std::string& partition, const Endpoint& e) {
@@ -230,7 +236,7 @@ int main(int argc, char** argv) {
   Endpoint endpoint;
   app.add_option("--topic", endpoint.topic, "write/read: DDS topic name");
   app.add_option("--type", endpoint.type, "write/read: message type")
-      ->check(CLI::IsMember({"int32", "operator_request"}));
+      ->check(CLI::IsMember({"int32", "operator_request", "heartbeat"}));
   app.add_option("--value", endpoint.value, "write: the value to write");
   app.add_option("--match-timeout-ms", endpoint.match_timeout_ms,
                  "write: how long to wait for a reader before writing anyway");
@@ -254,6 +260,10 @@ int main(int argc, char** argv) {
       if (endpoint.type == "int32") {
         return write ? WriteOne<msg::Int32>(partition, endpoint)
                      : ReadAll<msg::Int32>(partition, endpoint);
+      }
+      if (endpoint.type == "heartbeat") {
+        return write ? WriteOne<msg::Heartbeat>(partition, endpoint)
+                     : ReadAll<msg::Heartbeat>(partition, endpoint);
       }
       return write ? WriteOne<msg::OperatorRequest>(partition, endpoint)
                    : ReadAll<msg::OperatorRequest>(partition, endpoint);

@@ -2,13 +2,13 @@
 // next to a raw Cyclone DDS C baseline, measured in the same run, in interleaved rounds so that
 // machine noise hits both alike. Prints p50, p99 and the ratios (goal: C++/raw <= 1.2).
 //
-// With --secure, the same C++ round trip also runs with DDS Security, as the simulator
-// (/autodrive/sim) and a vehicle (/autodrive/vehicle/nigel_1) on that vehicle's topics, once per
-// governance protection (SIGN, ENCRYPT), each with a keystore made by autodrive-keystore in a
-// temporary folder (or the one given with --keystore), interleaved with the unsecured layers.
+// With --secure, the same C++ round trip also runs with DDS Security, both processes as the
+// vehicle /autodrive/vehicle/nigel_1 on topics of that vehicle's namespace, once per governance
+// protection (SIGN, ENCRYPT), each with a keystore made by autodrive-keystore in a temporary
+// folder (or the one given with --keystore), interleaved with the unsecured layers.
 //
-// This program is the one place outside common/dds that calls dds_* directly: the baseline
-// must not go through the layer it is compared with.
+// This program is one of the two places outside common/dds that call dds_* directly (with
+// tests/dds_security_probe.c): the baseline must not go through the layer it is compared with.
 #include <dds/dds.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -118,10 +118,12 @@ struct CxxEndpoints {
 };
 
 // ---- The C++ layer with DDS Security ------------------------------------------------------------
-// The simulator sends to a vehicle and the vehicle answers, on topics their roles allow.
+// Two processes with the identity of the car nigel_1 (the car and its stack, say), on two
+// topics of the car's own namespace, which its role may write and read (the simulator's role
+// may write only the cars' sensor topics there: docs/security.md).
 constexpr char kSecurePing[] = "rt/autodrive/nigel_1/bench_ping";
 constexpr char kSecurePong[] = "rt/autodrive/nigel_1/bench_pong";
-constexpr char kMeasuringEnclave[] = "/autodrive/sim";
+constexpr char kMeasuringEnclave[] = "/autodrive/vehicle/nigel_1";
 constexpr char kEchoEnclave[] = "/autodrive/vehicle/nigel_1";
 
 // A temporary folder, removed with everything in it when this goes.
@@ -233,8 +235,8 @@ int main(int argc, char** argv) {
                  "with --secure: the governance protection to measure (sign, encrypt or both)")
       ->check(CLI::IsMember({"sign", "encrypt", "both"}));
   app.add_option("--keystore", keystore,
-                 "measure with this keystore (enclaves /autodrive/sim and "
-                 "/autodrive/vehicle/nigel_1) instead of making one; implies --secure");
+                 "measure with this keystore (enclave /autodrive/vehicle/nigel_1, in both "
+                 "processes) instead of making one; implies --secure");
   app.add_option("--echo", echo_layer, "internal: run as the echo process of LAYER")
       ->check(CLI::IsMember({"raw", "cxx", "secured"}))
       ->group("");

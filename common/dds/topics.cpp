@@ -199,6 +199,10 @@ TopicSpec<msg::OperatorReply> OperatorReplies() {
   return Spec<msg::OperatorReply>("/autodrive/scm/operator/reply", Qos::Command());
 }
 
+TopicSpec<msg::Heartbeat> InfraHeartbeat() {
+  return Spec<msg::Heartbeat>("/autodrive/infra/heartbeat", Qos::Stream(16));
+}
+
 TopicSpec<msg::Clock> Clock() { return Spec<msg::Clock>("/clock", Qos::BestEffortStream(1)); }
 TopicSpec<msg::Image> OverheadCamera(std::string_view name) {
   return Spec<msg::Image>("/autodrive/cameras/" + std::string(name) + "/image", Qos::Stream());

@@ -87,8 +87,10 @@ TopicSpec<msg::DeviceStatus> Devices();    ///< latched, last one per writer
 /// Latched: the SCM's table of its city's devices (every status period of theirs, at most
 /// 1 s apart, and soon after a change).
 TopicSpec<msg::DeviceTable> DeviceTable();
-TopicSpec<msg::Heartbeat> Heartbeat();           ///< stream (last 16): SCM and device hosts
-TopicSpec<msg::SignalRequest> SignalRequests();  ///< command (V2I, from vehicles)
+/// The SCM's heartbeat (`/autodrive/scm/heartbeat`, sender "scm"): what the lights follow, and
+/// the SCM's alone to write (DDS Security grants it to the `scm` role only). Stream (last 16).
+TopicSpec<msg::Heartbeat> Heartbeat();
+TopicSpec<msg::SignalRequest> SignalRequests();             ///< command (V2I, from vehicles)
 TopicSpec<msg::SignalRequestStatus> SignalRequestStatus();  ///< command (V2I, to vehicles)
 /// Operator requests anyone may send (read-only commands: status, show, events, ...). A
 /// state-changing command on it is refused.
@@ -101,6 +103,12 @@ TopicSpec<msg::OperatorRequest> OperatorRequests(std::string_view operator_name)
 TopicSpec<msg::OperatorReply> OperatorReplies();  ///< command
 /// SCM -> device hosts (reset a conflict monitor); command. Only the SCM writes it.
 TopicSpec<msg::DeviceCommand> DeviceCommands();
+
+// --- Device hosts, /autodrive/infra/... ---------------------------------------------------------
+/// The device hosts' heartbeats (`/autodrive/infra/heartbeat`, sender "infra/<host>"): each
+/// light host's liveness, apart from the SCM's heartbeat so that no device host can write the
+/// topic the lights follow. Stream (last 16).
+TopicSpec<msg::Heartbeat> InfraHeartbeat();
 
 /// An overhead camera's images (`/autodrive/cameras/<name>/image`, sensor_msgs/Image rgb8,
 /// stamped with the middle of the exposure, frame id the camera's name): what the Eye reads,

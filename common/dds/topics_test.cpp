@@ -106,6 +106,7 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
                                  ROW(Devices()),
                                  ROW(DeviceTable()),
                                  ROW(Heartbeat()),
+                                 ROW(InfraHeartbeat()),
                                  ROW(SignalRequests()),
                                  ROW(SignalRequestStatus()),
                                  ROW(OperatorRequests()),
@@ -136,6 +137,15 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
   EXPECT_EQ(Spat().qos.durability, Qos::Durability::kVolatile);
   EXPECT_EQ(TypeName<decltype(Lidar(v))::Type>(), "sensor_msgs::msg::dds_::LaserScan_");
   EXPECT_EQ(TypeName<decltype(Spat())::Type>(), "autodrive_msgs::msg::dds_::Spat_");
+}
+
+// The lights follow the SCM's heartbeat; with DDS Security only the SCM may write it, so the
+// device hosts' heartbeats must be a topic of their own.
+TEST(TopicNames, TheScmAndTheDeviceHostsHaveTheirOwnHeartbeatTopics) {
+  EXPECT_EQ(Heartbeat().name, "rt/autodrive/scm/heartbeat");
+  EXPECT_EQ(InfraHeartbeat().name, "rt/autodrive/infra/heartbeat");
+  EXPECT_EQ(InfraHeartbeat().qos, Heartbeat().qos);
+  EXPECT_EQ(Heartbeat().qos.ToString(), "reliable/volatile/keep_last(16)");
 }
 
 TEST(TopicNames, EachOperatorHasItsOwnRequestTopicAndNamesAreOneToken) {

@@ -8,7 +8,9 @@
 // with the same --partition.
 //
 // The SPaT content is a test pattern (two signal groups taking turns), not the output of a
-// signal controller: the controllers are the SCM's (scm/).
+// signal controller: the controllers are the SCM's (scm/). The source stands in for the SCM on
+// the SCM's own topics (MAP, SPaT, heartbeat; its heartbeat's sender is "dds_check_source",
+// which no light follows), so under DDS Security it runs with the SCM's identity.
 #include <unistd.h>
 
 #include <algorithm>

@@ -123,6 +123,14 @@ int Up(const UpOptions& o) {
   ShutdownSignals signals([&](int) { stop.store(true); });
   dds::ParticipantOptions participant_options;
   participant_options.partition = o.partition;
+  // DDS Security from the environment, as every program of the city takes it; the launcher's
+  // own identity is /autodrive/launcher (role `launcher`: it only reads what readiness needs).
+  // The children inherit the environment and each takes its own default enclave, so an
+  // enclave override in the environment would give them all the launcher's (docs/security.md).
+  participant_options.security = dds::SecurityOptions::FromEnvironment();
+  if (participant_options.security->enclave.empty()) {
+    participant_options.security->enclave = "/autodrive/launcher";
+  }
   dds::Participant participant(participant_options);
   Say(fmt::format("city {}: {} processes; run folder {}", plan.city_name, plan.processes.size(),
                   plan.run_dir.string()));

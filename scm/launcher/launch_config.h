@@ -152,7 +152,9 @@ enum class Restart { kAlways, kOnFailure, kNever };
 struct Readiness {
   enum class Kind { kNone, kHeartbeat, kClock, kTraffic, kFile };
   Kind kind = Kind::kNone;
-  std::string sender;  ///< kHeartbeat: the heartbeat's sender ("scm/<city>", "infra/<host>")
+  /// kHeartbeat: the heartbeat's sender, "scm" (on the SCM's heartbeat topic) or "infra/<host>"
+  /// (on the device hosts' topic), of the plan's city.
+  std::string sender;
   std::filesystem::path file;  ///< kFile: a file the process writes once it is ready
 };
 

@@ -72,7 +72,8 @@ struct Supervisor::Impl {
 
   LaunchPlan plan;
   std::function<void(const std::string&)> say;
-  dds::Reader<msg::Heartbeat> heartbeats;
+  dds::Reader<msg::Heartbeat> scm_heartbeats;    // the SCM's (sender "scm")
+  dds::Reader<msg::Heartbeat> infra_heartbeats;  // the device hosts' (sender "infra/<name>")
   dds::Reader<msg::Clock> clock;
   dds::Reader<msg::TrafficObjects> traffic;
   mutable std::mutex mutex;  // guards the states
@@ -83,7 +84,8 @@ struct Supervisor::Impl {
   Impl(LaunchPlan p, const dds::Participant& participant, std::function<void(const std::string&)> s)
       : plan(std::move(p)),
         say(std::move(s)),
-        heartbeats(participant, dds::topics::Heartbeat()),
+        scm_heartbeats(participant, dds::topics::Heartbeat()),
+        infra_heartbeats(participant, dds::topics::InfraHeartbeat()),
         clock(participant, dds::topics::Clock()),
         traffic(participant, dds::topics::Traffic()) {
     std::filesystem::create_directories(plan.run_dir / "logs");
@@ -142,8 +144,10 @@ struct Supervisor::Impl {
 
   void Drain() {
     dds::Message<msg::Heartbeat> hb;
-    while (heartbeats.TakeOne(hb)) {
-      heard.insert(fmt::format("{}|{}", dds::View(hb->sender), dds::View(hb->city)));
+    for (auto* reader : {&scm_heartbeats, &infra_heartbeats}) {
+      while (reader->TakeOne(hb)) {
+        heard.insert(fmt::format("{}|{}", dds::View(hb->sender), dds::View(hb->city)));
+      }
     }
     dds::Message<msg::Clock> c;
     while (clock.TakeOne(c)) heard_clock = true;

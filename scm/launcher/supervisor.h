@@ -52,8 +52,9 @@ struct ProcessState {
 class Supervisor {
  public:
   /// `say` gets a line for each thing a person should know (started, ready, exited, restarted,
-  /// crash loop, stopped). `participant` must outlive it; it watches heartbeats, /clock and
-  /// the traffic topic for readiness.
+  /// crash loop, stopped). `participant` must outlive it; it watches the SCM's and the device
+  /// hosts' heartbeats, /clock and the traffic topic for readiness (under DDS Security, what the
+  /// `launcher` role may read: docs/security.md).
   Supervisor(LaunchPlan plan, const dds::Participant& participant,
              std::function<void(const std::string&)> say);
   Supervisor(const Supervisor&) = delete;
