@@ -23,8 +23,8 @@
 #include "common/geometry.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
-#include "examples/lane_driver.h"
 #include "maps/map_io.h"
+#include "vehicle_sim/lane_driver.h"
 #include "vehicle_sim/sim_config.h"
 
 namespace {
@@ -34,7 +34,7 @@ namespace topics = dds::topics;
 
 struct Car {
   Car(const dds::Participant& p, VehicleId id, const maps::Map& map,
-      const examples::DriverOptions& options)
+      const vehicle_sim::DriverOptions& options)
       : name(VehicleName(id)),
         driver(map, options),
         ips(p, topics::Ips(id)),
@@ -43,7 +43,7 @@ struct Car {
         throttle(p, topics::ThrottleCommand(id)),
         steering(p, topics::SteeringCommand(id)) {}
   std::string name;
-  examples::LaneDriver driver;
+  vehicle_sim::LaneDriver driver;
   dds::Reader<msg::Point> ips;
   dds::Reader<msg::Imu> imu;
   dds::Reader<msg::LaserScan> lidar;
@@ -51,22 +51,22 @@ struct Car {
   std::optional<Eigen::Vector2d> position;
   std::optional<double> yaw;
   std::vector<float> scan;
-  examples::DriverDecision::Reason reason = examples::DriverDecision::Reason::kLost;
+  vehicle_sim::DriverDecision::Reason reason = vehicle_sim::DriverDecision::Reason::kLost;
 };
 
-const char* ToString(examples::DriverDecision::Reason r) {
+const char* ToString(vehicle_sim::DriverDecision::Reason r) {
   switch (r) {
-    case examples::DriverDecision::Reason::kCruise:
+    case vehicle_sim::DriverDecision::Reason::kCruise:
       return "driving";
-    case examples::DriverDecision::Reason::kRedLight:
+    case vehicle_sim::DriverDecision::Reason::kRedLight:
       return "stopping at a red light";
-    case examples::DriverDecision::Reason::kStopSign:
+    case vehicle_sim::DriverDecision::Reason::kStopSign:
       return "stopping at a stop sign";
-    case examples::DriverDecision::Reason::kGiveWay:
+    case vehicle_sim::DriverDecision::Reason::kGiveWay:
       return "giving way to a vehicle in the intersection";
-    case examples::DriverDecision::Reason::kObstacle:
+    case vehicle_sim::DriverDecision::Reason::kObstacle:
       return "stopping for something ahead";
-    case examples::DriverDecision::Reason::kLost:
+    case vehicle_sim::DriverDecision::Reason::kLost:
       return "off the lanes";
   }
   return "?";
@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
 
     std::vector<std::unique_ptr<Car>> cars;
     for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
-      examples::DriverOptions options;
+      vehicle_sim::DriverOptions options;
       options.cruise_throttle = throttle;
       options.seed = seed + i;
       const vehicle_sim::VehicleParams& p = city.sim.vehicles[i].params;

@@ -34,7 +34,7 @@
 /// - **Traffic lights.** A signalised intersection's program (`tlLogic` with its junction's
 ///   id, programID "0") has link index `i` for its `i`-th movement (`Intersection::movements`
 ///   order) and serves one approach at a time: green, yellow, all red, in approach order. The
-///   co-simulation (scm/traffic) replaces it at run time with the lamps the lights show.
+///   co-simulation (traffic) replaces it at run time with the lamps the lights show.
 ///   A stop-controlled intersection is a traffic light too, with short phases (`stop_green`,
 ///   `stop_yellow`, `stop_all_red`) that stand in for the all-way stop when SUMO runs alone; the
 ///   co-simulation runs it as an all-way stop (every vehicle stops, first come first served,
@@ -50,7 +50,7 @@
 /// speed), shape points closer than 0.1 m are merged (7 mm of the lab), junction radii and
 /// look-ahead distances are metres. Coordinates are the map frame's times the scale, without
 /// netconvert's normalisation offset: a SUMO position divided by the scale is a map position.
-/// `SumoExport::scale` says which scale a network has; `scm/traffic` maps at this boundary.
+/// `SumoExport::scale` says which scale a network has; `traffic` maps at this boundary.
 
 #include <filesystem>
 #include <map>

@@ -10,14 +10,14 @@
 #include <vector>
 
 #include "common/dds/participant.h"
-#include "scm/city.h"
-#include "scm/device_table.h"
-#include "scm/fleet.h"
-#include "scm/fleet_sources.h"
-#include "scm/publishers.h"
-#include "scm/runtime.h"
-#include "scm/store.h"
-#include "scm/supervision.h"
+#include "scm/core/city.h"
+#include "scm/core/device_table.h"
+#include "scm/core/fleet.h"
+#include "scm/core/runtime.h"
+#include "scm/core/supervision.h"
+#include "scm/io/fleet_sources.h"
+#include "scm/io/publishers.h"
+#include "scm/store/store.h"
 
 namespace autodrive::scm {
 

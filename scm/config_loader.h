@@ -19,10 +19,10 @@
 #include <vector>
 
 #include "common/dds/participant.h"
-#include "scm/city.h"
 #include "scm/city_bundle.h"
+#include "scm/core/city.h"
 #include "scm/internal/task.h"
-#include "scm/store.h"
+#include "scm/store/store.h"
 
 namespace autodrive::scm {
 

@@ -21,12 +21,12 @@
 #include "common/systemd.h"
 #include "scm/city_bundle.h"
 #include "scm/config_loader.h"
-#include "scm/control_plane.h"
-#include "scm/device_inbox.h"
-#include "scm/operator_commands.h"
-#include "scm/publishers.h"
-#include "scm/reply_outbox.h"
-#include "scm/v2i.h"
+#include "scm/io/device_inbox.h"
+#include "scm/io/publishers.h"
+#include "scm/io/reply_outbox.h"
+#include "scm/io/v2i.h"
+#include "scm/operator/control_plane.h"
+#include "scm/operator/operator_commands.h"
 
 namespace autodrive::scm {
 

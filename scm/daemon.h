@@ -20,9 +20,9 @@
 
 #include "common/dds/participant.h"
 #include "common/time.h"
-#include "scm/city.h"
-#include "scm/persistence.h"
-#include "scm/runtime.h"
+#include "scm/core/city.h"
+#include "scm/core/runtime.h"
+#include "scm/store/persistence.h"
 
 namespace autodrive::scm {
 

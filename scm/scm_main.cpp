@@ -10,7 +10,7 @@
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
-#include "scm/city_config.h"
+#include "scm/core/city_config.h"
 #include "scm/daemon.h"
 
 int main(int argc, char** argv) {

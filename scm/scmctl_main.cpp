@@ -19,10 +19,10 @@
 #include "common/dds/security_cli.h"
 #include "common/dds/topics.h"
 #include "common/shutdown.h"
-#include "scm/city.h"
-#include "scm/client.h"
 #include "scm/config_loader.h"
-#include "scm/store.h"
+#include "scm/core/city.h"
+#include "scm/operator/client.h"
+#include "scm/store/store.h"
 
 namespace {
 

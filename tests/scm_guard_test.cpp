@@ -21,7 +21,7 @@
 
 #include "common/config.h"
 #include "common/dds/writer.h"
-#include "scm/store.h"
+#include "scm/store/store.h"
 #include "tests/scm_processes.h"
 
 namespace autodrive {

@@ -17,7 +17,7 @@
 #include "autodrive_msgs/msg/OperatorRequest.h"
 
 #include "common/dds/writer.h"
-#include "scm/client.h"
+#include "scm/operator/client.h"
 #include "tests/scm_processes.h"
 
 namespace autodrive {

@@ -21,10 +21,10 @@
 #include "common/ids.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
-#include "examples/lane_driver.h"
 #include "maps/map.h"
 #include "maps/map_io.h"
 #include "vehicle_sim/dataset.h"
+#include "vehicle_sim/lane_driver.h"
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/service.h"
 #include "vehicle_sim/sim_config.h"
@@ -89,9 +89,9 @@ int Render(const std::string& city_path, const DatasetOptions& options,
   const maps::Map map = maps::LoadMapOrLayout(city.map_path);
   // The built-in driver for every car (the example lane driver, on the car's ground truth and
   // LIDAR, with the fixed-time lamps), or the command file for one of them.
-  std::vector<examples::LaneDriver> drivers;
+  std::vector<vehicle_sim::LaneDriver> drivers;
   for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
-    examples::DriverOptions o;
+    vehicle_sim::DriverOptions o;
     const VehicleParams& p = city.sim.vehicles[i].params;
     o.seed = city.sim.seed + i;
     o.wheelbase_m = p.wheelbase_m;

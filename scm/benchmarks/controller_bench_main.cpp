@@ -4,8 +4,8 @@
 #include <benchmark/benchmark.h>
 
 #include "common/test_support.h"
-#include "scm/city.h"
-#include "scm/controller.h"
+#include "scm/core/city.h"
+#include "scm/core/controller.h"
 
 namespace autodrive::scm {
 namespace {

@@ -17,8 +17,8 @@
 #include "common/dds/writer.h"
 #include "maps/builder.h"
 #include "maps/grid_city.h"
-#include "scm/fleet.h"
-#include "scm/fleet_sources.h"
+#include "scm/core/fleet.h"
+#include "scm/io/fleet_sources.h"
 
 namespace autodrive::scm {
 namespace {

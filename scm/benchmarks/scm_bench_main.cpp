@@ -46,7 +46,7 @@
 #include "maps/builder.h"
 #include "maps/grid_city.h"
 #include "scm/benchmarks/bench_support.h"
-#include "scm/client.h"
+#include "scm/operator/client.h"
 
 namespace {
 

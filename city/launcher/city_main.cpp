@@ -1,0 +1,379 @@
+// autodrive-city: brings a whole city up from its file and down again (docs/launcher.md).
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "city/launcher/launch_config.h"
+#include "city/launcher/supervisor.h"
+
+#include "common/dds/participant.h"
+#include "common/error.h"
+#include "common/ids.h"
+#include "common/logging.h"
+#include "common/process.h"
+#include "common/shutdown.h"
+
+namespace autodrive::launcher {
+namespace {
+
+using namespace std::chrono_literals;
+
+void Say(const std::string& line) {
+  const auto now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  char stamp[16];
+  std::strftime(stamp, sizeof stamp, "%H:%M:%S", std::localtime(&now));
+  std::printf("[%s] %s\n", stamp, line.c_str());
+  std::fflush(stdout);
+}
+
+// Whether `pid` runs: a zombie (exited, not yet reaped by its parent) does not.
+bool Alive(pid_t pid) {
+  if (::kill(pid, 0) != 0 && errno == ESRCH) return false;
+  std::ifstream stat(fmt::format("/proc/{}/stat", pid));
+  std::string line;
+  std::getline(stat, line);
+  const auto paren = line.rfind(')');
+  return paren == std::string::npos || paren + 2 >= line.size() || line[paren + 2] != 'Z';
+}
+
+// The pid of the launcher running the city of `run_dir`, if one is.
+std::optional<pid_t> RunningLauncher(const std::filesystem::path& run_dir) {
+  std::ifstream in(run_dir / "launcher.pid");
+  long pid = 0;
+  if (!(in >> pid) || pid <= 0) return std::nullopt;
+  if (!Alive(static_cast<pid_t>(pid))) return std::nullopt;
+  // A pid reused by another program is not ours: its command line must be autodrive-city's.
+  std::ifstream cmdline(fmt::format("/proc/{}/cmdline", pid));
+  std::string argv0;
+  std::getline(cmdline, argv0, '\0');
+  if (std::filesystem::path(argv0).filename() != "autodrive-city") return std::nullopt;
+  return static_cast<pid_t>(pid);
+}
+
+// The dashboard's tokens file, made with one new token for the city's first operator when it
+// is not there (readable by its owner only).
+void MakeTokens(const LaunchPlan::Dashboard& d) {
+  if (std::filesystem::exists(d.tokens) || d.operator_name.empty()) return;
+  std::filesystem::create_directories(d.tokens.parent_path());
+  const std::string token = RandomToken();
+  const int fd = ::open(d.tokens.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+  if (fd < 0) throw InputError(fmt::format("{}: cannot create the tokens file", d.tokens.string()));
+  const std::string line =
+      fmt::format("# autodrive-dashboard operators: NAME TOKEN (docs/dashboard.md)\n{} {}\n",
+                  d.operator_name, token);
+  const bool ok = ::write(fd, line.data(), line.size()) == static_cast<ssize_t>(line.size());
+  ::close(fd);
+  if (!ok) throw InputError(fmt::format("{}: cannot write the tokens file", d.tokens.string()));
+  Say(fmt::format("dashboard: a token for operator {} is in {}", d.operator_name,
+                  d.tokens.string()));
+}
+
+struct UpOptions {
+  std::string city;
+  std::string bin_dir;
+  std::string partition;
+  std::string dashboard;  ///< HOST:PORT overriding launch.dashboard.listen
+  double duration_s = 0;
+};
+
+int Up(const UpOptions& o) {
+  LaunchPlan plan = PlanCity(o.city, o.bin_dir.empty() ? ExecutableDir() : o.bin_dir);
+  if (!o.dashboard.empty()) {
+    if (!plan.dashboard) {
+      throw InputError("--dashboard: the city's dashboard is off (launch.dashboard.mode)");
+    }
+    for (ProcessPlan& p : plan.processes) {
+      if (p.name != "dashboard") continue;
+      const auto at = std::ranges::find(p.argv, std::string("--listen"));
+      if (at != p.argv.end() && at + 1 != p.argv.end()) *(at + 1) = o.dashboard;
+    }
+    plan.dashboard->url = fmt::format("http://{}/", o.dashboard);
+  }
+  if (!o.partition.empty()) {
+    for (ProcessPlan& p : plan.processes) {
+      if (p.city_program) {
+        p.argv.insert(p.argv.end(), {"--partition", o.partition});
+      }
+      p.env.push_back("AUTODRIVE_PARTITION=" + o.partition);
+    }
+  }
+  if (const auto pid = RunningLauncher(plan.run_dir)) {
+    throw InputError(
+        fmt::format("the city {} is already up (autodrive-city, pid {}); "
+                    "`autodrive-city down {}` stops it",
+                    plan.city_name, *pid, o.city));
+  }
+  std::filesystem::create_directories(plan.run_dir);
+  std::ofstream(plan.run_dir / "launcher.pid") << ::getpid() << '\n';
+  if (plan.dashboard) MakeTokens(*plan.dashboard);
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&](int) { stop.store(true); });
+  dds::ParticipantOptions participant_options;
+  participant_options.partition = o.partition;
+  // DDS Security from the environment, as every program of the city takes it; the launcher's
+  // own identity is /autodrive/launcher (role `launcher`: it only reads what readiness needs).
+  // The children inherit the environment and each takes its own default enclave, so an
+  // enclave override in the environment would give them all the launcher's (docs/security.md).
+  participant_options.security = dds::SecurityOptions::FromEnvironment();
+  if (participant_options.security->enclave.empty()) {
+    participant_options.security->enclave = "/autodrive/launcher";
+  }
+  dds::Participant participant(participant_options);
+  Say(fmt::format("city {}: {} processes; run folder {}", plan.city_name, plan.processes.size(),
+                  plan.run_dir.string()));
+  int code = 0;
+  {
+    Supervisor supervisor(plan, participant, Say);
+    try {
+      supervisor.Up(stop);
+      if (!stop.load()) {
+        Say(
+            fmt::format("city {} is up. `autodrive-city status {}` shows it, Ctrl-C or "
+                        "`autodrive-city down {}` stops it",
+                        plan.city_name, o.city, o.city));
+        if (plan.dashboard) {
+          std::string url = plan.dashboard->url;
+          std::ifstream(plan.dashboard->url_file) >> url;
+          Say(fmt::format("dashboard: {} (operators' tokens in {})", url,
+                          plan.dashboard->tokens.string()));
+        }
+      }
+      std::jthread timer;
+      if (o.duration_s > 0) {
+        timer = std::jthread([&](std::stop_token token) {
+          const auto end = std::chrono::steady_clock::now() +
+                           std::chrono::duration_cast<std::chrono::nanoseconds>(
+                               std::chrono::duration<double>(o.duration_s));
+          while (!token.stop_requested() && std::chrono::steady_clock::now() < end) {
+            std::this_thread::sleep_for(50ms);
+          }
+          stop.store(true);
+        });
+      }
+      supervisor.Supervise(stop);
+    } catch (const LaunchError& e) {
+      std::fprintf(stderr, "autodrive-city: %s\n", e.what());
+      code = 1;
+    }
+    Say("stopping the city (the lights last)");
+    supervisor.Down();
+  }
+  std::filesystem::remove(plan.run_dir / "launcher.pid");
+  Say("stopped");
+  return code;
+}
+
+int Down(const std::string& city, double timeout_s) {
+  const std::filesystem::path run_dir = RunDirOf(city);
+  const auto pid = RunningLauncher(run_dir);
+  if (!pid) {
+    std::printf("the city is not up (no launcher in %s)\n", run_dir.c_str());
+    return 0;
+  }
+  ::kill(*pid, SIGTERM);
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                             std::chrono::duration<double>(timeout_s));
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (!Alive(*pid)) {
+      std::printf("stopped\n");
+      return 0;
+    }
+    std::this_thread::sleep_for(100ms);
+  }
+  std::fprintf(stderr, "autodrive-city: the launcher (pid %d) is still stopping after %.0f s\n",
+               *pid, timeout_s);
+  return 1;
+}
+
+int Status(const std::string& city, bool json) {
+  const std::filesystem::path run_dir = RunDirOf(city);
+  std::ifstream in(run_dir / "status.json");
+  if (!in) {
+    std::printf("the city has not run here (no %s)\n", (run_dir / "status.json").c_str());
+    return 1;
+  }
+  const nlohmann::json j = nlohmann::json::parse(in);
+  const bool up = RunningLauncher(run_dir).has_value();
+  if (json) {
+    nlohmann::json out = j;
+    out["up"] = up;
+    std::printf("%s\n", out.dump(2).c_str());
+    return up ? 0 : 3;
+  }
+  std::printf("city %s: %s (as of %s)\n", j.value("city", "?").c_str(), up ? "up" : "not running",
+              j.value("updated", "?").c_str());
+  std::printf("%-12s %-10s %8s %7s %9s  %s\n", "process", "state", "pid", "starts", "last exit",
+              "since");
+  for (const auto& p : j.at("processes")) {
+    const std::string last = p["last_exit"].is_null() ? "-" : p["last_exit"].dump();
+    std::printf("%-12s %-10s %8d %7d %9s  %s\n", p.value("name", "?").c_str(),
+                p.value("phase", "?").c_str(), p.value("pid", -1), p.value("starts", 0),
+                last.c_str(), p.value("since", "?").c_str());
+  }
+  return up ? 0 : 3;
+}
+
+int Logs(const std::string& city, const std::string& name, std::size_t lines, bool follow) {
+  const std::filesystem::path log = RunDirOf(city) / "logs" / (name + ".log");
+  if (!std::filesystem::exists(log)) {
+    throw InputError(
+        fmt::format("no log {} (`autodrive-city status` names the processes)", log.string()));
+  }
+  std::ifstream in(log, std::ios::binary);
+  std::deque<std::string> last;
+  for (std::string line; std::getline(in, line);) {
+    last.push_back(std::move(line));
+    if (last.size() > lines) last.pop_front();
+  }
+  for (const std::string& l : last) std::printf("%s\n", l.c_str());
+  std::fflush(stdout);
+  if (!follow) return 0;
+  // Until Ctrl-C: what is appended (a process started again appends to its log).
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&](int) { stop.store(true); });
+  std::uintmax_t offset = std::filesystem::file_size(log);
+  while (!stop.load()) {
+    std::this_thread::sleep_for(200ms);
+    std::error_code ec;
+    const std::uintmax_t size = std::filesystem::file_size(log, ec);
+    if (ec || size == offset) continue;
+    if (size < offset) offset = 0;  // truncated
+    std::ifstream more(log, std::ios::binary);
+    more.seekg(static_cast<std::streamoff>(offset));
+    std::string chunk(static_cast<std::size_t>(size - offset), '\0');
+    more.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    std::fwrite(chunk.data(), 1, static_cast<std::size_t>(more.gcount()), stdout);
+    std::fflush(stdout);
+    offset += static_cast<std::uintmax_t>(more.gcount());
+  }
+  return 0;
+}
+
+// systemd units for a lab host: the city as one service (`autodrive-city up`), which starts
+// and stops its processes in order, with the paths of docs/launcher.md.
+int InstallUnits(const std::string& city, const std::string& out_dir, const std::string& user,
+                 const std::string& dds_config) {
+  const LaunchPlan plan = PlanCity(city, ExecutableDir());
+  const std::filesystem::path dir = out_dir;
+  std::filesystem::create_directories(dir);
+  const std::string unit = fmt::format("autodrive-city-{}.service", plan.city_name);
+  const auto grace = std::chrono::duration_cast<std::chrono::seconds>(plan.stop_grace).count();
+  std::ofstream f(dir / unit);
+  f << "# Generated by autodrive-city install-units (docs/launcher.md). The launcher starts the\n"
+    << "# city's processes in order and stops them in reverse, so that the lights flash last:\n"
+    << "# systemd signals it alone (KillMode=mixed) and kills what is left only at the end.\n"
+    << "[Unit]\n"
+    << fmt::format("Description=AutoDRIVE smart city {} ({})\n", plan.city_name,
+                   plan.city_file.string())
+    << "Wants=network-online.target\nAfter=network-online.target\n\n"
+    << "[Service]\nType=simple\n";
+  if (!user.empty()) f << "User=" << user << "\n";
+  f << fmt::format("ExecStart={}/autodrive-city up {}\n", ExecutableDir(), plan.city_file.string())
+    << fmt::format("WorkingDirectory={}\n", plan.run_dir.string())
+    << fmt::format("Environment=CYCLONEDDS_URI=file://{}\n", dds_config) << "KillMode=mixed\n"
+    << fmt::format("TimeoutStopSec={}\n", grace * static_cast<long>(plan.processes.size()) + 30)
+    << "Restart=on-failure\nRestartSec=2\n\n"
+    << "[Install]\nWantedBy=multi-user.target\n";
+  f.close();
+  AUTODRIVE_THROW_UNLESS(!f.fail(), "writing " << (dir / unit).string() << " failed");
+  std::printf(
+      "wrote %s\ninstall: sudo cp %s /etc/systemd/system/ && sudo systemctl daemon-reload "
+      "&& sudo systemctl enable --now %s\n",
+      (dir / unit).c_str(), (dir / unit).c_str(), unit.c_str());
+  return 0;
+}
+
+int Check(const std::string& city, const std::string& bin_dir) {
+  const LaunchPlan plan = PlanCity(city, bin_dir.empty() ? ExecutableDir() : bin_dir);
+  std::printf("city %s: run folder %s\n", plan.city_name.c_str(), plan.run_dir.c_str());
+  for (const ProcessPlan& p : plan.processes) {
+    std::printf("  %-10s %s\n", p.name.c_str(), fmt::format("{}", fmt::join(p.argv, " ")).c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace autodrive::launcher
+
+int main(int argc, char** argv) {
+  using namespace autodrive;
+  using namespace autodrive::launcher;
+  CLI::App app{
+      "autodrive-city: brings a whole city up from its file (the lights, the SCM, the "
+      "simulator and its driver, the Eye, SUMO's traffic, the dashboard and the user's agents, "
+      "as its launch section says), keeps it up, and takes it down in order so that the lights "
+      "flash last. See docs/launcher.md."};
+  app.require_subcommand(1);
+  UpOptions up;
+  auto* up_cmd = app.add_subcommand(
+      "up", "start the city's processes in order and keep them up until Ctrl-C or `down`");
+  up_cmd->add_option("city", up.city, "city file")->required()->check(CLI::ExistingFile);
+  up_cmd->add_option("--duration", up.duration_s, "stop after this many seconds (0: never)")
+      ->check(CLI::Range(0.0, 1e9));
+  up_cmd->add_option("--partition", up.partition, "DDS partition for every process");
+  up_cmd->add_option("--dashboard", up.dashboard,
+                     "the dashboard's HOST:PORT (instead of launch.dashboard.listen; port 0: any "
+                     "free one)");
+  up_cmd->add_option("--bin-dir", up.bin_dir,
+                     "where the city's programs are (default: beside autodrive-city)");
+  std::string city, name, out_dir, user, bin_dir;
+  double timeout_s = 120;
+  bool json = false, follow = false;
+  std::size_t lines = 50;
+  std::string dds_config = "/etc/autodrive/dds/lab.xml";
+  auto* down_cmd = app.add_subcommand("down", "stop the city that `up` runs");
+  down_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
+  down_cmd->add_option("--timeout", timeout_s, "seconds to wait for it to stop")
+      ->capture_default_str();
+  auto* status_cmd = app.add_subcommand("status", "each process of the city and its state");
+  status_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
+  status_cmd->add_flag("--json", json, "as JSON");
+  auto* logs_cmd = app.add_subcommand("logs", "a process's log");
+  logs_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
+  logs_cmd->add_option("name", name, "the process (lights, scm, sim, driver, eye, traffic, ...)")
+      ->required();
+  logs_cmd->add_option("-n,--lines", lines, "last lines")->capture_default_str();
+  logs_cmd->add_flag("-f,--follow", follow, "then what is appended, until Ctrl-C");
+  auto* units_cmd =
+      app.add_subcommand("install-units", "write a systemd unit that runs the city on boot");
+  units_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
+  units_cmd->add_option("--out", out_dir, "folder to write the unit into")->required();
+  units_cmd->add_option("--user", user, "the user the city runs as");
+  units_cmd->add_option("--dds-config", dds_config, "the lab's Cyclone DDS file")
+      ->capture_default_str();
+  auto* check_cmd = app.add_subcommand(
+      "check", "load the city file as `up` would and print the processes it would start");
+  check_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
+  check_cmd->add_option("--bin-dir", bin_dir, "where the city's programs are");
+  try {
+    app.parse(argc, argv);
+    InitLogging("autodrive-city", spdlog::level::warn);
+    if (up_cmd->parsed()) return Up(up);
+    if (down_cmd->parsed()) return Down(city, timeout_s);
+    if (status_cmd->parsed()) return Status(city, json);
+    if (logs_cmd->parsed()) return Logs(city, name, lines, follow);
+    if (units_cmd->parsed()) return InstallUnits(city, out_dir, user, dds_config);
+    if (check_cmd->parsed()) return Check(city, bin_dir);
+    return 2;
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "autodrive-city: %s\n", e.what());
+    return 1;
+  }
+}

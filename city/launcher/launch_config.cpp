@@ -1,0 +1,256 @@
+#include "city/launcher/launch_config.h"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cstdlib>
+#include <set>
+
+#include "traffic/traffic_config.h"
+
+#include "common/error.h"
+#include "eye/eye_config.h"
+#include "infrastructure/config.h"
+#include "scm/core/city.h"
+#include "vehicle_sim/sim_config.h"
+
+namespace autodrive::launcher {
+namespace {
+
+Restart RestartOf(const std::string& text, Restart fallback) {
+  if (text == "always") return Restart::kAlways;
+  if (text == "on-failure") return Restart::kOnFailure;
+  if (text == "never") return Restart::kNever;
+  return fallback;
+}
+
+// Whether a program runs: `on`, `off`, or (auto) when the city has its section.
+bool IsOn(const ProcessConfig& p, bool has_section, const std::string& name,
+          const std::filesystem::path& city_file) {
+  if (p.mode == "off") return false;
+  if (p.mode == "on" && !has_section) {
+    throw ConfigError(fmt::format(
+        "{}: launch.{}: mode on, but the city has no {} section for it (add one, or use auto)",
+        city_file.string(), name, name));
+  }
+  return p.mode == "on" || has_section;
+}
+
+std::string Substitute(std::string text, const LaunchPlan& plan) {
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    for (std::size_t at = text.find(from); at != std::string::npos;
+         at = text.find(from, at + to.size())) {
+      text.replace(at, from.size(), to);
+    }
+  };
+  replace("{city}", plan.city_file.string());
+  replace("{run}", plan.run_dir.string());
+  return text;
+}
+
+}  // namespace
+
+namespace {
+
+// `run_dir` relative to the city file; by default $XDG_STATE_HOME/autodrive/<name>
+// (~/.local/state/autodrive/<name>): never beside a shipped city file in the source tree.
+std::filesystem::path ResolveRunDir(const std::filesystem::path& city_file, const std::string& name,
+                                    const std::string& run_dir) {
+  if (!run_dir.empty()) return (city_file.parent_path() / run_dir).lexically_normal();
+  std::filesystem::path state;
+  if (const char* x = std::getenv("XDG_STATE_HOME"); x != nullptr && *x != '\0') {
+    state = x;
+  } else if (const char* home = std::getenv("HOME"); home != nullptr && *home != '\0') {
+    state = std::filesystem::path(home) / ".local" / "state";
+  } else {
+    state = std::filesystem::temp_directory_path();
+  }
+  return state / "autodrive" / name;
+}
+
+// The launch section (defaults when the city has none).
+LaunchConfig LoadLaunch(const std::filesystem::path& file) {
+  bool has_section = true;
+  try {
+    const YAML::Node root = YAML::LoadFile(file.string());
+    has_section = root.IsMap() && root["launch"];
+  } catch (const YAML::BadFile&) {
+    throw ConfigError(file.string() + ": cannot read the city file");
+  } catch (const YAML::Exception&) {
+    // the strict loader reports the syntax error with its position
+  }
+  return has_section ? config::LoadFile<LaunchConfig>(file, "launch") : LaunchConfig{};
+}
+
+}  // namespace
+
+std::filesystem::path RunDirOf(const std::filesystem::path& city_file) {
+  const std::filesystem::path file = std::filesystem::absolute(city_file).lexically_normal();
+  std::string name;
+  try {
+    const YAML::Node root = YAML::LoadFile(file.string());
+    if (root.IsMap() && root["name"] && root["name"].IsScalar()) {
+      name = root["name"].as<std::string>();
+    }
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(file.string() + ": " + e.what());
+  }
+  if (name.empty()) throw ConfigError(file.string() + ": name: missing");
+  const LaunchConfig launch = LoadLaunch(file);
+  return ResolveRunDir(file, name, launch.run_dir);
+}
+
+LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesystem::path& bin_dir) {
+  LaunchPlan plan;
+  plan.city_file = std::filesystem::absolute(city_file).lexically_normal();
+  const std::filesystem::path base = plan.city_file.parent_path();
+  // The SCM's view: every intersection, plan and safety rule checked against the map.
+  const scm::City city = scm::LoadCity(plan.city_file);
+  plan.city_name = city.config.name;
+  const LaunchConfig launch = LoadLaunch(plan.city_file);
+
+  plan.run_dir = ResolveRunDir(plan.city_file, plan.city_name, launch.run_dir);
+  plan.crash_loop_exits = launch.crash_loop_exits;
+  plan.crash_loop_window = launch.crash_loop_window_s;
+  plan.stop_grace = launch.stop_grace_s;
+  const std::string city_path = plan.city_file.string();
+  const auto bin = [&](const char* program) { return (bin_dir / program).string(); };
+  const auto add = [&](const std::string& name, const ProcessConfig& p,
+                       std::vector<std::string> argv, Restart fallback, Readiness ready) {
+    argv.insert(argv.end(), p.args.begin(), p.args.end());
+    ProcessPlan process;
+    process.name = name;
+    process.argv = std::move(argv);
+    process.restart = RestartOf(p.restart, fallback);
+    process.ready = std::move(ready);
+    process.ready_timeout = p.ready_timeout_s;
+    process.log = plan.run_dir / "logs" / (name + ".log");
+    process.city_program = true;
+    plan.processes.push_back(std::move(process));
+  };
+
+  // 1. The lights: they flash on their own until the SCM is up, and last when it goes.
+  const LightsProcessConfig& lights = launch.lights;
+  if (lights.process.mode != "off") {
+    const std::filesystem::path file = lights.config.empty()
+                                           ? base / ".." / "infra" / (plan.city_name + ".yaml")
+                                           : base / lights.config;
+    if (!std::filesystem::exists(file)) {
+      throw ConfigError(fmt::format(
+          "{}: launch.lights: the light host's file {} does not exist (set launch.lights.config, "
+          "or launch.lights.mode: off when the lights run on another host)",
+          city_path, file.lexically_normal().string()));
+    }
+    const infrastructure::InfraConfig infra = infrastructure::LoadInfraConfig(file);
+    if (infra.city != plan.city_name) {
+      throw ConfigError(fmt::format("{}: launch.lights: {} serves the city \"{}\", not \"{}\"",
+                                    city_path, file.lexically_normal().string(), infra.city,
+                                    plan.city_name));
+    }
+    add("lights", lights.process,
+        {bin("autodrive-infra"), "--config", file.lexically_normal().string()}, Restart::kAlways,
+        {Readiness::Kind::kHeartbeat, "infra/" + infra.name, {}});
+  }
+  // 2. The SCM, restarted at once whatever ended it.
+  if (launch.scm.mode != "off") {
+    add("scm", launch.scm,
+        {bin("autodrive-scm"), "--config", city_path, "--db", (plan.run_dir / "scm.db").string()},
+        Restart::kAlways, {Readiness::Kind::kHeartbeat, "scm", {}});
+  }
+  // 3. The simulator and the cars' driver.
+  const bool sim = IsOn(launch.sim, city.config.sim.has_value(), "sim", plan.city_file);
+  if (sim) {
+    (void)vehicle_sim::LoadSimCity(city_path);
+    add("sim", launch.sim, {bin("autodrive-sim"), "--city", city_path}, Restart::kOnFailure,
+        {Readiness::Kind::kClock, {}, {}});
+  }
+  // 4. SUMO's background traffic.
+  if (IsOn(launch.traffic, city.config.traffic.has_value(), "traffic", plan.city_file)) {
+    (void)traffic::LoadTrafficConfig(plan.city_file);
+    add("traffic", launch.traffic,
+        {bin("autodrive-traffic"), "--city", city_path, "--work-dir",
+         (plan.run_dir / "traffic").string()},
+        Restart::kOnFailure, {Readiness::Kind::kTraffic, {}, {}});
+  }
+  // 5. The Eye.
+  if (IsOn(launch.eye, city.config.eye.has_value(), "eye", plan.city_file)) {
+    (void)eye::LoadEyeConfig(plan.city_file);
+    add("eye", launch.eye, {bin("autodrive-eye"), "run", "--config", city_path},
+        Restart::kOnFailure, {});
+  }
+  // 6. The example driver drives the simulated cars.
+  if (launch.driver.mode == "on" && !sim) {
+    throw ConfigError(fmt::format(
+        "{}: launch.driver: mode on, but the simulator is off (the example driver drives "
+        "simulated cars)",
+        city_path));
+  }
+  if (launch.driver.mode == "on" || (launch.driver.mode == "auto" && sim)) {
+    add("driver", launch.driver, {bin("autodrive-example-driver"), "--city", city_path},
+        Restart::kOnFailure, {});
+  }
+  // 7. The user's agents.
+  std::set<std::string> names;
+  for (const ProcessPlan& p : plan.processes) names.insert(p.name);
+  names.insert("dashboard");
+  for (std::size_t i = 0; i < launch.agents.size(); ++i) {
+    const AgentConfig& a = launch.agents[i];
+    if (a.name.empty() ||
+        a.name.find_first_not_of("abcdefghijklmnopqrstuvwxyz"
+                                 "ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") != std::string::npos) {
+      throw ConfigError(
+          fmt::format("{}: launch.agents[{}].name: \"{}\" (letters, digits, '_' and '-' only)",
+                      city_path, i, a.name));
+    }
+    if (!names.insert(a.name).second) {
+      throw ConfigError(
+          fmt::format("{}: launch.agents[{}].name: \"{}\" is taken", city_path, i, a.name));
+    }
+    if (a.command.empty()) {
+      throw ConfigError(
+          fmt::format("{}: launch.agents[{}].command: a program is needed", city_path, i));
+    }
+    ProcessConfig p;
+    p.restart = a.restart;
+    std::vector<std::string> argv;
+    for (const std::string& word : a.command) argv.push_back(Substitute(word, plan));
+    add(a.name, p, std::move(argv), Restart::kOnFailure, {});
+    plan.processes.back().env = a.env;
+    plan.processes.back().city_program = false;
+  }
+  // 8. The dashboard, last: it shows the others.
+  const DashboardProcessConfig& dash = launch.dashboard;
+  if (dash.process.mode == "on" ||
+      (dash.process.mode == "auto" && std::filesystem::exists(bin_dir / "autodrive-dashboard"))) {
+    const auto colon = dash.listen.rfind(':');
+    if (colon == std::string::npos || colon == 0 ||
+        dash.listen.find_first_not_of("0123456789", colon + 1) != std::string::npos ||
+        colon + 1 == dash.listen.size()) {
+      throw ConfigError(
+          fmt::format("{}: launch.dashboard.listen: \"{}\" (HOST:PORT)", city_path, dash.listen));
+    }
+    LaunchPlan::Dashboard d;
+    const std::string host = dash.listen.substr(0, colon);
+    d.url = fmt::format("http://{}:{}/", host == "0.0.0.0" ? "localhost" : host,
+                        dash.listen.substr(colon + 1));
+    d.tokens = dash.tokens.empty() ? plan.run_dir / "dashboard.tokens"
+                                   : (base / dash.tokens).lexically_normal();
+    d.operator_name =
+        city.config.operators.allowed.empty() ? "" : city.config.operators.allowed.front();
+    add("dashboard", dash.process,
+        {bin("autodrive-dashboard"), "--city", city_path, "--listen", dash.listen, "--run-dir",
+         plan.run_dir.string(), "--token-file", d.tokens.string()},
+        Restart::kOnFailure, {Readiness::Kind::kFile, {}, plan.run_dir / "dashboard.url"});
+    d.url_file = plan.run_dir / "dashboard.url";
+    plan.dashboard = std::move(d);
+  }
+  for (const ProcessPlan& p : plan.processes) {
+    if (p.argv.front().find('/') != std::string::npos && !std::filesystem::exists(p.argv.front())) {
+      throw InputError(fmt::format("{}: {}: the program {} is not there (build it first)",
+                                   city_path, p.name, p.argv.front()));
+    }
+  }
+  return plan;
+}
+
+}  // namespace autodrive::launcher

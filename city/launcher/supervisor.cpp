@@ -1,0 +1,343 @@
+#include "city/launcher/supervisor.h"
+
+#include <fmt/chrono.h>
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "common/dds/messages.h"
+#include "common/dds/reader.h"
+#include "common/dds/topics.h"
+#include "common/process.h"
+
+namespace autodrive::launcher {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+
+std::string Iso(std::chrono::system_clock::time_point t) {
+  return fmt::format("{:%Y-%m-%dT%H:%M:%S}Z", std::chrono::floor<std::chrono::seconds>(t));
+}
+
+// The last lines of a log, to say why a process failed.
+std::string Tail(const std::filesystem::path& log, std::size_t lines) {
+  std::ifstream in(log);
+  std::deque<std::string> last;
+  for (std::string line; std::getline(in, line);) {
+    last.push_back(line);
+    if (last.size() > lines) last.pop_front();
+  }
+  std::string out;
+  for (const std::string& l : last) out += "    " + l + "\n";
+  return out;
+}
+
+}  // namespace
+
+const char* PhaseName(Phase phase) {
+  switch (phase) {
+    case Phase::kWaiting:
+      return "waiting";
+    case Phase::kStarting:
+      return "starting";
+    case Phase::kRunning:
+      return "running";
+    case Phase::kExited:
+      return "exited";
+    case Phase::kCrashLoop:
+      return "crash-loop";
+    case Phase::kStopped:
+      return "stopped";
+  }
+  return "?";
+}
+
+struct Supervisor::Impl {
+  struct Process {
+    const ProcessPlan* plan = nullptr;
+    std::optional<ChildProcess> child;
+    ProcessState state;
+    std::deque<Clock::time_point> exits;  // within the crash-loop window
+    Clock::time_point start_at{};         // when to start it again
+  };
+
+  LaunchPlan plan;
+  std::function<void(const std::string&)> say;
+  dds::Reader<msg::Heartbeat> scm_heartbeats;    // the SCM's (sender "scm")
+  dds::Reader<msg::Heartbeat> infra_heartbeats;  // the device hosts' (sender "infra/<name>")
+  dds::Reader<msg::Clock> clock;
+  dds::Reader<msg::TrafficObjects> traffic;
+  mutable std::mutex mutex;  // guards the states
+  std::vector<Process> processes;
+  std::set<std::string> heard;  // "sender|city" of heartbeats since the last drain
+  bool heard_clock = false, heard_traffic = false;
+
+  Impl(LaunchPlan p, const dds::Participant& participant, std::function<void(const std::string&)> s)
+      : plan(std::move(p)),
+        say(std::move(s)),
+        scm_heartbeats(participant, dds::topics::Heartbeat()),
+        infra_heartbeats(participant, dds::topics::InfraHeartbeat()),
+        clock(participant, dds::topics::Clock()),
+        traffic(participant, dds::topics::Traffic()) {
+    std::filesystem::create_directories(plan.run_dir / "logs");
+    for (const ProcessPlan& pp : plan.processes) {
+      Process& process = processes.emplace_back();
+      process.plan = &pp;
+      process.state.name = pp.name;
+      process.state.log = pp.log.string();
+      process.state.since = std::chrono::system_clock::now();
+    }
+    WriteStatus();
+  }
+
+  void SetPhase(Process& p, Phase phase) {
+    {
+      std::lock_guard lock(mutex);
+      p.state.phase = phase;
+      p.state.pid = p.child && p.child->running() ? p.child->pid() : -1;
+      p.state.since = std::chrono::system_clock::now();
+    }
+    WriteStatus();
+  }
+
+  // status.json, replaced whole (written beside and renamed).
+  void WriteStatus() const {
+    nlohmann::json j;
+    j["city"] = plan.city_name;
+    j["city_file"] = plan.city_file.string();
+    j["launcher_pid"] = ::getpid();
+    j["updated"] = Iso(std::chrono::system_clock::now());
+    nlohmann::json list = nlohmann::json::array();
+    {
+      std::lock_guard lock(mutex);
+      for (const Process& p : processes) {
+        nlohmann::json e;
+        e["name"] = p.state.name;
+        e["phase"] = PhaseName(p.state.phase);
+        e["pid"] = p.state.pid;
+        e["starts"] = p.state.starts;
+        e["last_exit"] = p.state.last_exit ? nlohmann::json(*p.state.last_exit) : nlohmann::json();
+        e["since"] = Iso(p.state.since);
+        e["log"] = p.state.log;
+        list.push_back(std::move(e));
+      }
+    }
+    j["processes"] = std::move(list);
+    const std::filesystem::path file = plan.run_dir / "status.json";
+    const std::filesystem::path tmp = plan.run_dir / "status.json.tmp";
+    {
+      std::ofstream out(tmp);
+      out << j.dump(2) << '\n';
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, file, ec);
+  }
+
+  void Drain() {
+    dds::Message<msg::Heartbeat> hb;
+    for (auto* reader : {&scm_heartbeats, &infra_heartbeats}) {
+      while (reader->TakeOne(hb)) {
+        heard.insert(fmt::format("{}|{}", dds::View(hb->sender), dds::View(hb->city)));
+      }
+    }
+    dds::Message<msg::Clock> c;
+    while (clock.TakeOne(c)) heard_clock = true;
+    dds::Message<msg::TrafficObjects> t;
+    while (traffic.TakeOne(t)) heard_traffic = true;
+  }
+
+  bool Ready(const ProcessPlan& p) const {
+    switch (p.ready.kind) {
+      case Readiness::Kind::kNone:
+        return true;
+      case Readiness::Kind::kHeartbeat:
+        return heard.contains(p.ready.sender + "|" + plan.city_name);
+      case Readiness::Kind::kClock:
+        return heard_clock;
+      case Readiness::Kind::kTraffic:
+        return heard_traffic;
+      case Readiness::Kind::kFile:
+        return std::filesystem::exists(p.ready.file);
+    }
+    return false;
+  }
+
+  void Start(Process& p) {
+    Drain();
+    heard.clear();
+    heard_clock = heard_traffic = false;
+    {
+      std::ofstream(p.plan->log, std::ios::app)
+          << fmt::format("==== autodrive-city: starting {} at {} ====\n", p.plan->name,
+                         Iso(std::chrono::system_clock::now()));
+    }
+    if (p.plan->ready.kind == Readiness::Kind::kFile) {
+      std::error_code ec;
+      std::filesystem::remove(p.plan->ready.file, ec);  // the last run's
+    }
+    ChildOptions options;
+    options.extra_env = p.plan->env;
+    options.output_file = p.plan->log;
+    options.own_process_group = true;
+    p.child.emplace(ChildProcess::Start(p.plan->argv, options));
+    {
+      std::lock_guard lock(mutex);
+      ++p.state.starts;
+    }
+    SetPhase(p, Phase::kStarting);
+  }
+
+  // Waits until `p` is ready; throws LaunchError when it exits first or takes too long.
+  void AwaitReady(Process& p, const std::atomic<bool>& stop) {
+    const auto deadline = Clock::now() + p.plan->ready_timeout;
+    for (;;) {
+      Drain();
+      if (Ready(*p.plan)) break;
+      if (const auto code = p.child->Wait(0ms)) {
+        {
+          std::lock_guard lock(mutex);
+          p.state.last_exit = *code;
+        }
+        SetPhase(p, Phase::kStopped);
+        throw LaunchError(
+            fmt::format("{} exited with code {} before it was ready; its log ({}):\n{}",
+                        p.plan->name, *code, p.plan->log.string(), Tail(p.plan->log, 15)));
+      }
+      if (stop.load()) return;
+      if (Clock::now() > deadline) {
+        throw LaunchError(fmt::format(
+            "{} was not ready in {:.0f} s (no {} yet); its log ({}):\n{}", p.plan->name,
+            std::chrono::duration<double>(p.plan->ready_timeout).count(),
+            p.plan->ready.kind == Readiness::Kind::kHeartbeat ? "heartbeat" : "sample on its topic",
+            p.plan->log.string(), Tail(p.plan->log, 15)));
+      }
+      std::this_thread::sleep_for(50ms);
+    }
+    SetPhase(p, Phase::kRunning);
+    say(fmt::format("{} is up (pid {})", p.plan->name, p.child->pid()));
+  }
+
+  void Up(const std::atomic<bool>& stop) {
+    for (Process& p : processes) {
+      if (stop.load()) return;
+      say(fmt::format("starting {}: {}", p.plan->name, fmt::join(p.plan->argv, " ")));
+      Start(p);
+      AwaitReady(p, stop);
+    }
+  }
+
+  void Supervise(const std::atomic<bool>& stop) {
+    while (!stop.load()) {
+      const auto now = Clock::now();
+      for (Process& p : processes) {
+        if (p.child && p.child->running()) {
+          const auto code = p.child->Wait(0ms);
+          if (!code) {
+            if (p.state.phase == Phase::kStarting) {
+              Drain();
+              if (Ready(*p.plan)) {
+                SetPhase(p, Phase::kRunning);
+                say(fmt::format("{} is up again (pid {})", p.plan->name, p.child->pid()));
+              }
+            }
+            continue;
+          }
+          Exited(p, *code, now);
+        } else if ((p.state.phase == Phase::kExited || p.state.phase == Phase::kCrashLoop) &&
+                   now >= p.start_at) {
+          say(fmt::format("starting {} again (start {})", p.plan->name, p.state.starts + 1));
+          try {
+            Start(p);
+          } catch (const std::exception& e) {
+            say(fmt::format("{} could not be started: {}", p.plan->name, e.what()));
+            Exited(p, 127, now);
+          }
+        }
+      }
+      std::this_thread::sleep_for(50ms);
+    }
+  }
+
+  void Exited(Process& p, int code, Clock::time_point now) {
+    {
+      std::lock_guard lock(mutex);
+      p.state.last_exit = code;
+    }
+    const Restart r = p.plan->restart;
+    if (r == Restart::kNever || (r == Restart::kOnFailure && code == 0)) {
+      SetPhase(p, Phase::kStopped);
+      say(fmt::format("{} exited with code {}: not started again (restart: {})", p.plan->name, code,
+                      r == Restart::kNever ? "never" : "on-failure"));
+      return;
+    }
+    p.exits.push_back(now);
+    while (!p.exits.empty() && now - p.exits.front() > plan.crash_loop_window) {
+      p.exits.pop_front();
+    }
+    if (static_cast<int>(p.exits.size()) >= plan.crash_loop_exits) {
+      p.start_at = p.exits.front() + plan.crash_loop_window;
+      SetPhase(p, Phase::kCrashLoop);
+      say(fmt::format(
+          "{} is in a crash loop: it exited {} times in {:.0f} s (last code {}); it starts again "
+          "in {:.0f} s. Its log ({}):\n{}",
+          p.plan->name, p.exits.size(),
+          std::chrono::duration<double>(plan.crash_loop_window).count(), code,
+          std::chrono::duration<double>(p.start_at - now).count(), p.plan->log.string(),
+          Tail(p.plan->log, 10)));
+      return;
+    }
+    // The SCM at once (the lights flash until it is back); the others after a second.
+    p.start_at = p.plan->name == "scm" ? now : now + 1s;
+    SetPhase(p, Phase::kExited);
+    say(fmt::format("{} exited with code {}: starting it again", p.plan->name, code));
+  }
+
+  void Down() {
+    for (auto it = processes.rbegin(); it != processes.rend(); ++it) {
+      Process& p = *it;
+      if (p.child && p.child->running()) {
+        say(fmt::format("stopping {} (pid {})", p.plan->name, p.child->pid()));
+        const int code =
+            p.child->Stop(std::chrono::duration_cast<std::chrono::milliseconds>(plan.stop_grace));
+        {
+          std::lock_guard lock(mutex);
+          p.state.last_exit = code;
+        }
+      }
+      if (p.state.phase != Phase::kWaiting) SetPhase(p, Phase::kStopped);
+    }
+  }
+};
+
+Supervisor::Supervisor(LaunchPlan plan, const dds::Participant& participant,
+                       std::function<void(const std::string&)> say)
+    : impl_(std::make_unique<Impl>(std::move(plan), participant, std::move(say))) {}
+
+Supervisor::~Supervisor() {
+  try {
+    impl_->Down();
+  } catch (...) {
+  }
+}
+
+void Supervisor::Up(const std::atomic<bool>& stop) { impl_->Up(stop); }
+void Supervisor::Supervise(const std::atomic<bool>& stop) { impl_->Supervise(stop); }
+void Supervisor::Down() { impl_->Down(); }
+
+std::vector<ProcessState> Supervisor::states() const {
+  std::lock_guard lock(impl_->mutex);
+  std::vector<ProcessState> out;
+  for (const auto& p : impl_->processes) out.push_back(p.state);
+  return out;
+}
+
+}  // namespace autodrive::launcher

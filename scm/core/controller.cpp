@@ -1,0 +1,842 @@
+#include "scm/core/controller.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "common/error.h"
+
+namespace autodrive::scm {
+
+namespace {
+
+constexpr RequestStatus kGranted = RequestStatus::kGranted;
+constexpr RequestStatus kRejected = RequestStatus::kRejected;
+constexpr RequestStatus kCompleted = RequestStatus::kCompleted;
+constexpr RequestStatus kCancelled = RequestStatus::kCancelled;
+
+constexpr std::pair<Mode, std::string_view> kModeNames[] = {
+    {Mode::kAuto, "auto"},     {Mode::kFixed, "fixed"}, {Mode::kActuated, "actuated"},
+    {Mode::kManual, "manual"}, {Mode::kFlash, "flash"}, {Mode::kDark, "dark"}};
+
+bool Contains(const std::vector<std::size_t>& v, std::size_t x) {
+  return std::ranges::find(v, x) != v.end();
+}
+
+bool Call(const std::vector<bool>& calls, std::size_t g) { return g < calls.size() && calls[g]; }
+
+std::string Secs(Duration d) { return fmt::format("{:.1f} s", ToSeconds(d)); }
+
+}  // namespace
+
+DayClock DayClock::At(Duration since_midnight) {
+  const Duration day = std::chrono::hours(24);
+  Duration d = since_midnight % day;
+  if (d < Duration{0}) d += day;
+  return DayClock{static_cast<int>(std::chrono::duration_cast<std::chrono::minutes>(d).count()), d};
+}
+
+std::string_view ToString(RequestStatus status) {
+  switch (status) {
+    case RequestStatus::kGranted:
+      return "granted";
+    case RequestStatus::kRejected:
+      return "rejected";
+    case RequestStatus::kCompleted:
+      return "completed";
+    case RequestStatus::kCancelled:
+      return "cancelled";
+  }
+  return "?";
+}
+
+std::string_view ToString(Mode mode) {
+  for (const auto& [m, name] : kModeNames) {
+    if (m == mode) return name;
+  }
+  return "?";
+}
+
+std::optional<Mode> ModeFromString(std::string_view name) {
+  for (const auto& [m, n] : kModeNames) {
+    if (n == name) return m;
+  }
+  return std::nullopt;
+}
+
+std::string_view ToString(Stage stage) {
+  switch (stage) {
+    case Stage::kStartupFlash:
+      return "startup_flash";
+    case Stage::kFlash:
+      return "flash";
+    case Stage::kDark:
+      return "dark";
+    case Stage::kAllRed:
+      return "all_red";
+    case Stage::kGreen:
+      return "green";
+    case Stage::kYellow:
+      return "yellow";
+    case Stage::kRedClearance:
+      return "red_clearance";
+  }
+  return "?";
+}
+
+IntersectionController::IntersectionController(const IntersectionModel& model, MonoTime now,
+                                               Mode mode, std::optional<std::size_t> operator_plan)
+    : model_(&model),
+      aspects_(model.groups.size()),
+      since_(model.groups.size(), now),
+      mode_(mode),
+      operator_plan_(operator_plan) {
+  AUTODRIVE_CHECK(!model.plans.empty(), "intersection " << model.name << " has no plans");
+  if (operator_plan_ && *operator_plan_ >= model.plans.size()) operator_plan_.reset();
+  plan_ = operator_plan_.value_or(model.schedule.front().plan);
+  for (std::size_t g = 0; g < aspects_.size(); ++g) aspects_[g] = model.groups[g].flash_aspect;
+  stage_ = Stage::kStartupFlash;
+  stage_end_ = now + model.startup_flash;
+  next_wake_ = now;  // step at once
+}
+
+Mode IntersectionController::TargetMode(std::size_t plan) const {
+  if (mode_ == Mode::kFlash || mode_ == Mode::kDark) return mode_;
+  const PlanType type = model_->plans[plan].type;
+  if (type == PlanType::kFlash) return Mode::kFlash;
+  if (type == PlanType::kDark) return Mode::kDark;
+  if (mode_ != Mode::kAuto) return mode_;
+  return type == PlanType::kActuated ? Mode::kActuated : Mode::kFixed;
+}
+
+Mode IntersectionController::effective_mode() const {
+  switch (stage_) {
+    case Stage::kStartupFlash:
+    case Stage::kFlash:
+      return Mode::kFlash;
+    case Stage::kDark:
+      return Mode::kDark;
+    default:
+      return TargetMode(plan_);
+  }
+}
+
+std::optional<std::size_t> IntersectionController::phase() const {
+  if (stage_ == Stage::kGreen) return phase_;
+  if (stage_ == Stage::kYellow || stage_ == Stage::kRedClearance) return next_phase_;
+  return std::nullopt;
+}
+
+bool IntersectionController::InPhase(std::size_t group) const {
+  return stage_ == Stage::kGreen && Contains(plan().phases[phase_].groups, group);
+}
+
+MonoTime IntersectionController::PhaseMinEnd() const {
+  MonoTime end = green_start_;
+  for (std::size_t g : plan().phases[phase_].groups) {
+    end = std::max(end, since_[g] + model_->groups[g].timing.min_green);
+  }
+  return end;
+}
+
+Duration IntersectionController::PhaseMaxGreen(std::size_t phase) const {
+  return plan().phases[phase].green;
+}
+
+void IntersectionController::Show(std::size_t g, Aspect aspect, MonoTime now) {
+  if (aspects_[g] != aspect) {
+    aspects_[g] = aspect;
+    since_[g] = now;
+  }
+}
+
+void IntersectionController::EnterFlash(MonoTime now, bool dark) {
+  stage_ = dark ? Stage::kDark : Stage::kFlash;
+  for (std::size_t g = 0; g < aspects_.size(); ++g) {
+    Show(g, dark ? Aspect::kOff : model_->groups[g].flash_aspect, now);
+  }
+  if (active_)
+    EndRequest(now, kCancelled,
+               dark ? "the intersection went dark" : "the intersection went to flash");
+}
+
+void IntersectionController::EnterAllRed(MonoTime now, Duration d) {
+  stage_ = Stage::kAllRed;
+  stage_end_ = now + d;
+  for (std::size_t g = 0; g < aspects_.size(); ++g) Show(g, Aspect::kRed, now);
+}
+
+std::size_t IntersectionController::FirstPhase(std::size_t plan, MonoTime at) const {
+  const Plan& p = model_->plans[plan];
+  if (TargetMode(plan) != Mode::kFixed || p.cycle <= Duration{0}) return 0;
+  const Duration pos = (at - midnight_ - p.offset) % p.cycle;
+  const Duration in_cycle = pos < Duration{0} ? pos + p.cycle : pos;
+  for (std::size_t k = 0; k < p.phases.size(); ++k) {
+    if (in_cycle < p.phase_starts[k] + p.phases[k].green) return k;
+  }
+  return 0;
+}
+
+MonoTime IntersectionController::PlannedEnd(std::size_t phase, MonoTime now) const {
+  const Plan& p = plan();
+  Duration lo{0};
+  for (std::size_t g : p.phases[phase].groups) {
+    lo = std::max(lo, since_[g] + model_->groups[g].timing.min_green - now);
+  }
+  const Duration hi = std::max(lo, p.phases[phase].green);
+  if (TargetMode(plan_) != Mode::kFixed || p.cycle <= Duration{0}) return now + hi;
+  // Keep to the cycle: end where the plan's cycle says, within the phase's min and max.
+  Duration pos = (now - midnight_ - p.offset) % p.cycle;
+  if (pos < Duration{0}) pos += p.cycle;
+  Duration delta = p.phase_starts[phase] + p.phases[phase].green - pos;
+  if (delta > p.cycle / 2) delta -= p.cycle;
+  if (delta <= -p.cycle / 2) delta += p.cycle;
+  return now + std::clamp(delta, lo, hi);
+}
+
+void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
+  stage_ = Stage::kGreen;
+  phase_ = phase;
+  next_phase_.reset();
+  green_start_ = now;
+  last_call_ = now;
+  advance_ = false;
+  for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
+  planned_end_ = PlannedEnd(phase, now);
+  if (active_ && !active_->served && InPhase(active_->request.group)) {
+    active_->served = true;
+    active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+  }
+}
+
+void IntersectionController::BeginClearance(std::optional<std::size_t> next, MonoTime now) {
+  next_phase_ = next;
+  Duration yellow{0};
+  Duration red{0};
+  bool any = false;
+  for (std::size_t g = 0; g < aspects_.size(); ++g) {
+    if (aspects_[g] != Aspect::kGreen) continue;
+    if (next && Contains(plan().phases[*next].groups, g)) continue;
+    any = true;
+    Show(g, Aspect::kYellow, now);
+    yellow = std::max(yellow, model_->groups[g].timing.yellow);
+    red = std::max(red, model_->groups[g].timing.red_clearance);
+  }
+  if (!any) {  // the next phase only adds groups: no clearance needed
+    StartPhase(*next, now);
+    return;
+  }
+  stage_ = Stage::kYellow;
+  yellow_end_ = now + yellow;
+  red_clearance_ = red;
+  stage_end_ = yellow_end_ + red;
+}
+
+bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
+  if (now < PhaseMinEnd()) return false;
+  const Mode mode = TargetMode(plan_);
+  if (active_) {
+    const auto& r = active_->request;
+    if (!InPhase(r.group)) return true;  // go and serve it
+    const MonoTime hold = r.preemption
+                              ? std::min(r.end, active_->accepted + model_->priority.max_preemption)
+                              : std::min(r.end, green_start_ + PhaseMaxGreen(phase_) +
+                                                    model_->priority.max_extension);
+    if (now < hold) return false;
+    if (r.preemption) return true;
+  }
+  switch (mode) {
+    case Mode::kManual:
+      return advance_;
+    case Mode::kActuated: {
+      bool elsewhere = false;
+      for (std::size_t g = 0; g < model_->groups.size(); ++g) {
+        if (!Contains(plan().phases[phase_].groups, g) && Call(calls, g)) elsewhere = true;
+      }
+      if (!elsewhere) return false;  // rest in green
+      const bool max_out = now >= green_start_ + PhaseMaxGreen(phase_);
+      const bool gap_out = now >= last_call_ + plan().extension;
+      return max_out || gap_out;
+    }
+    default:
+      return now >= planned_end_;
+  }
+}
+
+std::size_t IntersectionController::ChooseNext(std::size_t plan,
+                                               const std::vector<bool>& calls) const {
+  const Plan& p = model_->plans[plan];
+  const std::size_t n = p.phases.size();
+  const std::size_t from = plan == plan_ ? phase_ : n - 1;
+  if (active_) {
+    for (std::size_t k = 1; k <= n; ++k) {
+      const std::size_t cand = (from + k) % n;
+      if (Contains(p.phases[cand].groups, active_->request.group)) return cand;
+    }
+  }
+  if (TargetMode(plan) == Mode::kActuated) {
+    for (std::size_t k = 1; k <= n; ++k) {
+      const std::size_t cand = (from + k) % n;
+      for (std::size_t g : p.phases[cand].groups) {
+        if (Call(calls, g) && !(plan == plan_ && InPhase(g))) return cand;
+      }
+    }
+  }
+  return (from + 1) % n;
+}
+
+void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_calls,
+                                  const DayClock& day) {
+  midnight_ = now - day.since_midnight;
+  // Groups without a detector in the running plan are on recall: always called.
+  calls_.assign(model_->groups.size(), true);
+  for (const auto& d : plan().detectors) calls_[d.group] = false;
+  for (const auto& d : plan().detectors) {
+    if (Call(in_calls, d.group)) calls_[d.group] = true;
+  }
+  scheduled_plan_ = model_->ScheduledPlan(day.minute_of_day);
+  const std::size_t wanted_plan = operator_plan_.value_or(*scheduled_plan_);
+  UpdateRequest(now);
+
+  for (int guard = 0; guard < 8; ++guard) {
+    const Stage before = stage_;
+    switch (stage_) {
+      case Stage::kStartupFlash:
+        if (now >= stage_end_ && devices_ready_ && !latched_) {
+          plan_ = wanted_plan;
+          const Mode target = TargetMode(plan_);
+          if (target == Mode::kFlash || target == Mode::kDark) {
+            EnterFlash(now, target == Mode::kDark);
+          } else {
+            EnterAllRed(now, model_->startup_all_red);
+          }
+        }
+        break;
+      case Stage::kFlash:
+      case Stage::kDark: {
+        if (latched_) break;
+        plan_ = wanted_plan;
+        const Mode target = TargetMode(plan_);
+        if (target == Mode::kFlash || target == Mode::kDark) {
+          if ((target == Mode::kDark) != (stage_ == Stage::kDark)) {
+            EnterFlash(now, target == Mode::kDark);
+          }
+        } else {
+          EnterAllRed(now, model_->startup_all_red);
+        }
+        break;
+      }
+      case Stage::kAllRed:
+        if (now >= stage_end_) {
+          plan_ = wanted_plan;
+          const Mode target = TargetMode(plan_);
+          if (target == Mode::kFlash || target == Mode::kDark) {
+            EnterFlash(now, target == Mode::kDark);
+          } else {
+            StartPhase(FirstPhase(plan_, now), now);
+          }
+        }
+        break;
+      case Stage::kGreen: {
+        for (std::size_t g : plan().phases[phase_].groups) {
+          if (Call(calls_, g) && !plan().detectors.empty()) last_call_ = now;
+        }
+        const Mode target = TargetMode(wanted_plan);
+        if (target == Mode::kFlash || target == Mode::kDark) {
+          if (now >= PhaseMinEnd()) {
+            plan_ = wanted_plan;
+            BeginClearance(std::nullopt, now);
+          }
+        } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_) {
+          // A safe point: the new plan starts after this green's clearance.
+          plan_ = wanted_plan;
+          BeginClearance(FirstPhase(plan_, now), now);
+        } else if (ShouldTerminate(now, calls_)) {
+          BeginClearance(ChooseNext(plan_, calls_), now);
+        }
+        break;
+      }
+      case Stage::kYellow:
+        if (now >= yellow_end_) {
+          for (std::size_t g = 0; g < aspects_.size(); ++g) {
+            if (aspects_[g] == Aspect::kYellow) Show(g, Aspect::kRed, now);
+          }
+          stage_ = Stage::kRedClearance;
+          // Count the red clearance from when the reds actually showed (this tick may be late).
+          stage_end_ = now + red_clearance_;
+        }
+        break;
+      case Stage::kRedClearance:
+        if (now >= stage_end_) {
+          const Mode target = TargetMode(wanted_plan);
+          const bool to_flash = target == Mode::kFlash || target == Mode::kDark;
+          const bool any_green = std::ranges::find(aspects_, Aspect::kGreen) != aspects_.end();
+          if (!next_phase_ || (to_flash && !any_green)) {
+            // While the next phase was coming, SPaT promised each red group no change before its
+            // earliest green. Keep that promise (only a fail-safe flash may break one): hold all
+            // red until the latest of them, then go to flash or dark.
+            MonoTime hold = now;
+            if (next_phase_) {
+              for (std::size_t g = 0; g < aspects_.size(); ++g) {
+                if (aspects_[g] != Aspect::kRed) continue;
+                if (const auto earliest = EarliestGreen(g, now)) hold = std::max(hold, *earliest);
+              }
+            }
+            plan_ = wanted_plan;
+            if (hold > now) {
+              EnterAllRed(now, hold - now);
+            } else {
+              EnterFlash(now, TargetMode(plan_) == Mode::kDark);
+            }
+          } else {
+            StartPhase(*next_phase_, now);
+          }
+        }
+        break;
+    }
+    if (stage_ == before) break;
+  }
+  // A request's group that turned green in this step is served from now (not from whenever
+  // the next step comes: the outcome must not depend on how often the controller is stepped).
+  UpdateRequest(now);
+  next_wake_ = ComputeNextWake(now);
+}
+
+MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
+  // Every instant at which a rule of Step may fire with unchanged inputs; earlier is harmless
+  // (a step with nothing due changes nothing), later would miss a transition.
+  MonoTime next = MonoTime::max();
+  auto consider = [&](MonoTime t) {
+    if (t > now) next = std::min(next, t);
+  };
+  if (active_) {
+    consider(active_->request.end);
+    consider(active_->accepted + model_->priority.max_preemption);
+  }
+  switch (stage_) {
+    case Stage::kStartupFlash:
+    case Stage::kAllRed:
+    case Stage::kRedClearance:
+      consider(stage_end_);
+      break;
+    case Stage::kFlash:
+    case Stage::kDark:
+      break;  // left only on a command, a plan or a reset: inputs
+    case Stage::kYellow:
+      consider(yellow_end_);
+      break;
+    case Stage::kGreen: {
+      consider(PhaseMinEnd());
+      consider(planned_end_);
+      consider(green_start_ + PhaseMaxGreen(phase_));
+      consider(green_start_ + PhaseMaxGreen(phase_) + model_->priority.max_extension);
+      consider(last_call_ + plan().extension);
+      // A call on this phase keeps its gap timer running: step every pass while it lasts.
+      if (!plan().detectors.empty()) {
+        for (std::size_t g : plan().phases[phase_].groups) {
+          if (Call(calls_, g)) return now;
+        }
+      }
+      break;
+    }
+  }
+  return next;
+}
+
+}  // namespace autodrive::scm
+
+namespace autodrive::scm {
+
+namespace {
+enum class Policy { kMin, kLikely, kMax };
+}  // namespace
+
+// The walk below predicts when phases end: at their min green (kMin), as the plan expects
+// (kLikely) or at their max green plus any priority extension (kMax).
+template <typename F>
+std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F green_end) const {
+  const Plan& p = plan();
+  const std::size_t n = p.phases.size();
+  if (n == 0) return std::nullopt;
+  std::size_t from = 0;
+  MonoTime t{};
+  auto clearance = [&](std::size_t a, std::size_t b) {
+    Duration yellow{0};
+    Duration red{0};
+    for (std::size_t h : p.phases[a].groups) {
+      if (Contains(p.phases[b].groups, h)) continue;
+      yellow = std::max(yellow, model_->groups[h].timing.yellow);
+      red = std::max(red, model_->groups[h].timing.red_clearance);
+    }
+    return yellow + red;
+  };
+  switch (stage_) {
+    case Stage::kGreen:
+      from = phase_;
+      t = green_end(phase_, green_start_, true);
+      break;
+    case Stage::kYellow:
+    case Stage::kRedClearance:
+      if (!next_phase_) return std::nullopt;
+      t = stage_end_;
+      if (Contains(p.phases[*next_phase_].groups, g)) return t;
+      from = *next_phase_;
+      t = green_end(from, t, false);
+      break;
+    case Stage::kAllRed: {
+      const Mode target = TargetMode(plan_);
+      if (target == Mode::kFlash || target == Mode::kDark) return std::nullopt;
+      t = stage_end_;
+      from = FirstPhase(plan_, t);
+      if (Contains(p.phases[from].groups, g)) return t;
+      t = green_end(from, t, false);
+      break;
+    }
+    default:
+      return std::nullopt;
+  }
+  for (std::size_t step = 1; step <= n; ++step) {
+    const std::size_t k = (from + 1) % n;
+    t += clearance(from, k);
+    if (Contains(p.phases[k].groups, g)) return t;
+    t = green_end(k, t, false);
+    from = k;
+  }
+  return std::nullopt;
+}
+
+std::optional<MonoTime> IntersectionController::EarliestGreen(std::size_t g, MonoTime now) const {
+  // The soonest the group can turn green if the controller went to it next (a request or an
+  // actuated skip can do that): a lower bound whatever happens.
+  const Plan& p = plan();
+  auto min_green_of = [&](const std::vector<std::size_t>& groups) {
+    Duration d{0};
+    for (std::size_t h : groups) d = std::max(d, model_->groups[h].timing.min_green);
+    return d;
+  };
+  auto clearance_of = [&](const std::vector<std::size_t>& ending) {
+    Duration yellow{0};
+    Duration red{0};
+    for (std::size_t h : ending) {
+      yellow = std::max(yellow, model_->groups[h].timing.yellow);
+      red = std::max(red, model_->groups[h].timing.red_clearance);
+    }
+    return yellow + red;
+  };
+  switch (stage_) {
+    case Stage::kGreen: {
+      if (InPhase(g)) return now;
+      // The clearance of the groups of this phase that must end before g may go.
+      Duration yellow{0};
+      Duration red{0};
+      for (std::size_t h : p.phases[phase_].groups) {
+        if (!model_->conflicts[g][h] && h != g) continue;
+        yellow = std::max(yellow, model_->groups[h].timing.yellow);
+        red = std::max(red, model_->groups[h].timing.red_clearance);
+      }
+      return std::max(now, PhaseMinEnd()) + yellow + red;
+    }
+    case Stage::kYellow:
+    case Stage::kRedClearance: {
+      const MonoTime end = stage_ == Stage::kYellow ? yellow_end_ + red_clearance_ : stage_end_;
+      if (!next_phase_) return std::nullopt;
+      const auto& next = p.phases[*next_phase_].groups;
+      if (Contains(next, g)) return std::max(now, end);
+      return std::max(now, end) + min_green_of(next) + clearance_of(next);
+    }
+    case Stage::kAllRed:
+      return std::max(now, stage_end_);
+    default:
+      return std::nullopt;
+  }
+}
+
+std::vector<GroupSignal> IntersectionController::Signals(MonoTime now) const {
+  std::vector<GroupSignal> out;
+  SignalsInto(now, out);
+  return out;
+}
+
+void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>& out) const {
+  out.resize(aspects_.size());
+  for (auto& s : out) s = GroupSignal{};
+  const Mode mode = effective_mode();
+  const bool phased = stage_ == Stage::kGreen || stage_ == Stage::kYellow ||
+                      stage_ == Stage::kRedClearance || stage_ == Stage::kAllRed;
+  const Duration extension_allowance =
+      model_->priority.enabled ? model_->priority.max_extension : Duration{0};
+  auto green_end = [&](Policy policy) {
+    return [&, policy](std::size_t k, MonoTime start, bool current) -> MonoTime {
+      const Plan& p = plan();
+      Duration min_green{0};
+      for (std::size_t h : p.phases[k].groups) {
+        min_green = std::max(min_green, model_->groups[h].timing.min_green);
+      }
+      if (current) {
+        const MonoTime min_end = std::max(now, PhaseMinEnd());
+        switch (policy) {
+          case Policy::kMin:
+            return min_end;
+          case Policy::kMax:
+            return std::max(min_end, start + PhaseMaxGreen(k) + extension_allowance);
+          case Policy::kLikely:
+            if (mode == Mode::kActuated) {
+              return std::clamp(last_call_ + p.extension, min_end,
+                                std::max(min_end, start + PhaseMaxGreen(k)));
+            }
+            return std::max(min_end, planned_end_);
+        }
+      }
+      switch (policy) {
+        case Policy::kMin:
+          return start + min_green;
+        case Policy::kMax:
+          return start + std::max(min_green, p.phases[k].green) + extension_allowance;
+        case Policy::kLikely:
+          if (mode == Mode::kActuated) {
+            return start +
+                   std::min(std::max(min_green, p.phases[k].green), min_green + p.extension);
+          }
+          return start + std::max(min_green, p.phases[k].green);
+      }
+      return start;
+    };
+  };
+  const float confidence = mode == Mode::kFixed ? 0.9f : 0.5f;
+  for (std::size_t g = 0; g < aspects_.size(); ++g) {
+    GroupSignal& s = out[g];
+    s.aspect = aspects_[g];
+    s.since = since_[g];
+    s.min_end = now;
+    if (!phased) {
+      if (stage_ == Stage::kStartupFlash) s.min_end = std::max(now, stage_end_);
+      continue;
+    }
+    switch (aspects_[g]) {
+      case Aspect::kYellow:
+        s.min_end = std::max(now, yellow_end_);
+        s.max_end = s.likely_end = s.min_end;
+        s.likely_confidence = 1.0f;
+        break;
+      case Aspect::kGreen: {
+        s.min_end = std::max(now, since_[g] + model_->groups[g].timing.min_green);
+        if (mode == Mode::kManual || preemption_active()) break;
+        // The green lasts through the following phases that keep the group.
+        auto end_of_run = [&](Policy policy) {
+          const auto f = green_end(policy);
+          const Plan& p = plan();
+          MonoTime t = f(phase_, green_start_, true);
+          std::size_t from = phase_;
+          for (std::size_t step = 1; step < p.phases.size(); ++step) {
+            const std::size_t k = (from + 1) % p.phases.size();
+            if (!Contains(p.phases[k].groups, g)) break;
+            t = f(k, t, false);
+            from = k;
+          }
+          return t;
+        };
+        if (stage_ == Stage::kGreen) {
+          s.likely_end = std::max(s.min_end, end_of_run(Policy::kLikely));
+          s.max_end = std::max(*s.likely_end, end_of_run(Policy::kMax));
+          s.likely_confidence = confidence;
+        }
+        break;
+      }
+      default: {  // red
+        if (const auto earliest = EarliestGreen(g, now)) s.min_end = *earliest;
+        if (mode == Mode::kManual) break;
+        s.next_green = active_ && active_->request.group == g
+                           ? EarliestGreen(g, now)
+                           : WalkToGreen(g, green_end(Policy::kLikely));
+        if (s.next_green) {
+          s.likely_end = std::max(s.min_end, *s.next_green);
+          s.likely_confidence = confidence;
+          if (!active_) {
+            if (const auto latest = WalkToGreen(g, green_end(Policy::kMax))) {
+              s.max_end = std::max(*s.likely_end, *latest);
+            }
+          }
+        }
+        break;
+      }
+    }
+  }
+}
+
+CommandResult IntersectionController::SetMode(Mode mode, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  (void)now;
+  if (mode == Mode::kActuated || mode == Mode::kFixed || mode == Mode::kManual) {
+    const std::size_t plan = operator_plan_.value_or(scheduled_plan_.value_or(plan_));
+    const Plan& p = model_->plans[plan];
+    if (p.type == PlanType::kFlash || p.type == PlanType::kDark) {
+      return CommandResult::Refused(fmt::format(
+          "plan {} is a {} plan; choose a plan with phases first", p.name, ToString(p.type)));
+    }
+    if (mode == Mode::kActuated && p.detectors.empty()) {
+      return CommandResult::Refused(
+          fmt::format("plan {} has no detectors; actuated control needs detector zones", p.name));
+    }
+  }
+  mode_ = mode;
+  if (mode != Mode::kManual) advance_ = false;
+  std::string note;
+  if (latched_) note = " (the intersection stays in fail-safe flash until reset)";
+  return CommandResult::Ok(fmt::format("{} mode {}{}", model_->name, ToString(mode), note));
+}
+
+CommandResult IntersectionController::SetPlan(std::string_view name, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  (void)now;
+  if (name == "auto") {
+    operator_plan_.reset();
+    return CommandResult::Ok(fmt::format("{} follows its schedule", model_->name));
+  }
+  const auto index = model_->PlanIndex(name);
+  if (!index) {
+    std::string names;
+    for (const auto& p : model_->plans) names += (names.empty() ? "" : ", ") + p.name;
+    return CommandResult::Refused(
+        fmt::format("{} has no plan \"{}\" (plans: {}, or auto)", model_->name, name, names));
+  }
+  const Plan& p = model_->plans[*index];
+  if (mode_ == Mode::kActuated && p.type != PlanType::kFlash && p.type != PlanType::kDark &&
+      p.detectors.empty()) {
+    return CommandResult::Refused(
+        fmt::format("plan {} has no detectors and the intersection is in actuated mode", p.name));
+  }
+  operator_plan_ = *index;
+  return CommandResult::Ok(
+      fmt::format("{} runs plan {} from the next safe point", model_->name, p.name));
+}
+
+CommandResult IntersectionController::Advance(MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  if (TargetMode(plan_) != Mode::kManual || latched_) {
+    return CommandResult::Refused(fmt::format("advance needs manual mode; {} runs {}", model_->name,
+                                              ToString(effective_mode())));
+  }
+  if (stage_ != Stage::kGreen) {
+    return CommandResult::Refused(
+        fmt::format("{} is in {}; advance works during a green", model_->name, ToString(stage_)));
+  }
+  advance_ = true;
+  const MonoTime min_end = PhaseMinEnd();
+  if (now < min_end) {
+    return CommandResult::Ok(
+        fmt::format("advancing when min green is served, in {}", Secs(min_end - now)));
+  }
+  return CommandResult::Ok("advancing");
+}
+
+CommandResult IntersectionController::Reset(MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  if (!latched_) {
+    return CommandResult::Refused(
+        fmt::format("{} is not in fail-safe flash; nothing to reset", model_->name));
+  }
+  latched_ = false;
+  latch_reason_.clear();
+  stage_ = Stage::kFlash;
+  stage_end_ = now;
+  return CommandResult::Ok(fmt::format("{} reset: restarting through all red", model_->name));
+}
+
+void IntersectionController::FailSafe(MonoTime now, std::string reason) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  if (!latched_) latch_reason_ = std::move(reason);
+  latched_ = true;
+  advance_ = false;
+  EnterFlash(now, false);
+}
+
+void IntersectionController::EndRequest(MonoTime now, RequestStatus status, std::string reason) {
+  (void)now;
+  if (!active_) return;
+  updates_.push_back({active_->request.vehicle, active_->request.request_id, status,
+                      active_->request.group, std::nullopt, std::move(reason)});
+  active_.reset();
+}
+
+void IntersectionController::UpdateRequest(MonoTime now) {
+  if (!active_) return;
+  const bool green = InPhase(active_->request.group);
+  if (green && !active_->served) {
+    active_->served = true;
+    active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+  }
+  if (active_->served && (now >= active_->request.end || !green)) {
+    EndRequest(now, kCompleted, "served");
+  } else if (now >= active_->accepted + model_->priority.max_preemption) {
+    EndRequest(now, kCompleted, "expired: the request outlived the pre-emption limit");
+  }
+}
+
+RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  RequestUpdate u{r.vehicle, r.request_id, kRejected, r.group, std::nullopt, ""};
+  if (r.group >= model_->groups.size()) {
+    u.reason = "unknown signal group";
+    return u;
+  }
+  if (!model_->priority.enabled) {
+    u.reason = fmt::format("priority is disabled at {}", model_->name);
+    return u;
+  }
+  const Mode mode = effective_mode();
+  if (latched_ || stage_ == Stage::kStartupFlash || mode == Mode::kFlash || mode == Mode::kDark) {
+    u.reason =
+        fmt::format("{} is in {}", model_->name, latched_ ? "fail-safe flash" : ToString(mode));
+    return u;
+  }
+  if (mode == Mode::kManual) {
+    u.reason = fmt::format("{} is under manual control", model_->name);
+    return u;
+  }
+  if (active_ && active_->request.vehicle == r.vehicle &&
+      active_->request.request_id == r.request_id) {
+    active_->request.end = r.end;  // an update of the same request
+  } else if (active_) {
+    if (!(r.preemption && !active_->request.preemption)) {
+      u.reason =
+          fmt::format("another request is being served (vehicle {})", active_->request.vehicle);
+      return u;
+    }
+    EndRequest(now, kCancelled, fmt::format("pre-empted by an emergency vehicle ({})", r.vehicle));
+    active_ = Active{r, now, false};
+  } else {
+    active_ = Active{r, now, false};
+  }
+  if (InPhase(r.group)) {
+    active_->served = true;
+    active_->request.end = std::max(active_->request.end, now + r.duration);
+  }
+  u.status = kGranted;
+  u.expected_green = EarliestGreen(r.group, now);
+  return u;
+}
+
+RequestUpdate IntersectionController::Cancel(std::string_view vehicle, std::uint32_t request_id,
+                                             MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  RequestUpdate u{std::string(vehicle), request_id, kRejected, std::nullopt, std::nullopt, ""};
+  if (!active_ || active_->request.vehicle != vehicle ||
+      active_->request.request_id != request_id) {
+    u.reason = "no such active request";
+    return u;
+  }
+  u.group = active_->request.group;
+  active_.reset();
+  (void)now;
+  u.status = kCancelled;
+  u.reason = "cancelled by the vehicle";
+  return u;
+}
+
+std::vector<RequestUpdate> IntersectionController::TakeRequestUpdates() {
+  std::vector<RequestUpdate> out;
+  out.swap(updates_);
+  return out;
+}
+
+}  // namespace autodrive::scm

@@ -1,0 +1,223 @@
+#pragma once
+/// @file
+/// The intersection controller: one state machine per signalised intersection that decides
+/// what each signal group shows, from its plan, its mode, detector calls, operator commands and
+/// V2I requests. It is written to keep the signal safety rules, but it is not trusted to: the
+/// `ConflictMonitor` checks everything it outputs.
+///
+/// Stages: start-up flash -> all red -> green -> (yellow -> red clearance) -> green ... ; flash
+/// and dark are entered through a clearance on request, or at once on a fail-safe, and left
+/// through all red. Plans change only at the end of a green (a safe point).
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/aspect.h"
+#include "common/time.h"
+#include "scm/core/city.h"
+
+namespace autodrive::scm {
+
+/// How an intersection is run. `kAuto` runs the current plan as its type says.
+enum class Mode { kAuto, kFixed, kActuated, kManual, kFlash, kDark };
+/// "auto", "fixed", "actuated", "manual", "flash", "dark".
+[[nodiscard]] std::string_view ToString(Mode mode);
+/// The mode called `name`; nothing when it is not one.
+[[nodiscard]] std::optional<Mode> ModeFromString(std::string_view name);
+
+/// Where the controller's state machine is.
+enum class Stage { kStartupFlash, kFlash, kDark, kAllRed, kGreen, kYellow, kRedClearance };
+/// "startup_flash", "flash", "dark", "all_red", "green", "yellow", "red_clearance".
+[[nodiscard]] std::string_view ToString(Stage stage);
+
+/// What one signal group shows, since when, and when that is expected to change (SPaT).
+struct GroupSignal {
+  Aspect aspect = Aspect::kFlashingRed;
+  MonoTime since{};
+  MonoTime min_end{};                  ///< earliest end of the current aspect; always set
+  std::optional<MonoTime> max_end;     ///< latest end, when known
+  std::optional<MonoTime> likely_end;  ///< best estimate, when known
+  float likely_confidence = 0.0f;      ///< 0..1
+  std::optional<MonoTime> next_green;  ///< when the group's next green should start (not green)
+};
+
+/// Where the SCM host's local day is, for what runs by time of day: the schedule of plans and
+/// the fixed-time cycle, whose reference is local midnight plus each plan's offset (so that a
+/// plan with offset 10 s starts its first phase at 00:00:10 local time and every cycle after;
+/// intersections that share a cycle length stay coordinated). Taken from system time (wall or
+/// simulated) by the caller at each step; a wall-clock step or a daylight-saving change moves
+/// the cycle, which the controller follows within each phase's min and max green.
+struct DayClock {
+  int minute_of_day = 0;       ///< 0..1439, local time
+  Duration since_midnight{0};  ///< since local midnight, local time, in [0, 24 h]
+
+  /// The day clock `since_midnight` after midnight.
+  [[nodiscard]] static DayClock At(Duration since_midnight);
+};
+
+/// The answer to an operator command.
+struct CommandResult {
+  bool ok = false;
+  std::string message;
+  static CommandResult Ok(std::string m) { return {true, std::move(m)}; }
+  static CommandResult Refused(std::string m) { return {false, std::move(m)}; }
+};
+
+/// A V2I priority or pre-emption request for one group.
+struct ServiceRequest {
+  std::string vehicle;
+  std::uint32_t request_id = 0;
+  bool preemption = false;  ///< emergency: served as soon as safe and held
+  std::size_t group = 0;    ///< group index
+  MonoTime end{};           ///< when the vehicle expects to have cleared (eta + duration)
+  /// How long the vehicle needs the green to clear: a request served late still gets this
+  /// much green from when its green starts.
+  Duration duration{0};
+};
+
+/// The state of a V2I request (J2735 SSM semantics; wire numbers only at the DDS edge).
+enum class RequestStatus { kGranted, kRejected, kCompleted, kCancelled };
+/// "granted", "rejected", "completed", "cancelled".
+[[nodiscard]] std::string_view ToString(RequestStatus status);
+
+/// What happened to a request.
+struct RequestUpdate {
+  std::string vehicle;
+  std::uint32_t request_id = 0;
+  RequestStatus status = RequestStatus::kRejected;
+  std::optional<std::size_t> group;
+  std::optional<MonoTime> expected_green;
+  std::string reason;
+};
+
+/// The controller of one intersection. Borrows its model, which must outlive it. Copyable
+/// (the property tests copy it); not thread-safe: the daemon drives it from one thread.
+class IntersectionController {
+ public:
+  /// Starts in the start-up sequence at `now`, then runs `mode` with `plan` (a plan index chosen
+  /// by the operator) or, without one, the scheduled plan.
+  IntersectionController(const IntersectionModel& model, MonoTime now, Mode mode = Mode::kAuto,
+                         std::optional<std::size_t> operator_plan = std::nullopt);
+
+  /// Advances to `now` (never backwards). `calls[g]` is true when a detector of group g is
+  /// occupied; shorter or empty means no call. `day` selects the scheduled plan and places the
+  /// fixed-time cycle.
+  void Step(MonoTime now, const std::vector<bool>& calls, const DayClock& day);
+
+  /// Operator: run `mode`. Fixed, actuated and manual need a phase plan; actuated needs
+  /// detectors.
+  CommandResult SetMode(Mode mode, MonoTime now);
+  /// Operator: run plan `name` from the next safe point, or "auto" to follow the schedule.
+  CommandResult SetPlan(std::string_view name, MonoTime now);
+  /// Operator (manual mode): end the current phase once its min green is served.
+  CommandResult Advance(MonoTime now);
+  /// Clears a fail-safe latch; the intersection restarts through all red.
+  CommandResult Reset(MonoTime now);
+  /// Goes to fail-safe flash at once and latches (reason kept for status).
+  void FailSafe(MonoTime now, std::string reason);
+  /// While false the start-up flash does not end (the lights are not all there yet).
+  void SetDevicesReady(bool ready) {
+    if (ready != devices_ready_) next_wake_ = MonoTime::min();
+    devices_ready_ = ready;
+  }
+
+  /// A V2I request: the first answer (GRANTED or REJECTED); later changes come from
+  /// `TakeRequestUpdates`.
+  RequestUpdate Request(const ServiceRequest& request, MonoTime now);
+  /// Cancels the vehicle's request.
+  RequestUpdate Cancel(std::string_view vehicle, std::uint32_t request_id, MonoTime now);
+  /// Status changes since the last call (completions, cancellations).
+  std::vector<RequestUpdate> TakeRequestUpdates();
+  /// True when `TakeRequestUpdates` has something (checking allocates nothing).
+  [[nodiscard]] bool has_request_updates() const { return !updates_.empty(); }
+
+  /// The earliest control instant at which `Step` may change anything when its inputs (calls,
+  /// day clock, commands, requests, device readiness) stay as they were at the last step. A
+  /// caller may skip `Step` until then and get exactly the same outputs; it must step at once
+  /// when an input changes. While a detector call holds a green open, or the start-up waits for
+  /// its devices, it is the last step's time (step every pass).
+  [[nodiscard]] MonoTime next_wake() const { return next_wake_; }
+
+  /// Each group's signal with SPaT timing, valid after the last `Step` or command.
+  [[nodiscard]] std::vector<GroupSignal> Signals(MonoTime now) const;
+  /// `Signals` into `out` (resized to the number of groups), without allocating once `out` has
+  /// the capacity: the daemon's loop uses it.
+  void SignalsInto(MonoTime now, std::vector<GroupSignal>& out) const;
+  /// The aspects alone, by group index.
+  [[nodiscard]] const std::vector<Aspect>& aspects() const { return aspects_; }
+
+  [[nodiscard]] const IntersectionModel& model() const { return *model_; }
+  [[nodiscard]] Stage stage() const { return stage_; }
+  [[nodiscard]] Mode requested_mode() const { return mode_; }
+  /// The mode actually running: fixed, actuated, manual, flash or dark (flash also while
+  /// latched or in the start-up sequence).
+  [[nodiscard]] Mode effective_mode() const;
+  [[nodiscard]] const Plan& plan() const { return model_->plans[plan_]; }
+  [[nodiscard]] std::size_t plan_index() const { return plan_; }
+  [[nodiscard]] std::optional<std::size_t> operator_plan() const { return operator_plan_; }
+  [[nodiscard]] bool latched() const { return latched_; }
+  [[nodiscard]] const std::string& latch_reason() const { return latch_reason_; }
+  /// The phase index while a phase runs (green or its clearance).
+  [[nodiscard]] std::optional<std::size_t> phase() const;
+  [[nodiscard]] bool preemption_active() const { return active_ && active_->request.preemption; }
+  [[nodiscard]] bool priority_active() const { return active_ && !active_->request.preemption; }
+
+ private:
+  struct Active {
+    ServiceRequest request;
+    MonoTime accepted{};
+    bool served = false;  ///< its group has been green since it was accepted
+  };
+  [[nodiscard]] Mode TargetMode(std::size_t plan) const;
+  [[nodiscard]] bool InPhase(std::size_t group) const;
+  [[nodiscard]] MonoTime PhaseMinEnd() const;
+  [[nodiscard]] Duration PhaseMaxGreen(std::size_t phase) const;
+  [[nodiscard]] bool ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const;
+  [[nodiscard]] std::size_t ChooseNext(std::size_t plan, const std::vector<bool>& calls) const;
+  [[nodiscard]] std::size_t FirstPhase(std::size_t plan, MonoTime at) const;
+  [[nodiscard]] MonoTime PlannedEnd(std::size_t phase, MonoTime now) const;
+  /// The time group `g` turns green if the sequence runs with each phase's green ending at
+  /// `green_end(phase, start)`.
+  [[nodiscard]] std::optional<MonoTime> EarliestGreen(std::size_t g, MonoTime now) const;
+  template <typename F>
+  [[nodiscard]] std::optional<MonoTime> WalkToGreen(std::size_t g, F green_end) const;
+  void Show(std::size_t g, Aspect aspect, MonoTime now);
+  void EnterFlash(MonoTime now, bool dark);
+  void EnterAllRed(MonoTime now, Duration d);
+  void StartPhase(std::size_t phase, MonoTime now);
+  void BeginClearance(std::optional<std::size_t> next, MonoTime now);
+  void UpdateRequest(MonoTime now);
+  void EndRequest(MonoTime now, RequestStatus status, std::string reason);
+  [[nodiscard]] MonoTime ComputeNextWake(MonoTime now) const;
+
+  const IntersectionModel* model_;
+  std::vector<Aspect> aspects_;
+  std::vector<MonoTime> since_;
+  Stage stage_ = Stage::kStartupFlash;
+  MonoTime stage_end_{};
+  Mode mode_ = Mode::kAuto;
+  std::size_t plan_ = 0;
+  std::optional<std::size_t> operator_plan_;
+  std::optional<std::size_t> scheduled_plan_;
+  std::size_t phase_ = 0;
+  std::optional<std::size_t> next_phase_;  ///< during a clearance; none: to flash or dark
+  MonoTime green_start_{};
+  MonoTime midnight_{};  ///< local midnight on the control timeline, from the last step's day
+  MonoTime planned_end_{};
+  MonoTime last_call_{};
+  MonoTime yellow_end_{};
+  Duration red_clearance_{0};  ///< of the clearance under way
+  bool advance_ = false;
+  bool devices_ready_ = true;
+  bool latched_ = false;
+  std::string latch_reason_;
+  std::optional<Active> active_;
+  std::vector<RequestUpdate> updates_;
+  std::vector<bool> calls_;  ///< the last calls seen, for predictions
+  MonoTime next_wake_{};
+};
+
+}  // namespace autodrive::scm

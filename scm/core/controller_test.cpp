@@ -1,0 +1,656 @@
+#include "scm/core/controller.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "common/test_support.h"
+#include "scm/core/conflict_monitor.h"
+
+namespace autodrive::scm {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using ::testing::HasSubstr;
+
+const City& DrivingSchool() {
+  static const City city = LoadCity(test::SourceDir() / "config/cities/driving_school.yaml");
+  return city;
+}
+const City& SmallTown() {
+  static const City city = LoadCity(test::SourceDir() / "config/cities/small_town.yaml");
+  return city;
+}
+
+/// The day clock of a test: local midnight at the control timeline's origin, so the cycle of a
+/// fixed plan (anchored at local midnight plus its offset) lines up with multiples of the cycle;
+/// `minute` chooses the scheduled plan independently.
+DayClock Day(MonoTime now, int minute) {
+  return DayClock{minute, now.time_since_epoch() % std::chrono::hours(24)};
+}
+
+constexpr int kNoon = 12 * 60;     // the day plan (fixed)
+constexpr int kEvening = 20 * 60;  // the evening plan (actuated)
+
+/// A start time where the day plan's cycle (52 s) begins, so its phases line up with the clock.
+MonoTime CycleStart() { return MonoTime(seconds(52 * 1000)); }
+
+/// Drives a controller in fixed ticks and checks every output with a monitor.
+struct Rig {
+  explicit Rig(const IntersectionModel& x, MonoTime start = CycleStart())
+      : model(x), now(start), controller(x, start), monitor(x, start) {}
+  /// Steps until `until`, with `calls`; fails the test on any monitor violation.
+  void RunTo(MonoTime until, const std::vector<bool>& calls = {}, int minute = kNoon) {
+    while (now < until) {
+      now = std::min(until, now + tick);
+      controller.Step(now, calls, Day(now, minute));
+      const auto v = monitor.CheckAndRecord(now, controller.aspects());
+      ASSERT_FALSE(v) << v->message;
+    }
+  }
+  void RunFor(Duration d, const std::vector<bool>& calls = {}, int minute = kNoon) {
+    RunTo(now + d, calls, minute);
+  }
+  Aspect Of(std::size_t g) const { return controller.aspects()[g]; }
+  const IntersectionModel& model;
+  MonoTime now;
+  Duration tick = milliseconds(100);
+  IntersectionController controller;
+  ConflictMonitor monitor;
+};
+
+TEST(Controller, StartsWithFlashThenAllRedThenThePlan) {
+  Rig rig(DrivingSchool().intersections[0]);
+  EXPECT_EQ(rig.Of(0), Aspect::kFlashingRed);
+  rig.RunFor(milliseconds(2900));
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kFlashingRed);
+  rig.RunFor(milliseconds(100));  // 3 s: start-up flash over
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kRed);
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+  rig.RunFor(milliseconds(1900));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  rig.RunFor(milliseconds(100));  // 5 s: all red over; the cycle is at 5 s, in phase 1's green
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  EXPECT_EQ(rig.controller.effective_mode(), Mode::kFixed);
+  EXPECT_EQ(rig.controller.plan().name, "day");
+}
+
+TEST(Controller, StartUpWaitsForTheDevices) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.controller.SetDevicesReady(false);
+  rig.RunFor(seconds(10));
+  EXPECT_EQ(rig.controller.stage(), Stage::kStartupFlash);
+  rig.controller.SetDevicesReady(true);
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+}
+
+TEST(Controller, FixedTimeRunsThePhasesInTurnKeepingToTheCycle) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(52));  // settle into the cycle
+  // Cycle position 0 (phase 1 green from 0 to 8 s, yellow to 11, all red to 13, phase 2 ...).
+  const MonoTime c = CycleStart() + seconds(52);
+  rig.RunTo(c + milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(c + milliseconds(7900));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(c + seconds(8));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(c + seconds(11));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  rig.RunTo(c + seconds(13));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  rig.RunTo(c + seconds(52 + 1));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  EXPECT_EQ(rig.Of(3), Aspect::kRed);
+}
+
+TEST(Controller, FixedTimePredictionsMatchWhatHappens) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(60));
+  // Record each group's predictions now, then check them against the changes that follow.
+  const auto predicted = rig.controller.Signals(rig.now);
+  std::vector<std::optional<MonoTime>> changed(4);
+  std::vector<std::optional<MonoTime>> green_at(4);
+  const auto start = rig.controller.aspects();
+  while (rig.now < CycleStart() + seconds(60 + 52)) {
+    rig.RunFor(milliseconds(100));
+    for (std::size_t g = 0; g < 4; ++g) {
+      if (!changed[g] && rig.Of(g) != start[g]) changed[g] = rig.now;
+      if (!green_at[g] && start[g] != Aspect::kGreen && rig.Of(g) == Aspect::kGreen) {
+        green_at[g] = rig.now;
+      }
+    }
+  }
+  for (std::size_t g = 0; g < 4; ++g) {
+    SCOPED_TRACE(g);
+    const auto& s = predicted[g];
+    ASSERT_TRUE(changed[g]);
+    ASSERT_TRUE(s.likely_end);
+    EXPECT_EQ(*s.likely_end, *changed[g]);
+    EXPECT_LE(s.min_end, *changed[g]);
+    if (s.max_end) {
+      EXPECT_GE(*s.max_end, *changed[g]);
+    }
+    if (start[g] == Aspect::kRed) {
+      ASSERT_TRUE(s.next_green);
+      EXPECT_EQ(*s.next_green, *green_at[g]);
+    }
+  }
+}
+
+TEST(Controller, ManualHoldsUntilAdvanceAndHonoursMinGreen) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));  // phase 1 green since 5 s
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  ASSERT_TRUE(rig.controller.SetMode(Mode::kManual, rig.now).ok);
+  rig.RunFor(seconds(60));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);  // held
+  const auto r = rig.controller.Advance(rig.now);
+  EXPECT_TRUE(r.ok) << r.message;
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunFor(seconds(5));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  // Advance right after a green starts waits for the min green.
+  const auto early = rig.controller.Advance(rig.now);
+  EXPECT_THAT(early.message, HasSubstr("advancing when min green is served, in"));
+  rig.RunFor(seconds(4));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  rig.RunFor(seconds(1));
+  EXPECT_EQ(rig.Of(1), Aspect::kYellow);
+}
+
+TEST(Controller, AdvanceOutsideManualIsRefused) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunFor(seconds(6));
+  const auto r = rig.controller.Advance(rig.now);
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.message, "advance needs manual mode; driving_school_crossing runs fixed");
+}
+
+TEST(Controller, ActuatedRestsInGreenAndGapsOutToACall) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  const std::vector<bool> none(4, false);
+  rig.RunFor(seconds(5), none, kEvening);  // start-up; the first phase begins
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunFor(seconds(30), none, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);  // no calls anywhere: rests
+  // A call on the south approach: east's green gaps out (no call of its own).
+  std::vector<bool> south(4, false);
+  south[3] = true;
+  rig.RunFor(milliseconds(100), south, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunFor(seconds(5), south, kEvening);
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);  // phases 2 and 3 skipped
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  // Calls on its own approach extend it up to max green (15 s) even with a call waiting.
+  std::vector<bool> both(4, false);
+  both[3] = both[0] = true;
+  rig.RunFor(seconds(14), both, kEvening);
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);
+  rig.RunFor(seconds(1), both, kEvening);
+  EXPECT_EQ(rig.Of(3), Aspect::kYellow);
+}
+
+TEST(Controller, PlanChangesAtTheEndOfAGreen) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  const auto r = rig.controller.SetPlan("night", rig.now);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.message, "driving_school_crossing runs plan night from the next safe point");
+  rig.RunFor(milliseconds(100));
+  // Not before min green (5 s from 5 s): yellow at 10 s, red at 13 s, flash at 15 s.
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(CycleStart() + seconds(10));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(CycleStart() + seconds(15));
+  EXPECT_EQ(rig.Of(0), Aspect::kFlashingRed);
+  EXPECT_EQ(rig.controller.effective_mode(), Mode::kFlash);
+  // Back to the schedule: out of flash through all red.
+  ASSERT_TRUE(rig.controller.SetPlan("auto", rig.now).ok);
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+  EXPECT_FALSE(rig.controller.SetPlan("nope", rig.now).ok);
+  EXPECT_EQ(rig.controller.SetPlan("nope", rig.now).message,
+            "driving_school_crossing has no plan \"nope\" (plans: day, evening, night, off, or "
+            "auto)");
+}
+
+TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  ServiceRequest req{"nigel_2", 7, true, 2, rig.now + seconds(20)};
+  const auto u = rig.controller.Request(req, rig.now);
+  EXPECT_EQ(u.status, RequestStatus::kGranted);
+  ASSERT_TRUE(u.expected_green);
+  EXPECT_TRUE(rig.controller.preemption_active());
+  // Group 1's min green ends at 10 s; yellow 3 s, all red 2 s: west green at 15 s, skipping north.
+  rig.RunTo(CycleStart() + seconds(10));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(CycleStart() + seconds(15));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  EXPECT_EQ(*u.expected_green, CycleStart() + seconds(15));
+  // Held past its max green until the vehicle's end time (26 s), then completed.
+  rig.RunTo(CycleStart() + seconds(25));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  rig.RunTo(CycleStart() + seconds(27));
+  const auto updates = rig.controller.TakeRequestUpdates();
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
+  EXPECT_EQ(updates[0].vehicle, "nigel_2");
+}
+
+TEST(Controller, ARequestServedAfterItsEndStillGetsItsDurationOfGreen) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  // The vehicle is already due (end = now) and needs 4 s of green; west turns green at 15 s.
+  ServiceRequest req{"nigel_3", 1, true, 2, rig.now, seconds(4)};
+  ASSERT_EQ(rig.controller.Request(req, rig.now).status, RequestStatus::kGranted);
+  rig.RunTo(CycleStart() + seconds(15));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_TRUE(rig.controller.preemption_active());
+  rig.RunTo(CycleStart() + milliseconds(18900));
+  EXPECT_TRUE(rig.controller.preemption_active());
+  rig.RunTo(CycleStart() + milliseconds(19100));
+  EXPECT_FALSE(rig.controller.preemption_active());
+  const auto updates = rig.controller.TakeRequestUpdates();
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
+}
+
+TEST(Controller, RequestsAreRefusedInFlashAndManual) {
+  Rig rig(DrivingSchool().intersections[0]);
+  const auto in_startup = rig.controller.Request({"nigel_1", 1, true, 0, rig.now}, rig.now);
+  EXPECT_EQ(in_startup.status, RequestStatus::kRejected);
+  EXPECT_EQ(in_startup.reason, "driving_school_crossing is in flash");
+  rig.RunFor(seconds(6));
+  ASSERT_TRUE(rig.controller.SetMode(Mode::kManual, rig.now).ok);
+  const auto in_manual = rig.controller.Request({"nigel_1", 1, false, 1, rig.now}, rig.now);
+  EXPECT_EQ(in_manual.reason, "driving_school_crossing is under manual control");
+}
+
+TEST(Controller, FailSafeLatchesUntilReset) {
+  Rig rig(DrivingSchool().intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  rig.controller.FailSafe(rig.now, "devices lost: signal_1");
+  rig.RunFor(milliseconds(100));
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kFlashingRed);
+  EXPECT_TRUE(rig.controller.latched());
+  ASSERT_TRUE(rig.controller.SetPlan("day", rig.now).ok);
+  rig.RunFor(seconds(30));
+  EXPECT_EQ(rig.Of(0), Aspect::kFlashingRed);  // a plan does not clear the latch
+  const auto r = rig.controller.Reset(rig.now);
+  EXPECT_TRUE(r.ok);
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  rig.RunFor(seconds(2));
+  EXPECT_FALSE(rig.controller.latched());
+  EXPECT_EQ(rig.controller.Reset(rig.now).message,
+            "driving_school_crossing is not in fail-safe flash; nothing to reset");
+}
+
+// --- The conflict monitor on its own ---
+
+struct MonitorRig {
+  MonitorRig() : model(DrivingSchool().intersections[0]), now(CycleStart()), monitor(model, now) {
+    Show({Aspect::kRed, Aspect::kRed, Aspect::kRed, Aspect::kRed}, seconds(0));
+  }
+  std::optional<Violation> Show(std::vector<Aspect> a, Duration after) {
+    now += after;
+    return monitor.CheckAndRecord(now, a);
+  }
+  const IntersectionModel& model;
+  MonoTime now;
+  ConflictMonitor monitor;
+};
+constexpr Aspect R = Aspect::kRed, Y = Aspect::kYellow, G = Aspect::kGreen,
+                 F = Aspect::kFlashingRed;
+
+TEST(ConflictMonitor, LatchesWhenTwoConflictingGroupsAreGreen) {
+  MonitorRig m;
+  const auto v = m.Show({G, G, R, R}, seconds(3));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->rule, "conflict");
+  EXPECT_EQ(v->message,
+            "driving_school_crossing: group 1 (east) green and group 2 (north) green conflict; "
+            "rule: conflicting groups are never green or yellow together");
+}
+
+TEST(ConflictMonitor, CatchesShortYellowShortGreenAndShortAllRed) {
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    const auto v = m.Show({Y, R, R, R}, seconds(4));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "short_green");
+    EXPECT_THAT(v->message, HasSubstr("green lasted 4.000 s of its min green 5.000 s"));
+  }
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    ASSERT_FALSE(m.Show({Y, R, R, R}, seconds(5)));
+    const auto v = m.Show({R, R, R, R}, milliseconds(2900));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "short_yellow");
+  }
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    ASSERT_FALSE(m.Show({Y, R, R, R}, seconds(5)));
+    ASSERT_FALSE(m.Show({R, R, R, R}, seconds(3)));
+    const auto v = m.Show({R, G, R, R}, milliseconds(1900));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "short_all_red");
+    EXPECT_THAT(v->message, HasSubstr("group 2 (north) turned green while conflicting group 1 "
+                                      "(east) was red for 1.900 s, under its red clearance"));
+    EXPECT_FALSE(m.Show({R, G, R, R}, milliseconds(100)));  // 2 s: fine
+  }
+  {
+    MonitorRig m;
+    ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+    const auto v = m.Show({R, R, R, R}, seconds(10));
+    ASSERT_TRUE(v);
+    EXPECT_EQ(v->rule, "green_not_to_yellow");
+  }
+}
+
+TEST(ConflictMonitor, AllowsGoingToFlashAtAnyTimeButNotGreenStraightFromFlash) {
+  MonitorRig m;
+  ASSERT_FALSE(m.Show({G, R, R, R}, seconds(2)));
+  EXPECT_FALSE(m.Show({F, F, F, F}, seconds(1)));
+  const auto v = m.Show({G, F, F, F}, seconds(1));
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->rule, "green_not_from_red");
+}
+
+// --- Property test: random operator commands, plans, requests and faults ---
+
+/// The safety rules, checked from the outside on the controller's raw output.
+class RuleChecker {
+ public:
+  RuleChecker(const IntersectionModel& x, MonoTime now)
+      : x_(x),
+        last_(x.groups.size(), Aspect::kFlashingRed),
+        since_(x.groups.size(), now),
+        red_since_(x.groups.size()) {}
+  /// Returns a description of the first broken rule, or "".
+  std::string Check(MonoTime now, const std::vector<Aspect>& a) {
+    const std::size_t n = a.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t j = i + 1; j < n; ++j) {
+        if (x_.conflicts[i][j] && IsGo(a[i]) && IsGo(a[j])) return "conflicting go";
+      }
+    }
+    for (std::size_t g = 0; g < n; ++g) {
+      if (a[g] == last_[g]) continue;
+      const auto& t = x_.groups[g].timing;
+      const bool flash = IsFlashing(a[g]) || a[g] == Aspect::kOff;
+      if (last_[g] == Aspect::kGreen && !flash && now - since_[g] < t.min_green)
+        return "short green";
+      if (last_[g] == Aspect::kYellow && !flash && now - since_[g] < t.yellow)
+        return "short yellow";
+      if (last_[g] == Aspect::kGreen && !flash && a[g] != Aspect::kYellow)
+        return "green not to yellow";
+      if (a[g] == Aspect::kGreen) {
+        if (last_[g] != Aspect::kRed) return "green not from red";
+        for (std::size_t h = 0; h < n; ++h) {
+          if (x_.conflicts[g][h] &&
+              (!red_since_[h] || now - *red_since_[h] < x_.groups[h].timing.red_clearance)) {
+            return "short all-red";
+          }
+        }
+      }
+    }
+    for (std::size_t g = 0; g < n; ++g) {
+      if (a[g] != last_[g]) {
+        last_[g] = a[g];
+        since_[g] = now;
+        red_since_[g] = a[g] == Aspect::kRed ? std::optional<MonoTime>(now) : std::nullopt;
+      }
+    }
+    return "";
+  }
+
+ private:
+  const IntersectionModel& x_;
+  std::vector<Aspect> last_;
+  std::vector<MonoTime> since_;
+  std::vector<std::optional<MonoTime>> red_since_;
+};
+
+void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> tick_ms(20, 600);
+  std::uniform_int_distribution<int> percent(0, 99);
+  long long ticks = 0;
+  long long lazy_steps = 0;
+  int latches = 0;
+  int grants = 0;
+  for (int s = 0; s < sequences; ++s) {
+    const auto& x = city.intersections[static_cast<std::size_t>(s) % city.intersections.size()];
+    MonoTime now =
+        MonoTime(seconds(1'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
+    const auto modes = {Mode::kAuto,   Mode::kFixed, Mode::kActuated,
+                        Mode::kManual, Mode::kFlash, Mode::kDark};
+    const Mode first_mode = *(modes.begin() + percent(rng) % 6);
+    const std::optional<std::size_t> first_plan =
+        percent(rng) < 50
+            ? std::optional<std::size_t>(static_cast<std::size_t>(percent(rng)) % x.plans.size())
+            : std::nullopt;
+    IntersectionController c(x, now, first_mode, first_plan);
+    // The same controller stepped only when it is due or its inputs changed, as the daemon
+    // does (next_wake): it must show exactly the same at every tick.
+    IntersectionController lazy(x, now, first_mode, first_plan);
+    bool lazy_due = true;  // an input changed since its last step
+    ConflictMonitor monitor(x, now);
+    RuleChecker checker(x, now);
+    int minute = std::uniform_int_distribution<int>(0, 1439)(rng);
+    std::vector<bool> calls(x.groups.size(), false);
+    const int steps = 200;
+    // The latest min_end SPaT promised each group since it last changed: a change before it is
+    // allowed only into fail-safe flash (the intersection latched), whatever commands came.
+    std::vector<std::optional<MonoTime>> promised(x.groups.size());
+    std::vector<GroupSignal> prev;
+    std::vector<std::string> trace;  // the last steps, printed when a rule breaks
+    auto note = [&](std::string what) {
+      if (trace.size() >= 40) trace.erase(trace.begin());
+      std::string aspects;
+      for (Aspect a : c.aspects()) aspects += std::string(ToString(a)) + " ";
+      trace.push_back(fmt::format("t={:.2f} {} -> stage {} [{}]", ToSeconds(now) - 1e6, what,
+                                  ToString(c.stage()), aspects));
+    };
+    auto dump = [&] {
+      std::string out;
+      for (const auto& t : trace) out += "\n  " + t;
+      return out;
+    };
+    // Every command goes to both controllers.
+    auto both = [&](auto&& command) {
+      auto result = command(c);
+      (void)command(lazy);
+      lazy_due = true;
+      return result;
+    };
+    for (int k = 0; k < steps; ++k) {
+      const auto before = c.aspects();  // before this round's command and step
+      const int p = percent(rng);
+      std::string what = "tick";
+      if (p < 3) {
+        const Mode m = *(modes.begin() + percent(rng) % 6);
+        what = fmt::format("mode {}: {}", ToString(m),
+                           both([&](auto& ctl) { return ctl.SetMode(m, now); }).message);
+      } else if (p < 6) {
+        const std::size_t plan = static_cast<std::size_t>(percent(rng)) % (x.plans.size() + 1);
+        const std::string name = plan == x.plans.size() ? "auto" : x.plans[plan].name;
+        what = both([&](auto& ctl) { return ctl.SetPlan(name, now); }).message;
+      } else if (p < 12) {
+        what = "advance: " + both([&](auto& ctl) { return ctl.Advance(now); }).message;
+      } else if (p < 16) {
+        const std::size_t g = static_cast<std::size_t>(percent(rng)) % x.groups.size();
+        const ServiceRequest r{"nigel_" + std::to_string(1 + percent(rng) % 3),
+                               static_cast<std::uint32_t>(percent(rng)), percent(rng) < 50, g,
+                               now + milliseconds(percent(rng) * 300)};
+        const auto u = both([&](auto& ctl) { return ctl.Request(r, now); });
+        if (u.status == RequestStatus::kGranted) ++grants;
+        what = fmt::format("request group {} status {} {}", g, ToString(u.status), u.reason);
+      } else if (p < 17) {
+        both([&](auto& ctl) {
+          ctl.FailSafe(now, "injected device fault");
+          return 0;
+        });
+        what = "fail-safe";
+        ++latches;
+      } else if (p < 20) {
+        what = "reset: " + both([&](auto& ctl) { return ctl.Reset(now); }).message;
+      } else if (p < 22) {
+        const bool ready = percent(rng) < 70;
+        both([&](auto& ctl) {
+          ctl.SetDevicesReady(ready);
+          return 0;
+        });
+      } else if (p < 30) {
+        calls[static_cast<std::size_t>(percent(rng)) % calls.size()].flip();
+        lazy_due = true;
+      } else if (p < 31) {
+        minute = std::uniform_int_distribution<int>(0, 1439)(rng);
+        what = "schedule";
+        lazy_due = true;
+      }
+      now += milliseconds(tick_ms(rng));
+      c.Step(now, calls, Day(now, minute));
+      if (lazy_due || now >= lazy.next_wake()) {
+        lazy.Step(now, calls, Day(now, minute));
+        lazy_due = false;
+        ++lazy_steps;
+      }
+      note(what);
+      ASSERT_EQ(lazy.aspects(), c.aspects())
+          << "stepping only when due (next_wake) changed the output" << dump();
+      ASSERT_EQ(lazy.stage(), c.stage()) << dump();
+      // SPaT timing: a change never comes before a min end promised since the group's last
+      // change (commands cannot take a promise back), except into fail-safe flash; with no
+      // command in between, never later than one tick after the max end the last tick gave.
+      for (std::size_t g = 0; g < before.size(); ++g) {
+        if (c.aspects()[g] == before[g]) continue;
+        if (!c.latched() && promised[g]) {
+          ASSERT_GE(now, *promised[g])
+              << "group " << g << " changed to " << ToString(c.aspects()[g])
+              << " before its promise" << dump();
+        }
+        if (what == "tick" && !prev.empty() && prev[g].max_end) {
+          ASSERT_LE(now, *prev[g].max_end + milliseconds(600)) << "group " << g << dump();
+        }
+        promised[g].reset();
+      }
+      // Fail-safe flash voids every promise made before it.
+      if (c.latched()) std::fill(promised.begin(), promised.end(), std::nullopt);
+      prev = c.Signals(now);
+      for (std::size_t g = 0; g < prev.size(); ++g) {
+        ASSERT_GE(prev[g].min_end, now);
+        promised[g] = promised[g] ? std::max(*promised[g], prev[g].min_end) : prev[g].min_end;
+      }
+      for (const auto& u : c.TakeRequestUpdates())
+        note("update " + std::string(ToString(u.status)) + " " + u.reason);
+      (void)lazy.TakeRequestUpdates();
+      ++ticks;
+      const std::string broken = checker.Check(now, c.aspects());
+      if (!broken.empty()) note("checked");
+      ASSERT_EQ(broken, "") << "sequence " << s << " step " << k << " at " << x.name << dump();
+      const auto v = monitor.CheckAndRecord(now, c.aspects());
+      ASSERT_FALSE(v) << "sequence " << s << " step " << k << ": " << v->message << dump();
+    }
+  }
+  std::printf(
+      "%s: %d sequences, %lld ticks (%lld steps when due), %d injected faults, %d "
+      "requests granted\n",
+      city.config.name.c_str(), sequences, ticks, lazy_steps, latches, grants);
+  EXPECT_GT(grants, 0);
+  EXPECT_LT(lazy_steps, ticks) << "next_wake let no step be skipped";
+}
+
+/// Liveness: under a fixed plan (or an actuated one with every group called) and no faults or
+/// commands, every group turns green within one cycle plus its clearances, from the end of
+/// the start-up sequence on, whatever the start time and the tick.
+void RunLiveness(const City& city, int runs, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> tick_ms(20, 200);
+  long long checked = 0;
+  for (int r = 0; r < runs; ++r) {
+    const auto& x = city.intersections[static_cast<std::size_t>(r) % city.intersections.size()];
+    for (std::size_t plan = 0; plan < x.plans.size(); ++plan) {
+      const Plan& p = x.plans[plan];
+      if (p.type != PlanType::kFixed && p.type != PlanType::kActuated) continue;
+      // The longest a group can wait: every phase at its longest green (or min green), each
+      // followed by the longest clearance, plus one tick of lateness per change.
+      Duration bound{0};
+      for (const auto& phase : p.phases) {
+        Duration longest = phase.green;
+        Duration clearance{0};
+        for (std::size_t g : phase.groups) {
+          const auto& t = x.groups[g].timing;
+          longest = std::max(
+              {longest, t.min_green, p.type == PlanType::kActuated ? t.max_green : Duration{0}});
+          clearance = std::max(clearance, t.yellow + t.red_clearance);
+        }
+        bound += longest + clearance + 2 * milliseconds(200);
+      }
+      MonoTime now =
+          MonoTime(seconds(2'000'000 + std::uniform_int_distribution<int>(0, 86'400)(rng)));
+      IntersectionController c(x, now, Mode::kAuto, plan);
+      const std::vector<bool> calls(x.groups.size(), true);
+      const int minute = std::uniform_int_distribution<int>(0, 1439)(rng);
+      std::optional<MonoTime> cycling_since;
+      std::vector<MonoTime> last_green(x.groups.size());
+      const MonoTime end = now + 4 * bound + x.startup_flash + x.startup_all_red;
+      while (now < end) {
+        now += milliseconds(tick_ms(rng));
+        c.Step(now, calls, Day(now, minute));
+        ASSERT_FALSE(c.latched());
+        if (!cycling_since && c.stage() == Stage::kGreen) {
+          cycling_since = now;
+          std::fill(last_green.begin(), last_green.end(), now);
+        }
+        if (!cycling_since) continue;
+        for (std::size_t g = 0; g < x.groups.size(); ++g) {
+          if (c.aspects()[g] == Aspect::kGreen) last_green[g] = now;
+          ASSERT_LE(now - last_green[g], bound)
+              << x.name << " plan " << p.name << ": group " << x.groups[g].name << " has waited "
+              << ToSeconds(now - last_green[g]) << " s for its green (bound " << ToSeconds(bound)
+              << " s)";
+          ++checked;
+        }
+      }
+      ASSERT_TRUE(cycling_since) << x.name << " plan " << p.name << " never left the start-up";
+    }
+  }
+  std::printf("%s: liveness checked at %lld group-ticks\n", city.config.name.c_str(), checked);
+}
+
+TEST(ControllerProperty, EveryGroupGetsItsGreenWithinACyclePlusClearancesDrivingSchool) {
+  RunLiveness(DrivingSchool(), 200 * test::SoakFactor(), 3);
+}
+
+TEST(ControllerProperty, EveryGroupGetsItsGreenWithinACyclePlusClearancesSmallTown) {
+  RunLiveness(SmallTown(), 200 * test::SoakFactor(), 4);
+}
+
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDrivingSchool) {
+  RunRandomSequences(DrivingSchool(), test::Cases(10'000), 1);
+}
+
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleSmallTown) {
+  RunRandomSequences(SmallTown(), test::Cases(10'000), 2);
+}
+
+}  // namespace
+}  // namespace autodrive::scm

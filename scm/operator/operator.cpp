@@ -1,0 +1,159 @@
+#include "scm/operator/operator.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+
+#include "autodrive_msgs/msg/OperatorReply.h"
+
+#include "common/dds/message.h"
+#include "common/error.h"
+
+namespace autodrive::scm {
+
+namespace {
+
+constexpr std::array<std::string_view, 0> kNone{};
+constexpr std::array<std::string_view, 1> kX{"intersection"};
+constexpr std::array<std::string_view, 2> kMode{"intersection", "mode"};
+constexpr std::array<std::string_view, 2> kPlan{"intersection", "plan"};
+constexpr std::array<std::string_view, 2> kEvents{"since", "limit"};
+constexpr std::array<std::string_view, 4> kConfig{"yaml", "path", "yaml_bytes", "yaml_hash"};
+
+constexpr std::array<CommandSpec, 10> kCommands = {{
+    {"status", false, false, kNone},
+    {"intersections", false, false, kNone},
+    {"show", true, false, kX},
+    {"events", false, false, kEvents},
+    {"config_validate", false, false, kConfig},
+    {"mode", true, true, kMode},
+    {"plan", true, true, kPlan},
+    {"advance", true, true, kX},
+    {"reset", true, true, kX},
+    {"config_apply", false, true, kConfig},
+}};
+
+std::size_t Length(const char* s) { return s == nullptr ? 0 : std::char_traits<char>::length(s); }
+
+void CheckSize(std::string_view what, std::size_t size, std::size_t limit) {
+  if (size > limit) {
+    throw InputError(fmt::format("{} is {} bytes, more than the limit of {}", what, size, limit));
+  }
+}
+
+}  // namespace
+
+std::string_view ToString(ReplyCode code) {
+  switch (code) {
+    case ReplyCode::kOk:
+      return "ok";
+    case ReplyCode::kRejected:
+      return "rejected";
+    case ReplyCode::kInvalid:
+      return "invalid";
+    case ReplyCode::kFailed:
+      return "failed";
+  }
+  return "?";
+}
+
+std::uint8_t ToWire(ReplyCode code) {
+  static_assert(autodrive_msgs_msg_OperatorReply_Constants_OK == 0 &&
+                autodrive_msgs_msg_OperatorReply_Constants_REJECTED == 1 &&
+                autodrive_msgs_msg_OperatorReply_Constants_INVALID == 2 &&
+                autodrive_msgs_msg_OperatorReply_Constants_FAILED == 3);
+  switch (code) {
+    case ReplyCode::kOk:
+      return autodrive_msgs_msg_OperatorReply_Constants_OK;
+    case ReplyCode::kRejected:
+      return autodrive_msgs_msg_OperatorReply_Constants_REJECTED;
+    case ReplyCode::kInvalid:
+      return autodrive_msgs_msg_OperatorReply_Constants_INVALID;
+    case ReplyCode::kFailed:
+      return autodrive_msgs_msg_OperatorReply_Constants_FAILED;
+  }
+  return autodrive_msgs_msg_OperatorReply_Constants_FAILED;
+}
+
+ReplyCode ReplyCodeFromWire(std::uint8_t result) {
+  switch (result) {
+    case autodrive_msgs_msg_OperatorReply_Constants_OK:
+      return ReplyCode::kOk;
+    case autodrive_msgs_msg_OperatorReply_Constants_REJECTED:
+      return ReplyCode::kRejected;
+    case autodrive_msgs_msg_OperatorReply_Constants_INVALID:
+      return ReplyCode::kInvalid;
+    default:
+      return ReplyCode::kFailed;
+  }
+}
+
+std::span<const CommandSpec> Commands() { return kCommands; }
+
+const CommandSpec* FindCommand(std::string_view name) {
+  for (const auto& c : kCommands) {
+    if (c.name == name) return &c;
+  }
+  return nullptr;
+}
+
+std::string OperatorCommandNames() {
+  std::string out;
+  for (const auto& c : kCommands) out += (out.empty() ? "" : ", ") + std::string(c.name);
+  return out;
+}
+
+OperatorCommand ParseOperatorRequest(const msg::OperatorRequest& request,
+                                     const RequestLimits& limits) {
+  // Sizes first, before anything is copied.
+  const std::size_t client_bytes = Length(request.client_id);
+  CheckSize("the client_id", client_bytes, limits.client_id_bytes);
+  CheckSize("the command", Length(request.command), limits.command_bytes);
+  if (request.arguments._length > limits.arguments) {
+    throw InputError(fmt::format("the request has {} arguments, more than the limit of {}",
+                                 request.arguments._length, limits.arguments));
+  }
+  for (const auto& kv : dds::Elements(request.arguments)) {
+    const std::size_t key_bytes = Length(kv.key);
+    CheckSize("an argument key", key_bytes, limits.key_bytes);
+    const std::string_view key(kv.key ? kv.key : "", key_bytes);
+    CheckSize(fmt::format("argument \"{}\"", key), Length(kv.value),
+              key == "yaml" ? limits.config_bytes : limits.value_bytes);
+  }
+  OperatorCommand c;
+  c.client = std::string(dds::View(request.client_id));
+  c.actor = c.client;
+  c.request_id = request.request_id;
+  c.name = std::string(dds::View(request.command));
+  if (c.client.empty()) throw InputError("the request has no client_id");
+  if (c.name.empty()) throw InputError("the request has no command");
+  c.spec = FindCommand(c.name);
+  if (c.spec == nullptr) {
+    throw InputError(
+        fmt::format("unknown command \"{}\" (commands: {})", c.name, OperatorCommandNames()));
+  }
+  for (const auto& kv : dds::Elements(request.arguments)) {
+    const std::string key(dds::View(kv.key));
+    if (key.empty()) throw InputError("an argument has an empty key");
+    if (std::ranges::find(c.spec->arguments, key) == c.spec->arguments.end()) {
+      std::string allowed;
+      for (auto a : c.spec->arguments) allowed += (allowed.empty() ? "" : ", ") + std::string(a);
+      throw InputError(fmt::format("{} takes no argument \"{}\" ({})", c.name, key,
+                                   allowed.empty() ? "it takes none" : "it takes " + allowed));
+    }
+    if (!c.args.emplace(key, dds::View(kv.value)).second) {
+      throw InputError(fmt::format("argument \"{}\" is given twice", key));
+    }
+  }
+  c.intersection = c.Arg("intersection");
+  if (c.intersection.empty() && request.intersection_id != 0) {
+    c.intersection = std::to_string(request.intersection_id);
+  }
+  if (c.spec->needs_intersection && c.intersection.empty()) {
+    throw InputError(fmt::format("{} needs an intersection", c.name));
+  }
+  return c;
+}
+
+}  // namespace autodrive::scm

@@ -1,0 +1,335 @@
+// The operator commands, table-driven, in-process on a simulated clock with the real parts: the
+// Small Town's runtime, device supervision, an SQLite database in the test's folder, the
+// configuration loader, and DDS publishers on the test's own partition.
+#include "scm/operator/operator_commands.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+
+#include "common/config.h"
+#include "common/dds/participant.h"
+#include "common/test_support.h"
+#include "scm/city_bundle.h"
+#include "scm/config_loader.h"
+
+namespace autodrive::scm {
+namespace {
+
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+using ::testing::HasSubstr;
+
+/// A ConfigService over the real loader (what the daemon does, minus the swap).
+class LoaderService final : public ConfigService {
+ public:
+  explicit LoaderService(ConfigLoader& loader) : loader_(loader) {}
+  void Validate(std::string yaml, std::string label, Responder respond) override {
+    loader_.Check(
+        std::move(yaml), label, {},
+        [respond = std::move(respond)](std::unique_ptr<City> city, std::string error) {
+          respond(city ? Reply::Ok("valid: city " + city->config.name) : Reply::Rejected(error));
+        });
+  }
+  void Apply(std::string, std::string, std::string, Responder respond) override {
+    respond(Reply::Failed("not in this test"));
+  }
+
+ private:
+  ConfigLoader& loader_;
+};
+
+class OperatorCommandsTest : public ::testing::Test {
+ protected:
+  OperatorCommandsTest()
+      : dir_(std::filesystem::temp_directory_path() /
+             fmt::format("scm_commands_{}_{}", ::getpid(),
+                         ::testing::UnitTest::GetInstance()->current_test_info()->name())),
+        participant_(dds::ParticipantOptions{{}, dir_.filename().string(), {}}),
+        writers_(participant_) {
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+    persistence_ = std::make_unique<Persistence>(Store((dir_ / "scm.db").string()), nullptr);
+    bundle_ = std::make_unique<CityBundle>(
+        std::make_unique<City>(LoadCity(test::SourceDir() / "config/cities/small_town.yaml")),
+        participant_, writers_, std::vector<IntersectionStateRecord>{}, 1);
+    bundle_->Start(now_.mono);
+    publishers_ = std::make_unique<ScmPublishers>(participant_, "small_town", 42);
+    publishers_->Reset(*bundle_->runtime, "small_town");
+    loader_ = std::make_unique<ConfigLoader>(
+        participant_, writers_, persistence_->store(),
+        MapResolution{test::SourceDir() / "config/cities", test::SourceDir() / "config"}, nullptr);
+    service_ = std::make_unique<LoaderService>(*loader_);
+    control_ = std::make_unique<ControlPlane>(ControlPlaneParams{});
+  }
+  ~OperatorCommandsTest() override {
+    loader_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  /// Runs `command` now; waits for a deferred answer (running completions) if there is one.
+  Reply Run(const std::string& name, std::map<std::string, std::string> args = {}) {
+    OperatorCommand cmd;
+    cmd.client = cmd.actor = "test/client";
+    cmd.request_id = ++request_id_;
+    cmd.spec = FindCommand(name);
+    cmd.name = name;
+    cmd.args = std::move(args);
+    cmd.intersection = cmd.Arg("intersection");
+    CommandContext ctx{*bundle_->runtime,
+                       *bundle_->supervisor,
+                       *publishers_,
+                       *bundle_->lights,
+                       *bundle_->fleet,
+                       *persistence_,
+                       *service_,
+                       *control_,
+                       figures_,
+                       events_,
+                       DayClock::At(std::chrono::hours(12))};
+    std::optional<Reply> later;
+    auto reply = RunOperatorCommand(cmd, now_, ctx, [&](Reply r) { later = std::move(r); });
+    if (reply) return *reply;
+    // The loader's thread reads and builds a whole city: give it a generous deadline (the
+    // machine may be loaded), polling its completions.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!later && std::chrono::steady_clock::now() < deadline) {
+      persistence_->Flush();
+      persistence_->RunCompletions();
+      loader_->RunCompletions();
+      if (!later) std::this_thread::sleep_for(milliseconds(1));
+    }
+    EXPECT_TRUE(later) << name << " never answered";
+    return later.value_or(Reply::Failed("no answer"));
+  }
+  /// Lets the city run for `d` (every light reporting what it is told).
+  void RunFor(Duration d) {
+    const MonoTime end = now_.mono + d;
+    while (now_.mono < end) {
+      now_.mono += milliseconds(20);
+      now_.wire += milliseconds(20);
+      for (std::size_t h = 0; h < bundle_->runtime->heads().size(); ++h) {
+        DeviceReportView r;
+        r.device_id = names_.emplace_back(bundle_->runtime->heads()[h].name);
+        r.city = "small_town";
+        r.host = "infra/test";
+        r.displayed = bundle_->runtime->AspectOfHead(h);
+        bundle_->supervisor->Report(r, now_.mono, *bundle_->runtime, events_);
+      }
+      bundle_->supervisor->Check(now_.mono, bundle_->lights->sent(), *bundle_->runtime, events_);
+      bundle_->runtime->Step(now_, DayClock::At(std::chrono::hours(12)), nullptr, events_);
+      bundle_->lights->Sync(*bundle_->runtime, *bundle_->supervisor, now_.mono);
+      names_.clear();
+    }
+  }
+  const IntersectionController& Controller(const std::string& name) {
+    return *bundle_->runtime->intersections()[*bundle_->runtime->Find(name)].controller;
+  }
+
+  std::filesystem::path dir_;
+  dds::Participant participant_;
+  SignalCommandWriters writers_;
+  ClockReading now_{MonoFromSeconds(1000), TimeFromSeconds(1'795'000'000), 0};
+  std::unique_ptr<Persistence> persistence_;
+  std::unique_ptr<CityBundle> bundle_;
+  std::unique_ptr<ScmPublishers> publishers_;
+  std::unique_ptr<ConfigLoader> loader_;
+  std::unique_ptr<LoaderService> service_;
+  std::unique_ptr<ControlPlane> control_;
+  DaemonFigures figures_;
+  EventRecorder events_;
+  std::deque<std::string> names_;
+  std::uint64_t request_id_ = 0;
+};
+
+/// The arguments of a configuration command for `yaml`, with the length and hash a client sends.
+std::map<std::string, std::string> ConfigArgs(const std::string& yaml, std::string path = "") {
+  std::map<std::string, std::string> args{{"yaml", yaml},
+                                          {"yaml_bytes", std::to_string(yaml.size())},
+                                          {"yaml_hash", ContentHash(yaml)}};
+  if (!path.empty()) args["path"] = std::move(path);
+  return args;
+}
+
+TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
+  RunFor(seconds(8));  // through the start-up sequence, into the plan
+  for (int i = 0; i < 7; ++i) {
+    persistence_->AppendEvent(EventRecord{0, now_.wire, Severity::kInfo, "scm", "test_event",
+                                          "event " + std::to_string(i), IntersectionId(0), "",
+                                          "scm", false});
+  }
+  struct Case {
+    std::string command;
+    std::map<std::string, std::string> args;
+    ReplyCode code;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {"status", {}, ReplyCode::kOk, "city small_town: 2 signalised intersections, 7 lights"},
+      {"intersections", {}, ReplyCode::kOk, "2 signalised intersections"},
+      {"show", {{"intersection", "centre"}}, ReplyCode::kOk, "centre: id="},
+      {"show",
+       {{"intersection", "nowhere"}},
+       ReplyCode::kInvalid,
+       "unknown intersection \"nowhere\" (signalised: "},
+      {"mode",
+       {{"intersection", "centre"}, {"mode", "sideways"}},
+       ReplyCode::kInvalid,
+       "unknown mode \"sideways\""},
+      {"advance", {{"intersection", "centre"}}, ReplyCode::kRejected, "advance needs manual mode"},
+      {"mode",
+       {{"intersection", "centre"}, {"mode", "manual"}},
+       ReplyCode::kOk,
+       "centre mode manual"},
+      {"advance", {{"intersection", "centre"}}, ReplyCode::kOk, "advancing"},
+      {"plan",
+       {{"intersection", "north_t"}, {"plan", "evening"}},
+       ReplyCode::kOk,
+       "north_t runs plan evening from the next safe point"},
+      {"plan",
+       {{"intersection", "north_t"}, {"plan", "nope"}},
+       ReplyCode::kInvalid,
+       "north_t has no plan \"nope\""},
+      {"reset",
+       {{"intersection", "centre"}},
+       ReplyCode::kRejected,
+       "centre is not in fail-safe flash; nothing to reset"},
+      {"events", {{"limit", "0"}}, ReplyCode::kInvalid, "limit must be a number in 1..10000"},
+      {"events", {{"limit", "5"}}, ReplyCode::kOk, "5 events"},
+      {"config_validate", ConfigArgs("name: x\n"), ReplyCode::kRejected, "map"},
+      {"config_validate", ConfigArgs("name: x\nmap: /etc/passwd\nintersections: []\n", "evil.yaml"),
+       ReplyCode::kRejected, "is outside the SCM's configuration root"},
+      {"config_validate",
+       {{"yaml", "name: x\n"}, {"yaml_bytes", "9999"}, {"yaml_hash", ContentHash("name: x\n")}},
+       ReplyCode::kInvalid,
+       "the configuration arrived with 8 bytes but was sent with 9999"},
+      // Length and hash are required: a client that leaves them out could have a text cut at a
+      // NUL byte applied.
+      {"config_validate",
+       {{"yaml", "name: x\n"}},
+       ReplyCode::kInvalid,
+       "config_validate needs yaml_bytes (the text's length in bytes) and yaml_hash"},
+      {"config_apply",
+       {{"yaml", "name: x\n"}, {"yaml_bytes", "8"}},
+       ReplyCode::kInvalid,
+       "config_apply needs yaml_bytes"},
+      {"config_validate",
+       {{"yaml", "name: x\n"}, {"yaml_bytes", "8"}, {"yaml_hash", "0123456789abcdef"}},
+       ReplyCode::kInvalid,
+       "not the 0123456789abcdef it was sent with"},
+      {"config_validate",
+       ConfigArgs(config::internal::ReadFile(test::SourceDir() / "config/cities/small_town.yaml"),
+                  (test::SourceDir() / "config/cities/small_town.yaml").string()),
+       ReplyCode::kOk, "valid: city small_town"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.command);
+    const Reply r = Run(c.command, c.args);
+    EXPECT_EQ(r.code, c.code) << r.message;
+    EXPECT_THAT(r.message, HasSubstr(c.says));
+  }
+  EXPECT_EQ(Controller("centre").requested_mode(), Mode::kManual);
+  EXPECT_TRUE(Controller("north_t").operator_plan().has_value());
+  // State changes were logged with who, and persisted.
+  EXPECT_EQ(events_.WithCode("operator_mode").size(), 1u);
+  EXPECT_EQ(events_.WithCode("operator_mode")[0].actor, "test/client");
+  persistence_->Flush();
+  const auto states = persistence_->store().LoadIntersectionStates();
+  ASSERT_EQ(states.size(), 2u);
+}
+
+TEST_F(OperatorCommandsTest, StatusAndShowCountTheBackgroundTrafficPerApproach) {
+  RunFor(seconds(1));
+  const maps::Map& map = bundle_->city().map;
+  const maps::Intersection& centre =
+      *std::ranges::find(map.intersections, "centre", &maps::Intersection::name);
+  ASSERT_EQ(centre.name, "centre");
+  // Two SUMO cars on the centre's east approach (one waiting, one entering the box), one on
+  // its north approach and one leaving it westwards.
+  const maps::Lane& east = map.lane(centre.approaches.at(0).ingress.at(0));
+  const maps::Lane& north = map.lane(centre.approaches.at(1).ingress.at(0));
+  const maps::Lane& leaving = map.lane(centre.approaches.at(2).egress.at(0));
+  const maps::Movement& turning = map.movement(east.movements_out.at(0));
+  const std::vector<TrafficObservation> cars = {
+      {"a", east.name, east.centreline[east.centreline.size() - 5], 0.25},
+      {"b", turning.name, turning.path[3], 0.25},
+      {"c", north.name, north.centreline[10], 0.25},
+      {"d", leaving.name, leaving.centreline[10], 0.25},
+  };
+  ASSERT_EQ(bundle_->fleet->ObserveTraffic(now_.wire, cars).recorded, 4u);
+  const auto value = [](const Reply& r, const std::string& key) {
+    for (const auto& [k, v] : r.values) {
+      if (k == key) return v;
+    }
+    return std::string("(no ") + key + ")";
+  };
+  EXPECT_EQ(value(Run("status"), "background_vehicles"), "4");
+  const Reply show = Run("show", {{"intersection", "centre"}});
+  EXPECT_EQ(value(show, "approach east"), "0 lab, 2 background vehicles");
+  EXPECT_EQ(value(show, "approach north"), "0 lab, 1 background vehicles");
+  EXPECT_EQ(value(show, "approach west"), "0 lab, 0 background vehicles");
+  EXPECT_EQ(value(show, "approach south"), "0 lab, 0 background vehicles");
+  // Not refreshed: stale after the fleet's staleness (1 s).
+  RunFor(milliseconds(1100));
+  EXPECT_EQ(value(Run("status"), "background_vehicles"), "0");
+  EXPECT_EQ(value(Run("show", {{"intersection", "centre"}}), "approach east"),
+            "0 lab, 0 background vehicles");
+}
+
+TEST_F(OperatorCommandsTest, AResetClearsTheLatchAndAsksOnlyThatIntersectionsMonitorToReset) {
+  RunFor(seconds(8));
+  const std::size_t centre = *bundle_->runtime->Find("centre");
+  const std::size_t north = *bundle_->runtime->Find("north_t");
+  // Both latched by their infrastructure monitors.
+  for (const std::string x : {"centre", "north_t"}) {
+    DeviceReportView m;
+    const std::string id = "mmu_" + x;
+    m.device_id = id;
+    m.city = "small_town";
+    m.host = "infra/test";
+    m.health = DeviceHealth::kFault;
+    bundle_->supervisor->Report(m, now_.mono, *bundle_->runtime, events_);
+  }
+  ASSERT_TRUE(Controller("centre").latched());
+  ASSERT_TRUE(Controller("north_t").latched());
+  const Reply r = Run("reset", {{"intersection", "north_t"}});
+  EXPECT_EQ(r.code, ReplyCode::kOk) << r.message;
+  EXPECT_FALSE(Controller("north_t").latched());
+  EXPECT_TRUE(Controller("centre").latched()) << "a reset reaches only what it names";
+  const auto resets = events_.WithCode("failsafe_reset");
+  ASSERT_EQ(resets.size(), 1u);
+  EXPECT_THAT(resets[0].message, HasSubstr("infrastructure monitor reset (command 1)"));
+  (void)centre;
+  (void)north;
+}
+
+TEST_F(OperatorCommandsTest, ARefusedResetChangesNothing) {
+  RunFor(seconds(8));
+  // signal_5 (centre) goes silent: lost, and centre latches.
+  const MonoTime end = now_.mono + seconds(1);
+  while (now_.mono < end) {
+    now_.mono += milliseconds(20);
+    for (std::size_t h = 0; h < bundle_->runtime->heads().size(); ++h) {
+      if (bundle_->runtime->heads()[h].id.value() == 5) continue;
+      DeviceReportView rep;
+      rep.device_id = names_.emplace_back(bundle_->runtime->heads()[h].name);
+      rep.city = "small_town";
+      rep.host = "infra/test";
+      rep.displayed = bundle_->runtime->AspectOfHead(h);
+      bundle_->supervisor->Report(rep, now_.mono, *bundle_->runtime, events_);
+    }
+    bundle_->supervisor->Check(now_.mono, bundle_->lights->sent(), *bundle_->runtime, events_);
+  }
+  ASSERT_TRUE(Controller("centre").latched());
+  const Reply r = Run("reset", {{"intersection", "centre"}});
+  EXPECT_EQ(r.code, ReplyCode::kRejected);
+  EXPECT_THAT(r.message, HasSubstr("signal_5 is still lost; reset refused"));
+  EXPECT_TRUE(Controller("centre").latched());
+  EXPECT_TRUE(events_.WithCode("failsafe_reset").empty());
+}
+
+}  // namespace
+}  // namespace autodrive::scm

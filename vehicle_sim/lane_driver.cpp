@@ -1,0 +1,278 @@
+#include "vehicle_sim/lane_driver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace autodrive::vehicle_sim {
+
+namespace {
+
+double PolylineLength(const maps::Polyline& p) {
+  double length = 0;
+  for (std::size_t i = 0; i + 1 < p.size(); ++i) length += (p[i + 1] - p[i]).norm();
+  return length;
+}
+
+double DistanceToPolyline(const maps::Polyline& p, const Eigen::Vector2d& q) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < p.size(); ++i) {
+    const Eigen::Vector2d d = p[i + 1] - p[i];
+    const double n2 = d.squaredNorm();
+    const double t = n2 > 0 ? std::clamp((q - p[i]).dot(d) / n2, 0.0, 1.0) : 0.0;
+    best = std::min(best, (p[i] + t * d - q).norm());
+  }
+  return best;
+}
+
+}  // namespace
+
+LaneDriver::LaneDriver(const maps::Map& map, const DriverOptions& options)
+    : map_(&map), options_(options), rng_(options.seed) {}
+
+double LaneDriver::PieceLength(const Piece& piece) const { return PolylineLength(*piece.path); }
+
+void LaneDriver::Localise(const RigidTransform2& X_MV) {
+  // The nearest centreline point whose direction agrees with the car's heading.
+  const Eigen::Vector2d p = X_MV.translation();
+  double best = std::numeric_limits<double>::infinity();
+  const maps::Lane* lane = nullptr;
+  for (const maps::Lane& l : map_->lanes) {
+    for (std::size_t i = 0; i + 1 < l.centreline.size(); ++i) {
+      const Eigen::Vector2d a = l.centreline[i];
+      const Eigen::Vector2d d = l.centreline[i + 1] - a;
+      if (std::abs(WrapAngle(std::atan2(d.y(), d.x()) - X_MV.yaw())) > 1.0) continue;
+      const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+      const double distance = (a + t * d - p).norm();
+      if (distance < best) {
+        best = distance;
+        lane = &l;
+      }
+    }
+  }
+  route_.clear();
+  if (lane == nullptr) return;
+  route_.push_back({&lane->centreline, lane, nullptr, 0.0});
+  progress_s_ = 0.0;
+  Extend();
+  progress_s_ = Project(p);
+}
+
+void LaneDriver::Extend() {
+  const auto end_s = [&] { return route_.back().start_s + PieceLength(route_.back()); };
+  while (!route_.empty() && end_s() < progress_s_ + 2.0) {
+    const Piece& last = route_.back();
+    const double start = end_s();
+    if (last.movement != nullptr) {
+      const maps::Lane& to = map_->lane(last.movement->to);
+      route_.push_back({&to.centreline, &to, nullptr, start});
+      continue;
+    }
+    const maps::Lane& lane = *last.lane;
+    if (!lane.movements_out.empty()) {
+      std::uniform_int_distribution<std::size_t> pick(0, lane.movements_out.size() - 1);
+      const maps::Movement& m = map_->movement(lane.movements_out[pick(rng_)]);
+      route_.push_back({&m.path, nullptr, &m, start});
+    } else if (!lane.successors.empty()) {
+      std::uniform_int_distribution<std::size_t> pick(0, lane.successors.size() - 1);
+      const maps::Lane& next = map_->lane(lane.successors[pick(rng_)]);
+      route_.push_back({&next.centreline, &next, nullptr, start});
+    } else {
+      break;  // a dead end: the car stops at its end
+    }
+  }
+  // Forget what lies well behind.
+  while (route_.size() > 1 && route_[1].start_s < progress_s_ - 1.0) route_.pop_front();
+}
+
+Eigen::Vector2d LaneDriver::PointAt(double s) const {
+  for (const Piece& piece : route_) {
+    const maps::Polyline& p = *piece.path;
+    double at = piece.start_s;
+    for (std::size_t i = 0; i + 1 < p.size(); ++i) {
+      const double n = (p[i + 1] - p[i]).norm();
+      if (s <= at + n || (&piece == &route_.back() && i + 2 == p.size())) {
+        const double t = n > 0 ? std::clamp((s - at) / n, 0.0, 1.0) : 0.0;
+        return p[i] + t * (p[i + 1] - p[i]);
+      }
+      at += n;
+    }
+  }
+  return route_.back().path->back();
+}
+
+double LaneDriver::Project(const Eigen::Vector2d& q) const {
+  // The nearest route point within a window around the current progress.
+  double best_d = std::numeric_limits<double>::infinity();
+  double best_s = progress_s_;
+  for (const Piece& piece : route_) {
+    const maps::Polyline& p = *piece.path;
+    double at = piece.start_s;
+    for (std::size_t i = 0; i + 1 < p.size(); ++i) {
+      const Eigen::Vector2d d = p[i + 1] - p[i];
+      const double n = d.norm();
+      if (at + n >= progress_s_ - 0.3 && at <= progress_s_ + 0.6 && n > 0) {
+        const double t = std::clamp((q - p[i]).dot(d) / (n * n), 0.0, 1.0);
+        const double distance = (p[i] + t * d - q).norm();
+        if (distance < best_d) {
+          best_d = distance;
+          best_s = at + t * n;
+        }
+      }
+      at += n;
+    }
+  }
+  return best_s;
+}
+
+bool LaneDriver::BoxClear(const maps::Intersection& x, const RigidTransform2& X_MV,
+                          std::span<const float> lidar) const {
+  const double half = map_->tile_size_m / 2 - options_.box_margin_m;
+  const auto beams = static_cast<double>(lidar.size());
+  for (std::size_t i = 0; i < lidar.size(); ++i) {
+    const double r = lidar[i];
+    if (!std::isfinite(r) || r > 2 * map_->tile_size_m) continue;
+    const double a = 2 * std::numbers::pi * static_cast<double>(i) / beams;
+    const Eigen::Vector2d p =
+        X_MV * Eigen::Vector2d(options_.lidar_x_m + r * std::cos(a), r * std::sin(a));
+    const Eigen::Vector2d d = p - x.centre;
+    if (std::abs(d.x()) >= half || std::abs(d.y()) >= half) continue;
+    // On a path through the box (the poles of its lights and signs stand beside them).
+    for (const MovementId m : x.movements) {
+      if (DistanceToPolyline(map_->movement(m).path, p) < options_.half_width_m + 0.05) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+double LaneDriver::GapAhead(const RigidTransform2& X_MV, std::span<const float> lidar,
+                            double front_s, double range) const {
+  const double corridor = options_.half_width_m + options_.path_margin_m;
+  const auto beams = static_cast<double>(lidar.size());
+  double gap = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < lidar.size(); ++i) {
+    const double r = lidar[i];
+    if (!std::isfinite(r) || r > range + options_.front_overhang_m) continue;
+    const double a = 2 * std::numbers::pi * static_cast<double>(i) / beams;
+    const Eigen::Vector2d q =
+        X_MV * Eigen::Vector2d(options_.lidar_x_m + r * std::cos(a), r * std::sin(a));
+    // The nearest point of the route ahead of the front (up to `range`), within the corridor.
+    for (const Piece& piece : route_) {
+      const maps::Polyline& p = *piece.path;
+      double at = piece.start_s;
+      for (std::size_t k = 0; k + 1 < p.size(); ++k) {
+        const Eigen::Vector2d d = p[k + 1] - p[k];
+        const double n = d.norm();
+        if (n > 0 && at + n >= front_s && at <= front_s + range) {
+          const double t = std::clamp((q - p[k]).dot(d) / (n * n), 0.0, 1.0);
+          const double s = at + t * n;
+          if (s >= front_s && (p[k] + t * d - q).norm() < corridor) {
+            gap = std::min(gap, s - front_s);
+          }
+        }
+        at += n;
+      }
+    }
+  }
+  return gap;
+}
+
+DriverDecision LaneDriver::Step(
+    const RigidTransform2& X_MV,
+    const std::function<std::optional<std::int32_t>(SignalHeadId)>& lamp,
+    std::span<const float> lidar, Duration now) {
+  DriverDecision decision;
+  const Eigen::Vector2d p = X_MV.translation();
+  if (route_.empty() || (PointAt(Project(p)) - p).norm() > 0.4) Localise(X_MV);
+  if (route_.empty()) {
+    decision.reason = DriverDecision::Reason::kLost;
+    return decision;
+  }
+  progress_s_ = std::max(progress_s_ - 0.05, Project(p));
+  Extend();
+
+  // Pure pursuit towards the route point one lookahead ahead.
+  const Eigen::Vector2d target = PointAt(progress_s_ + options_.lookahead_m);
+  const Eigen::Vector2d local = X_MV.inverse() * target;
+  const double alpha = std::atan2(local.y(), local.x());
+  const double delta =
+      std::atan2(2 * options_.wheelbase_m * std::sin(alpha), std::max(local.norm(), 0.05));
+  decision.steering = std::clamp(delta / options_.steering_limit_rad, -1.0, 1.0);
+
+  // The speed: cruise, unless a stop line or something ahead says otherwise.
+  double throttle = options_.cruise_throttle;
+  const double front_s = progress_s_ + options_.front_overhang_m;
+  for (const Piece& piece : route_) {
+    if (piece.lane == nullptr || !piece.lane->stop_line || !piece.lane->ingress_of) continue;
+    const double to_line = piece.start_s + PieceLength(piece) - front_s;
+    if (to_line < -0.05 || to_line > options_.slow_down_m + options_.stop_gap_m + 0.5) continue;
+    const maps::Intersection& x = map_->intersection(*piece.lane->ingress_of);
+    bool stop = false;
+    if (x.control == maps::Control::kSignal) {
+      // Red, yellow (unless too close to stop) or unknown: stop at the line.
+      std::optional<std::int32_t> shown;
+      for (SignalHeadId h : x.signal_heads) {
+        const maps::SignalHead& head = map_->signal_heads.at(h.value() - 1);
+        if (head.approach == piece.lane->ingress_approach) shown = lamp(h);
+      }
+      const bool green = shown && *shown == 3;
+      const bool yellow = shown && *shown == 2;
+      stop = !green && !(yellow && to_line < options_.stop_gap_m + 0.02) && to_line > 0;
+      if (stop) {
+        decision.reason = DriverDecision::Reason::kRedLight;
+      } else if (to_line > 0 && !BoxClear(x, X_MV, lidar)) {
+        // Not over the line yet: a vehicle in the box has the right of way.
+        stop = true;
+        decision.reason = DriverDecision::Reason::kGiveWay;
+      }
+    } else if (x.control == maps::Control::kStop && sign_done_for_ != piece.lane) {
+      if (to_line <= options_.stop_gap_m + 0.02) {
+        if (!stopped_at_sign_since_) stopped_at_sign_since_ = now;
+        if (now - *stopped_at_sign_since_ >= options_.stop_sign_wait && BoxClear(x, X_MV, lidar)) {
+          sign_done_for_ = piece.lane;
+          stopped_at_sign_since_.reset();
+        }
+      }
+      stop = sign_done_for_ != piece.lane;
+      if (stop) decision.reason = DriverDecision::Reason::kStopSign;
+    }
+    if (stop) {
+      const double room = to_line - options_.stop_gap_m;
+      throttle =
+          std::min(throttle, std::clamp(options_.cruise_throttle * room / options_.slow_down_m, 0.0,
+                                        options_.cruise_throttle));
+      if (room < 0.01) throttle = 0.0;
+    }
+    break;  // only the next stop line matters
+  }
+  // Something on its path close ahead (a car, a box): slow down, then stop. Only what is on
+  // its own path counts: in an intersection's box, vehicles waiting at the other stop lines
+  // are close, and often straight ahead, but not in its way.
+  if (!lidar.empty()) {
+    const double gap = GapAhead(X_MV, lidar, front_s, 2 * options_.obstacle_stop_m);
+    if (std::isfinite(gap)) {
+      const double scale =
+          std::clamp((gap - options_.obstacle_stop_m) / options_.obstacle_stop_m, 0.0, 1.0);
+      if (options_.cruise_throttle * scale < throttle) {
+        throttle = options_.cruise_throttle * scale;
+        decision.reason = DriverDecision::Reason::kObstacle;
+      }
+    }
+  }
+  decision.throttle = throttle;
+  return decision;
+}
+
+std::string LaneDriver::lane_name() const {
+  for (const Piece& piece : route_) {
+    if (piece.lane != nullptr && piece.start_s + PieceLength(piece) >= progress_s_) {
+      return piece.lane->name;
+    }
+  }
+  return {};
+}
+
+}  // namespace autodrive::vehicle_sim

@@ -1,0 +1,110 @@
+#pragma once
+/// @file
+/// A small driver that keeps a car moving on the map's lanes: pure pursuit along the lane
+/// centrelines and the movements through intersections (a random choice at each, from a seeded
+/// engine), stopping at the stop line when its light is red or yellow, stopping at stop signs
+/// and going on once nothing is in the intersection's box, and stopping for whatever its LIDAR
+/// sees close ahead. It knows only what a user's
+/// code on the real car would: the map, its pose (IPS position and IMU heading), the lamps'
+/// states and its LIDAR scan. `autodrive-example-driver` runs it over DDS for every car of a
+/// city; the main job (`scripts/run-city`) uses it so that the simulated city is alive with no
+/// user code.
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <optional>
+#include <random>
+#include <span>
+#include <string>
+
+#include "common/geometry.h"
+#include "common/ids.h"
+#include "common/time.h"
+#include "maps/map.h"
+
+namespace autodrive::vehicle_sim {
+
+struct DriverOptions {
+  double cruise_throttle = 0.6;  ///< normalised throttle on open road (0.6 x 0.26 m/s)
+  double lookahead_m = 0.25;     ///< pure pursuit's lookahead distance
+  double wheelbase_m = 0.14154;
+  double steering_limit_rad = 0.5236;
+  double front_overhang_m = 0.2297;  ///< rear axle to the front of the body
+  double stop_gap_m = 0.03;          ///< the front stops this far before a stop line
+  double slow_down_m = 0.3;          ///< throttle falls linearly over this distance to a stop
+  /// What its LIDAR sees on its own path ahead (within its half width plus `path_margin_m` of
+  /// the route it drives): it slows down from twice this gap (front bumper to the obstacle,
+  /// along the path) and stops under it.
+  double obstacle_stop_m = 0.15;
+  double half_width_m = 0.0875;  ///< half the body's width
+  double path_margin_m = 0.04;
+  Duration stop_sign_wait = std::chrono::seconds(1);
+  /// At a stop sign it goes only when its LIDAR sees nothing in the intersection's box (its
+  /// tile, less this margin): a vehicle crossing has the right of way. At a green light it
+  /// gives way the same way to what is in the box before it crosses the stop line.
+  double box_margin_m = 0.03;
+  double lidar_x_m = 0.1445;  ///< the LIDAR ahead of the rear axle (NIGEL.md)
+  std::uint64_t seed = 1;
+};
+
+/// What the driver decided, and why (for logs and tests).
+struct DriverDecision {
+  double throttle = 0.0;  ///< normalised
+  double steering = 0.0;  ///< normalised, positive left
+  enum class Reason {
+    kCruise,
+    kRedLight,
+    kStopSign,
+    kGiveWay,  ///< at a green light, for what is in the intersection's box
+    kObstacle,
+    kLost
+  } reason = Reason::kCruise;
+};
+
+/// One car's driver. Copy: yes (value type over a borrowed map); the map must outlive it.
+class LaneDriver {
+ public:
+  LaneDriver(const maps::Map& map, const DriverOptions& options);
+
+  /// The command for now. `X_MV`: the car's rear axle in the map frame. `lamp(head)`: what a
+  /// signal head shows (0 off, 1 red, 2 yellow, 3 green), absent when unknown (treated as
+  /// red). `lidar`: the newest scan's ranges, beam i at i degrees counter-clockwise from the
+  /// car's front (Nigel's LIDAR as published), empty when there is none.
+  DriverDecision Step(const RigidTransform2& X_MV,
+                      const std::function<std::optional<std::int32_t>(SignalHeadId)>& lamp,
+                      std::span<const float> lidar, Duration now);
+
+  /// The lane the car is on or heading to (for logs), empty before the first step.
+  [[nodiscard]] std::string lane_name() const;
+
+ private:
+  struct Piece {
+    const maps::Polyline* path = nullptr;
+    const maps::Lane* lane = nullptr;          ///< a lane, or
+    const maps::Movement* movement = nullptr;  ///< a movement through an intersection
+    double start_s = 0.0;                      ///< arc length of the route where this piece starts
+  };
+  void Localise(const RigidTransform2& X_MV);
+  void Extend();
+  // Point of the route at arc length s, and the arc length of the route point nearest to p.
+  [[nodiscard]] Eigen::Vector2d PointAt(double s) const;
+  [[nodiscard]] double Project(const Eigen::Vector2d& p) const;
+  [[nodiscard]] double PieceLength(const Piece& piece) const;
+  [[nodiscard]] bool BoxClear(const maps::Intersection& x, const RigidTransform2& X_MV,
+                              std::span<const float> lidar) const;
+  // The gap from its front bumper, along its route, to the nearest LIDAR point on its path
+  // within `range` of it (infinity when there is none).
+  [[nodiscard]] double GapAhead(const RigidTransform2& X_MV, std::span<const float> lidar,
+                                double front_s, double range) const;
+
+  const maps::Map* map_;
+  DriverOptions options_;
+  std::mt19937_64 rng_;
+  std::deque<Piece> route_;
+  double progress_s_ = 0.0;  // arc length of the rear axle along the route
+  std::optional<Duration> stopped_at_sign_since_;
+  const maps::Lane* sign_done_for_ = nullptr;  // the stop-sign lane already stopped at
+};
+
+}  // namespace autodrive::vehicle_sim
