@@ -622,6 +622,12 @@ Document ParseDocument(const std::string& yaml, std::string name, std::string_vi
   return document;
 }
 
+}  // namespace autodrive::config::internal
+
+namespace autodrive::config {
+
+using internal::ErrnoText;
+
 std::string ReadFile(const std::filesystem::path& path) {
   const auto fail = [&](int error) {
     throw ConfigError(path.string() + ": cannot read file (" + ErrnoText(error) + ")");
@@ -652,4 +658,4 @@ void WriteFile(const std::filesystem::path& path, std::string_view text) {
   if (written != text.size()) fail(write_error);
 }
 
-}  // namespace autodrive::config::internal
+}  // namespace autodrive::config

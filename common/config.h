@@ -138,6 +138,12 @@ struct ForeignSection {
   bool operator==(const ForeignSection&) const = default;
 };
 
+/// The bytes of a file (a city file, a log a test reads back); throws ConfigError
+/// "PATH: cannot read file (reason)".
+[[nodiscard]] std::string ReadFile(const std::filesystem::path& path);
+/// Writes a file whole; throws ConfigError "PATH: cannot write file (reason)".
+void WriteFile(const std::filesystem::path& path, std::string_view text);
+
 namespace internal {
 
 class KeyLister;
@@ -224,10 +230,6 @@ struct Document {
 /// (missing is an error; other top-level keys are allowed). Throws ConfigError.
 [[nodiscard]] Document ParseDocument(const std::string& yaml, std::string name,
                                      std::string_view key);
-/// The bytes of a file; throws ConfigError "PATH: cannot read file (reason)".
-[[nodiscard]] std::string ReadFile(const std::filesystem::path& path);
-/// Writes a file; throws ConfigError "PATH: cannot write file (reason)".
-void WriteFile(const std::filesystem::path& path, std::string_view text);
 
 // Type traits.
 template <typename T>
@@ -659,7 +661,7 @@ template <Serializable T>
 /// if the file cannot be read (message names the path) or its contents are bad.
 template <Serializable T>
 [[nodiscard]] T LoadFile(const std::filesystem::path& path, std::string_view key = {}) {
-  return LoadString<T>(internal::ReadFile(path), path.string(), key);
+  return LoadString<T>(ReadFile(path), path.string(), key);
 }
 
 /// The YAML text of `value`: a block mapping with the keys in declaration order, every key
@@ -678,7 +680,7 @@ template <Serializable T>
 /// file cannot be written (message names the path) or as `SaveString`.
 template <Serializable T>
 void SaveFile(const T& value, const std::filesystem::path& path) {
-  internal::WriteFile(path, SaveString(value));
+  WriteFile(path, SaveString(value));
 }
 
 }  // namespace autodrive::config

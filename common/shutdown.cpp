@@ -3,6 +3,7 @@
 #include <poll.h>
 #include <pthread.h>
 #include <signal.h>
+#include <spdlog/spdlog.h>
 #include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
@@ -29,6 +30,12 @@ sigset_t WatchedSignals() {
 }
 
 }  // namespace
+
+ShutdownSignals::ShutdownSignals(std::function<void()> stop)
+    : ShutdownSignals([stop = std::move(stop)](int sig) {
+        spdlog::info("signal {}: stopping", sig);
+        stop();
+      }) {}
 
 ShutdownSignals::ShutdownSignals(std::function<void(int)> on_signal)
     : on_signal_(std::move(on_signal)) {

@@ -24,6 +24,8 @@ namespace autodrive {
 class ShutdownSignals {
  public:
   explicit ShutdownSignals(std::function<void(int)> on_signal);
+  /// Every program's use: logs "signal N: stopping" (info) and calls `stop` once per signal.
+  explicit ShutdownSignals(std::function<void()> stop);
   ShutdownSignals(const ShutdownSignals&) = delete;
   ShutdownSignals& operator=(const ShutdownSignals&) = delete;
   /// Stops the waiting thread (after a callback that is running returns).

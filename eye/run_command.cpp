@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "common/dds/participant.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "eye/commands.h"
@@ -28,23 +28,20 @@ void AddRun(CLI::App& app) {
       "registers every camera again (after a camera_moved event)");
   struct Options {
     std::string config;
-    std::string partition;
     std::string log_level = "info";
     double duration_s = 0.0;
-    dds::SecurityOptions security = dds::SecurityOptions::FromEnvironment();
+    dds::ProgramOptions dds{"/autodrive/eye"};
   };
   auto o = std::make_shared<Options>();
   cmd->add_option("--config", o->config,
                   "the Eye's configuration, or a city file with an eye section")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--partition", o->partition,
-                  "DDS partition (separates cities or test runs sharing a domain)");
   cmd->add_option("--duration", o->duration_s, "stop after this many seconds (0: never)")
       ->check(CLI::Range(0.0, 1e9));
   cmd->add_option("--log-level", o->log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
-  dds::AddSecurityOptions(*cmd, o->security);
+  o->dds.Add(*cmd);
   cmd->callback([o] {
     // SIGHUP: register every camera again (after a camera_moved event, when the operator says
     // so). Blocked first, before any thread starts (the shutdown thread too), so that only
@@ -54,13 +51,10 @@ void AddRun(CLI::App& app) {
     sigaddset(&hup, SIGHUP);
     pthread_sigmask(SIG_BLOCK, &hup, nullptr);
     std::atomic<bool> stop{false};
-    ShutdownSignals signals([&](int sig) {
-      spdlog::info("signal {}: stopping", sig);
-      stop.store(true);
-    });
+    ShutdownSignals signals([&] { stop.store(true); });
     InitLogging("autodrive-eye", ParseLogLevel(o->log_level));
     const EyeConfig config = LoadEyeConfig(o->config);
-    dds::Participant participant(dds::ParticipantOptions{{}, o->partition, {}, o->security});
+    dds::Participant participant(o->dds.Participant());
     EyeService service(config, participant);
     spdlog::info("running: {} camera(s), {} car(s)", config.cameras.size(), config.vehicles.size());
     const auto start = std::chrono::steady_clock::now();

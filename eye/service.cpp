@@ -306,7 +306,7 @@ struct EyeService::Impl {
       auto& t = dds::Elements(m.vehicles)[i];
       dds::UpdateString(t.vehicle_id, v.name);
       t.tag_id = static_cast<std::uint32_t>(v.tag_id);
-      t.source = 1;  // TrackedVehicle_Constants::EYE
+      t.source = autodrive_msgs_msg_TrackedVehicle_Constants_EYE;
       t.observed = dds::ToMsg(e.stamp);
       t.pose.pose = dds::ToMsg(
           RigidTransform2(Eigen::Vector2d(e.pose.x(), e.pose.y()), e.pose.z()).ToRigidTransform3());

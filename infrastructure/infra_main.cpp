@@ -9,7 +9,7 @@
 
 #include "common/dds/clock_subscriber.h"
 #include "common/dds/participant.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
   std::string config_path;
   std::string log_level = "info";
   std::string clock_kind = "wall";
-  std::string partition;
+  dds::ProgramOptions dds_cli;  // the host's identity is /autodrive/infra/<name>
   app.add_option("--config", config_path,
                  "host configuration (YAML, e.g. config/infra/small_town.yaml)")
       ->required();
@@ -38,12 +38,7 @@ int main(int argc, char** argv) {
                  "wall: the computer's clock (real track); sim: /clock from the simulator")
       ->check(CLI::IsMember({"wall", "sim"}))
       ->capture_default_str();
-  app.add_option("--partition", partition,
-                 "DDS partition (separates cities or test runs sharing a domain; default: the "
-                 "default partition, which ROS 2 uses)");
-  // The host's identity is /autodrive/infra/<name> (the config's name) unless told otherwise.
-  auto security = dds::SecurityOptions::FromEnvironment();
-  dds::AddSecurityOptions(app, security);
+  dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -58,17 +53,13 @@ int main(int argc, char** argv) {
     if (clock_kind == "sim") sim_clock = std::make_unique<SimClock>();
     Clock* clock = sim_clock ? static_cast<Clock*>(sim_clock.get()) : &wall;
     // Before any other thread starts, so that they all inherit the blocked signals.
-    ShutdownSignals signals([&](int sig) {
-      spdlog::info("signal {}: stopping", sig);
+    ShutdownSignals signals([&] {
       wall.Interrupt();
       if (sim_clock) sim_clock->Interrupt();
     });
 
-    dds::ParticipantOptions options;
-    options.partition = partition;
-    if (security.enclave.empty()) security.enclave = "/autodrive/infra/" + config.name;
-    options.security = security;
-    dds::Participant participant(options);
+    dds_cli.SetOwnEnclave("/autodrive/infra/" + config.name);
+    dds::Participant participant(dds_cli.Participant());
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
     if (sim_clock != nullptr) {
       clock_subscriber = std::make_unique<dds::SimClockSubscriber>(participant, *sim_clock);
@@ -78,7 +69,8 @@ int main(int argc, char** argv) {
       }
     }
     spdlog::info("infra/{}: {} heads of map {} for city {}, partition '{}', {} clock", config.name,
-                 plan.heads.size(), plan.map.name, config.city, partition, ToString(clock->kind()));
+                 plan.heads.size(), plan.map.name, config.city, dds_cli.partition(),
+                 ToString(clock->kind()));
     DeviceHost host(config, std::move(plan), participant, clock->Read());
     host.Run(*clock, wall);
     return 0;

@@ -34,7 +34,7 @@ class ConfigLoaderTest : public ::testing::Test {
         *participant_, *writers_, *store_,
         MapResolution{test::SourceDir() / "config/cities", test::SourceDir()},
         [this] { woken_ = true; });
-    yaml_ = config::internal::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
+    yaml_ = config::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
   }
   void TearDown() override {
     loader_.reset();
@@ -148,7 +148,7 @@ TEST_F(ConfigLoaderTest, ReplacingACityAgainAndAgainKeepsNothingOfTheOldOnes) {
   GTEST_SKIP() << "the sanitizers' allocators do not report the heap in use";
 #else
   const std::filesystem::path grid = bench::WriteGridCity(16, dir_);
-  const std::string yaml = config::internal::ReadFile(grid);
+  const std::string yaml = config::ReadFile(grid);
   // A domain of its own: participants that other tests and programs on this machine start and
   // stop would otherwise be discovered, and their proxies come and go on this heap.
   loader_.reset();

@@ -222,7 +222,7 @@ std::unique_ptr<City> Scm::Impl::LoadStartupCity() {
   // The file, unless an operator applied a configuration since the file was last started
   // unchanged: then the applied one (it is what was running). Start-up reads are not on the
   // loop yet.
-  const std::string text = config::internal::ReadFile(options.config_path);
+  const std::string text = config::ReadFile(options.config_path);
   const std::string hash = ContentHash(text);
   Store& store = persistence->store();
   const auto history = store.ConfigHistory(1000);  // newest first

@@ -74,8 +74,7 @@ class DaemonTest : public ::testing::Test {
   /// (evening) all day.
   std::filesystem::path DrivingSchoolWithoutLights(const std::string& extra = "",
                                                    bool actuated = false) const {
-    std::string text =
-        config::internal::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
+    std::string text = config::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
     const std::string map =
         (test::SourceDir() / "config/maps/driving_school.yaml").lexically_normal().string();
     text.replace(text.find("map: ../maps/driving_school.yaml"), 32, "map: " + map);

@@ -6,7 +6,7 @@
 
 #include "common/dds/clock_subscriber.h"
 #include "common/dds/participant.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
       "STOPPING. Logs to stderr as 'YYYY-MM-DD HH:MM:SS.mmm [autodrive-scm] [level] text'. See "
       "docs/scm.md."};
   scm::ScmOptions options;
-  dds::ParticipantOptions participant_options;
+  dds::ProgramOptions dds_cli("/autodrive/scm");
   std::string config_path;
   std::string config_root;
   std::string log_level = "info";
@@ -59,10 +59,7 @@ int main(int argc, char** argv) {
                  "for the first message)")
       ->check(CLI::IsMember({"wall", "sim"}))
       ->capture_default_str();
-  app.add_option("--partition", participant_options.partition,
-                 "DDS partition (separates cities or test runs sharing a domain)");
-  app.add_option("--domain", participant_options.domain_id,
-                 "DDS domain id (default: ROS_DOMAIN_ID, else Cyclone's default)");
+  dds_cli.Add(app);
   app.add_option("--tick-ms", tick_ms,
                  "longest sleep of the control loop in ms (requests and due controllers wake it "
                  "at once; SPaT stays at 10 Hz)")
@@ -79,11 +76,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
-  auto security = dds::SecurityOptions::FromEnvironment();
-  if (security.enclave.empty()) security.enclave = "/autodrive/scm";
-  dds::AddSecurityOptions(app, security);
   CLI11_PARSE(app, argc, argv);
-  participant_options.security = security;
 
   try {
     InitLogging("autodrive-scm", ParseLogLevel(log_level));
@@ -99,12 +92,11 @@ int main(int argc, char** argv) {
     Clock& clock = sim ? static_cast<Clock&>(*sim) : wall;
     std::atomic<scm::Scm*> running{nullptr};
     // Before any other thread starts, so that they all inherit the blocked signals.
-    ShutdownSignals signals([&](int sig) {
-      spdlog::info("signal {}: stopping", sig);
+    ShutdownSignals signals([&] {
       if (auto* d = running.load()) d->Stop();
       clock.Interrupt();
     });
-    dds::Participant participant(participant_options);
+    dds::Participant participant(dds_cli.Participant());
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
     if (sim) {
       // /clock drives the control timeline; it comes over the daemon's own participant.
@@ -116,7 +108,7 @@ int main(int argc, char** argv) {
     running = &daemon;
     if (clock.interrupted()) daemon.Stop();
     spdlog::info("running city {} ({} clock, partition '{}')", daemon.city().config.name,
-                 clock_kind, participant_options.partition);
+                 clock_kind, dds_cli.partition());
     daemon.Run();
     running = nullptr;
     spdlog::info("stopped");

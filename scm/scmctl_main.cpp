@@ -16,7 +16,7 @@
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/dds/topics.h"
 #include "common/shutdown.h"
 #include "scm/config_loader.h"
@@ -54,7 +54,7 @@ int Print(const OperatorAnswer& a, bool json) {
 /// The city file's text, refused when it cannot travel intact: a string on the wire ends at
 /// its first NUL byte.
 std::string ReadCityText(const std::string& file) {
-  std::string text = config::internal::ReadFile(file);
+  std::string text = config::ReadFile(file);
   if (const auto nul = text.find('\0'); nul != std::string::npos) {
     throw InputError(
         fmt::format("{} holds a NUL byte at offset {}; a city file is text", file, nul));
@@ -72,13 +72,12 @@ int main(int argc, char** argv) {
       "AUTODRIVE_OPERATOR variable) and accepted only from the operators the city allows. Exit "
       "status: 0 ok, 1 rejected/failed, 2 invalid, 3 no SCM answered. See docs/scm.md."};
   app.require_subcommand(1);
-  dds::ParticipantOptions dds_options;
+  dds::ProgramOptions dds_cli;
   double timeout_s = 5.0;
   bool json = false;
   std::string operator_name;
   if (const char* env = std::getenv("AUTODRIVE_OPERATOR")) operator_name = env;
-  app.add_option("--partition", dds_options.partition, "DDS partition of the SCM");
-  app.add_option("--domain", dds_options.domain_id, "DDS domain id");
+  dds_cli.Add(app, "DDS partition of the SCM");
   app.add_option("--operator", operator_name,
                  "operator name for commands that change state (default: $AUTODRIVE_OPERATOR)");
   app.add_option("--timeout", timeout_s,
@@ -91,9 +90,6 @@ int main(int argc, char** argv) {
   int limit = 100;
   int count = 0;
   double duration_s = 0.0;
-  // DDS Security: an operator's identity is /autodrive/operator/<name> (docs/security.md).
-  auto security = dds::SecurityOptions::FromEnvironment();
-  dds::AddSecurityOptions(app, security);
   auto* status = app.add_subcommand("status", "the daemon's state");
   auto* intersections = app.add_subcommand("intersections", "every signalised intersection");
   auto* show = app.add_subcommand("show", "one intersection: mode, plan, groups and lights");
@@ -136,12 +132,17 @@ int main(int argc, char** argv) {
   auto* apply =
       config->add_subcommand("apply", "check a city file and make the SCM run it (operator)");
   apply->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
-  CLI11_PARSE(app, argc, argv);
-  if (security.enclave.empty()) {
-    security.enclave =
-        operator_name.empty() ? "/autodrive/viewer/scmctl" : "/autodrive/operator/" + operator_name;
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help prints and ends well; a command line scmctl cannot run is invalid (status 2), as
+    // an invalid request is, not CLI11's own numbers.
+    return app.exit(e) == 0 ? 0 : 2;
   }
-  dds_options.security = security;
+  // DDS Security: an operator's identity is /autodrive/operator/<name> (docs/security.md).
+  dds_cli.SetOwnEnclave(operator_name.empty() ? "/autodrive/viewer/scmctl"
+                                              : "/autodrive/operator/" + operator_name);
+  const dds::ParticipantOptions dds_options = dds_cli.Participant();
 
   // A city of a thousand intersections takes the SCM seconds to build (its map, its
   // controllers, its writers), more on a busy machine; the loop runs on meanwhile.

@@ -27,8 +27,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/dds/program_options.h"
 #include "common/dds/reader.h"
-#include "common/dds/security_cli.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
 #include "common/error.h"

@@ -33,7 +33,7 @@ class EyeOnline : public ScmProcesses {};
 
 TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
   // The Driving School as shipped, with the Eye's debug images on (twice a second).
-  std::string text = config::internal::ReadFile(Config("config/cities/driving_school.yaml"));
+  std::string text = config::ReadFile(Config("config/cities/driving_school.yaml"));
   const auto replace = [&](const std::string& from, const std::string& to) {
     const auto at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from;

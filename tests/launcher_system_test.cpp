@@ -29,7 +29,7 @@ class Launcher : public ScmProcesses {
   // The Driving School as shipped (its lights: config/infra/driving_school.yaml), with
   // `launch` appended and the run folder in the test's folder.
   std::string WriteCity(const std::string& launch, const std::string& lights = "") {
-    std::string text = config::internal::ReadFile(Config("config/cities/driving_school.yaml"));
+    std::string text = config::ReadFile(Config("config/cities/driving_school.yaml"));
     const auto replace = [&](const std::string& from, const std::string& to) {
       const auto at = text.find(from);
       EXPECT_NE(at, std::string::npos) << from;
@@ -93,7 +93,7 @@ class Launcher : public ScmProcesses {
     return true;
   }
 
-  std::string LauncherLog() const { return config::internal::ReadFile(dir_ / "launcher.log"); }
+  std::string LauncherLog() const { return config::ReadFile(dir_ / "launcher.log"); }
 };
 
 bool Alive(int pid) { return pid > 0 && (::kill(pid, 0) == 0 || errno != ESRCH); }
@@ -122,7 +122,7 @@ TEST_F(Launcher, UpThenDownLeavesNoProcessBehind) {
   }
   EXPECT_THAT(LauncherLog(), HasSubstr("dashboard: http://127.0.0.1:"));
   EXPECT_THAT(LauncherLog(), ::testing::Not(HasSubstr("http://127.0.0.1:0/")));
-  EXPECT_THAT(config::internal::ReadFile(dir_ / "run" / "dashboard.tokens"),
+  EXPECT_THAT(config::ReadFile(dir_ / "run" / "dashboard.tokens"),
               ::testing::ContainsRegex("\nlab [0-9a-f]{32}\n"));
   EXPECT_EQ(std::filesystem::status(dir_ / "run" / "dashboard.tokens").permissions() &
                 std::filesystem::perms::group_all,

@@ -64,7 +64,7 @@ class ScmOutside : public test::ScmProcesses {
   /// instead of 0.8 s) where a test stops the SCM for a moment: what is tested is the SCM's
   /// supervision, and the lights' own fail-safe must not fire on a loaded machine meanwhile.
   std::string PatientLights() const {
-    std::string text = config::internal::ReadFile(Config("config/infra/driving_school.yaml"));
+    std::string text = config::ReadFile(Config("config/infra/driving_school.yaml"));
     const std::string map = "../maps/driving_school.yaml";
     text.replace(text.find(map), map.size(), Config("config/maps/driving_school.yaml"));
     const std::string timeout = "scm_heartbeat_timeout_s: 0.8";

@@ -146,7 +146,7 @@ class ScmProcesses : public ::testing::Test {
   /// A shipped city file with its map named by absolute path, so that a copy in the test's
   /// folder still finds it (the path stays under the SCM's configuration root).
   std::string CityText(const std::string& city) const {
-    std::string text = config::internal::ReadFile(Config("config/cities/" + city + ".yaml"));
+    std::string text = config::ReadFile(Config("config/cities/" + city + ".yaml"));
     const std::string rel = "../maps/" + city + ".yaml";
     text.replace(text.find(rel), rel.size(), Config("config/maps/" + city + ".yaml"));
     return text;

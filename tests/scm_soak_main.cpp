@@ -173,7 +173,7 @@ int Soak(const Options& o) {
   const fs::path dir = fs::temp_directory_path() / partition;
   fs::create_directories(dir);
   const fs::path city = bench::WriteGridCity(o.grid, dir);
-  const std::string city_text = config::internal::ReadFile(city.string());
+  const std::string city_text = config::ReadFile(city.string());
   const fs::path db = dir / "soak.db";
   std::printf(
       "== soak: %d x %d grid city on the simulated clock at %.0fx real time for %.0f min "

@@ -270,7 +270,7 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   // text travels, not the path, so the test's copy lives in its own folder.
   r = Scmctl({"config", "validate", Config("config/cities/small_town.yaml")});
   EXPECT_EQ(r.code, 0) << r.text;
-  std::string bad = config::internal::ReadFile(Config("config/cities/driving_school.yaml"));
+  std::string bad = config::ReadFile(Config("config/cities/driving_school.yaml"));
   bad.replace(bad.find("- {groups: [1], green_s: 8.0}"), 29, "- {groups: [1, 3], green_s: 8.0}");
   bad.replace(bad.find("../maps/driving_school.yaml"), 27,
               Config("config/maps/driving_school.yaml"));
@@ -297,7 +297,7 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.text, HasSubstr("\"type\":\"event\""));
   r = Scmctl({"watch", "traffic"});
-  EXPECT_EQ(r.code, 105);  // CLI11: not one of spat, fleet, events
+  EXPECT_EQ(r.code, 2);  // invalid: not one of spat, fleet, events
 }
 
 TEST_F(ScmSystem, KillingTheDevicesPutsTheIntersectionInFlashOnTheDeviceTimeOut) {

@@ -73,7 +73,7 @@ bool SteadyRed(const LampHistory& h, double t, double before) {
 // Without `lab_cars`, the lab's cars are left out of SUMO (`lab_cars.source: none`) and SUMO's
 // out of the simulator: the lab's cars stand at their spawns, and the lights are the subject.
 std::string TestCity(const std::filesystem::path& dir, bool lab_cars = false) {
-  std::string text = config::internal::ReadFile(Config("config/cities/small_town.yaml"));
+  std::string text = config::ReadFile(Config("config/cities/small_town.yaml"));
   const auto replace = [&](const std::string& from, const std::string& to) {
     const auto at = text.find(from);
     if (at == std::string::npos) throw std::runtime_error("small_town.yaml: no " + from);
@@ -347,7 +347,7 @@ TEST_F(TrafficSystem, TwoLockstepRunsWithTheSameSeedPublishTheSameObjects) {
                         "--log-level", "warn"});
     EXPECT_EQ(sim.Wait(std::chrono::minutes(5)), 0);
     EXPECT_EQ(cosim.Wait(seconds(60)), 0);
-    return config::internal::ReadFile(log);
+    return config::ReadFile(log);
   };
   const std::string a = run("a"), b = run("b");
   EXPECT_GT(std::count(a.begin(), a.end(), '\n'), 25000);  // 30 vehicles, ~1,000 steps

@@ -15,7 +15,7 @@
 
 #include "common/dds/clock_subscriber.h"
 #include "common/dds/participant.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/error.h"
 #include "common/logging.h"
 #include "common/shutdown.h"

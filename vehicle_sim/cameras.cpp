@@ -107,8 +107,8 @@ void SimCameras::Snapshot(const World& world, std::span<const CarLights> lights,
     car.look = looks_[i];
     const CarLights l = i < lights.size() ? lights[i] : CarLights{};
     car.headlights = l.headlights != 0;
-    car.left_indicator = l.indicators == 1 || l.indicators == 3;
-    car.right_indicator = l.indicators == 2 || l.indicators == 3;
+    car.left_indicator = l.left_indicator();
+    car.right_indicator = l.right_indicator();
   }
   lamps_.assign(lamps.begin(), lamps.end());
   traffic_.assign(traffic.begin(), traffic.end());

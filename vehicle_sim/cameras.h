@@ -29,12 +29,23 @@ namespace autodrive::vehicle_sim {
 
 class World;
 
+/// The devkit's values of `indicators_command` (std_msgs/Int32).
+enum class Indicators : std::int32_t { kOff = 0, kLeft = 1, kRight = 2, kBoth = 3 };
+
 /// What a car's lights do, as its `headlights_command` and `indicators_command` last said
-/// (the devkit's values: headlights 0 off, else on; indicators 0 off, 1 left, 2 right,
-/// 3 both).
+/// (the devkit's wire values: headlights 0 off, else on; indicators as `Indicators`).
 struct CarLights {
   std::int32_t headlights = 0;
   std::int32_t indicators = 0;
+
+  [[nodiscard]] bool left_indicator() const {
+    return indicators == static_cast<std::int32_t>(Indicators::kLeft) ||
+           indicators == static_cast<std::int32_t>(Indicators::kBoth);
+  }
+  [[nodiscard]] bool right_indicator() const {
+    return indicators == static_cast<std::int32_t>(Indicators::kRight) ||
+           indicators == static_cast<std::int32_t>(Indicators::kBoth);
+  }
 };
 
 /// One camera of the simulation.

@@ -5,6 +5,8 @@
 #include <limits>
 #include <numbers>
 
+#include "common/aspect.h"
+
 namespace autodrive::vehicle_sim {
 
 namespace {
@@ -213,13 +215,16 @@ DriverDecision LaneDriver::Step(
     bool stop = false;
     if (x.control == maps::Control::kSignal) {
       // Red, yellow (unless too close to stop) or unknown: stop at the line.
-      std::optional<std::int32_t> shown;
+      std::optional<Aspect> shown;
       for (SignalHeadId h : x.signal_heads) {
         const maps::SignalHead& head = map_->signal_heads.at(h.value() - 1);
-        if (head.approach == piece.lane->ingress_approach) shown = lamp(h);
+        if (head.approach == piece.lane->ingress_approach) {
+          const std::optional<std::int32_t> wire = lamp(h);
+          shown = wire ? AspectFromWire(*wire) : std::nullopt;
+        }
       }
-      const bool green = shown && *shown == 3;
-      const bool yellow = shown && *shown == 2;
+      const bool green = shown == Aspect::kGreen;
+      const bool yellow = shown == Aspect::kYellow;
       stop = !green && !(yellow && to_line < options_.stop_gap_m + 0.02) && to_line > 0;
       if (stop) {
         decision.reason = DriverDecision::Reason::kRedLight;

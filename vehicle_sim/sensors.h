@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Nigel's sensors, each at its own rate and with its mounting (../shared/NIGEL.md): actuator
+/// Nigel's sensors, each at its own rate and with its mounting (docs/vehicle_sim.md): actuator
 /// feedback, rear-wheel encoders, IPS, IMU and the 2-D LIDAR. A `SensorSuite` per car samples
 /// them from the world after each physics step and hands out readings as plain values; the DDS
 /// service (and anything else: the benchmark, tests) turns them into messages. The cameras

@@ -16,7 +16,7 @@
 #include <CLI/CLI.hpp>
 
 #include "common/dds/participant.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/error.h"
 #include "common/ids.h"
 #include "common/logging.h"

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// What Nigel (the 1:14 car) is: geometry, masses, suspension, tyres, drive and steering, as
-/// one strict config struct whose defaults are the figures of ../shared/NIGEL.md. What the car
+/// one strict config struct whose defaults are the car's published figures. What the car
 /// is doing now is `VehicleState` (vehicle.h); the two are never mixed (MuJoCo's mjModel and
 /// mjData). See docs/vehicle_sim.md for where each figure comes from.
 ///

@@ -18,7 +18,7 @@
 #include "city/dashboard/server.h"
 
 #include "common/dds/participant.h"
-#include "common/dds/security_cli.h"
+#include "common/dds/program_options.h"
 #include "common/dds/topics.h"
 #include "common/error.h"
 #include "common/logging.h"
@@ -39,12 +39,11 @@ struct Options {
   std::string token_file;
   std::string operator_name;
   std::string run_dir;
-  std::string partition;
   std::string log_level = "info";
   std::vector<std::string> cameras;
   double camera_fps = 5.0;
   double duration_s = 0.0;
-  dds::SecurityOptions security = dds::SecurityOptions::FromEnvironment();
+  dds::ProgramOptions dds;
 };
 
 /// The map's SVG as `autodrive-map` draws it, without the movement paths (the page draws the
@@ -157,18 +156,18 @@ int Run(const Options& o) {
   std::atomic<bool> stop{false};
   std::mutex mutex;
   std::condition_variable cv;
-  ShutdownSignals signals([&](int sig) {
-    spdlog::info("signal {}: stopping", sig);
+  ShutdownSignals signals([&] {
     stop.store(true);
     cv.notify_all();
   });
 
-  dds::ParticipantOptions participant_options;
-  participant_options.partition = o.partition;
-  dds::SecurityOptions security = o.security;
-  if (security.enclave.empty()) security.enclave = "/autodrive/dashboard";
-  participant_options.security = security;
-  dds::Participant participant(participant_options);
+  // DDS Security: acting for an operator, the operator's identity; else a viewer's
+  // (docs/security.md).
+  dds::ProgramOptions dds_options = o.dds;
+  dds_options.SetOwnEnclave(server.operator_name.empty()
+                                ? "/autodrive/viewer/dashboard"
+                                : "/autodrive/operator/" + server.operator_name);
+  dds::Participant participant(dds_options.Participant());
 
   json cameras = json::array();
   for (const CameraSource& c : server.cameras)
@@ -280,10 +279,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--duration", o.duration_s, "stop after this many seconds (0: until a signal)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--partition", o.partition, "DDS partition of the city");
   app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error")
       ->capture_default_str();
-  dds::AddSecurityOptions(app, o.security);
+  o.dds.Add(app, "DDS partition of the city");
   CLI11_PARSE(app, argc, argv);
   try {
     return Run(o);

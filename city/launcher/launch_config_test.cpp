@@ -33,8 +33,7 @@ class Plan : public ::testing::Test {
 
   // The shipped small town with `extra` appended, written into the test's folder.
   std::filesystem::path City(const std::string& extra) {
-    std::string text =
-        config::internal::ReadFile(test::SourceDir() / "config/cities/small_town.yaml");
+    std::string text = config::ReadFile(test::SourceDir() / "config/cities/small_town.yaml");
     const auto replace = [&](const std::string& from, const std::string& to) {
       for (auto at = text.find(from); at != std::string::npos; at = text.find(from, at + 1)) {
         text.replace(at, from.size(), to);
@@ -105,7 +104,7 @@ TEST_F(Plan, BadFilesAreRefusedWithOneErrorNamingWhere) {
   // A misspelt key in another program's section: refused here, before anything starts.
   {
     const auto f = City(Lights());
-    std::string text = config::internal::ReadFile(f);
+    std::string text = config::ReadFile(f);
     text.replace(text.find("\ntraffic:"), 9, "\ntraffic:\n  vehicle: 3");
     std::ofstream(f) << text;
     EXPECT_THAT(test::ErrorMessage<ConfigError>([&] { (void)PlanCity(f, dir_ / "bin"); }),

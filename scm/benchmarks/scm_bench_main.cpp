@@ -357,7 +357,7 @@ void LampLatencyBenchmark(int samples, const std::string& partition, const fs::p
   const OnOneCpu pinned(cpu);
   // The Driving School with short (but legal) timings, so that a phase turns over quickly.
   const fs::path src = Source();
-  std::string city = config::internal::ReadFile(src / "config/cities/driving_school.yaml");
+  std::string city = config::ReadFile(src / "config/cities/driving_school.yaml");
   const std::string map_path = (src / "config/maps/driving_school.yaml").string();
   const auto replace = [](std::string& text, const std::string& from, const std::string& to) {
     const auto at = text.find(from);
@@ -372,7 +372,7 @@ void LampLatencyBenchmark(int samples, const std::string& partition, const fs::p
   replace(city, "start_up: {flash_s: 3.0, all_red_s: 2.0}",
           "start_up: {flash_s: 1.0, all_red_s: 1.0}");
   { std::ofstream(dir / "fast_school.yaml") << city; }
-  std::string infra = config::internal::ReadFile(src / "config/infra/driving_school.yaml");
+  std::string infra = config::ReadFile(src / "config/infra/driving_school.yaml");
   replace(infra, "map: ../maps/driving_school.yaml", "map: " + map_path);
   { std::ofstream(dir / "infra.yaml") << infra; }
   ChildProcess lights({Bin("autodrive-infra"), "--config", (dir / "infra.yaml").string(),

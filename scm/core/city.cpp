@@ -629,7 +629,7 @@ City LoadCityString(const std::string& yaml, const std::string& source,
 }
 
 City LoadCity(const std::filesystem::path& path) {
-  const std::string text = config::internal::ReadFile(path);
+  const std::string text = config::ReadFile(path);
   City city = LoadCityString(text, path.string(), path.parent_path());
   city.config_path = path;
   return city;

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// The city model the SCM runs: the city file checked against its map and the signal safety
-/// rules (../shared/DESIGN.md, "Signal safety"), with every duration in lab time. Immutable once
+/// rules (docs/scm.md, "Safety"), with every duration in lab time. Immutable once
 /// built; controllers and the conflict monitor borrow it.
 
 #include <cstddef>

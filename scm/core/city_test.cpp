@@ -56,7 +56,7 @@ TEST(City, ConfigRoundTrips) {
 
 /// Loads the Driving School config with `edit` applied to its text.
 std::string LoadError(const std::string& from, const std::string& to) {
-  std::string text = config::internal::ReadFile(CitiesDir() / "driving_school.yaml");
+  std::string text = config::ReadFile(CitiesDir() / "driving_school.yaml");
   const auto pos = text.find(from);
   EXPECT_NE(pos, std::string::npos) << from;
   if (pos == std::string::npos) return "";
@@ -72,7 +72,7 @@ TEST(City, RefusesTwoPublishersOfTheIpsTopics) {
               HasSubstr("eye.outputs.ips: the simulator (the sim section) publishes every car's "
                         "ips topic, so the Eye may not"));
   // Without the simulator's cars the Eye is the lab's IPS.
-  const std::string text = config::internal::ReadFile(CitiesDir() / "driving_school.yaml");
+  const std::string text = config::ReadFile(CitiesDir() / "driving_school.yaml");
   std::string eye_only = text.substr(0, text.find("\nsim:\n")) + text.substr(text.find("\neye:\n"));
   eye_only.replace(eye_only.find("eye:\n  cameras:"), 15,
                    "eye:\n  outputs: {ips: true}\n  cameras:");

@@ -221,7 +221,7 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
        ReplyCode::kInvalid,
        "not the 0123456789abcdef it was sent with"},
       {"config_validate",
-       ConfigArgs(config::internal::ReadFile(test::SourceDir() / "config/cities/small_town.yaml"),
+       ConfigArgs(config::ReadFile(test::SourceDir() / "config/cities/small_town.yaml"),
                   (test::SourceDir() / "config/cities/small_town.yaml").string()),
        ReplyCode::kOk, "valid: city small_town"},
   };
