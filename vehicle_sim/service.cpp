@@ -1,6 +1,5 @@
 #include "vehicle_sim/service.h"
 
-#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -9,12 +8,12 @@
 #include <functional>
 #include <mutex>
 #include <ostream>
-#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "common/dds/conversions.h"
+#include "common/dds/lockstep.h"
 #include "common/dds/messages.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
@@ -199,9 +198,8 @@ struct SimService::Impl {
   // Car and object (its id) touching: when they last touched.
   std::map<std::pair<int, std::string>, Duration> touching;
   std::atomic<std::int64_t> traffic_collisions{0};
-  // Lockstep only.
-  std::unique_ptr<dds::Writer<msg::Header>> step_writer;
-  std::unique_ptr<dds::Reader<msg::Header>> done_reader;
+  // Lockstep only: the protocol's server side (common/dds/lockstep.h).
+  std::unique_ptr<dds::LockstepServer> lockstep;
 
   Impl(const dds::Participant& participant, const SimCity& city, const maps::Map& map,
        const ServiceOptions& o)
@@ -257,8 +255,7 @@ struct SimService::Impl {
           std::make_unique<dds::Reader<msg::TrafficObjects>>(participant, topics::Traffic());
     }
     if (o.mode == SimMode::kLockstep) {
-      step_writer = std::make_unique<dds::Writer<msg::Header>>(participant, topics::SimStep());
-      done_reader = std::make_unique<dds::Reader<msg::Header>>(participant, topics::SimStepDone());
+      lockstep = std::make_unique<dds::LockstepServer>(participant, o.controllers);
     }
     origin = o.mode == SimMode::kRealTime ? WallClock().Now() : Time{};
   }
@@ -556,80 +553,21 @@ struct SimService::Impl {
 
   // --- Lockstep ---------------------------------------------------------------------------
 
-  // Waits until every controller has said it is there (any step_done), and the step topic has
-  // a reader per controller. False when stopped first.
-  bool WaitForControllers(const std::atomic<bool>& stop) {
-    std::set<std::string> missing(options.controllers.begin(), options.controllers.end());
-    std::set<std::string> strangers;
-    auto next_report = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    spdlog::info("lockstep: waiting for {} controller(s): {}", missing.size(),
-                 fmt::join(missing, ", "));
-    while (!missing.empty()) {
-      if (stop.load()) return false;
-      (void)done_reader->WaitForData(std::chrono::milliseconds(100));
-      while (auto m = done_reader->TakeOne()) {
-        const std::string who(dds::View((*m)->frame_id));
-        if (missing.erase(who) > 0) {
-          spdlog::info("lockstep: controller {} is here", who);
-        } else if (std::find(options.controllers.begin(), options.controllers.end(), who) ==
-                       options.controllers.end() &&
-                   strangers.insert(who).second) {
-          spdlog::warn("lockstep: '{}' answers but is not a configured controller: ignored", who);
-        }
-      }
-      if (std::chrono::steady_clock::now() >= next_report && !missing.empty()) {
-        spdlog::info("lockstep: still waiting for {}", fmt::join(missing, ", "));
-        next_report += std::chrono::seconds(5);
-      }
-    }
-    const auto n = static_cast<std::uint32_t>(options.controllers.size());
-    while (!step_writer->WaitForReaders(n, std::chrono::milliseconds(100))) {
-      if (stop.load()) return false;
-    }
-    return true;
-  }
-
-  // Makes sure every message of this step reached its readers, then announces the step
-  // (`last`: the simulator stops after it; its frame id says "end").
-  void Tick(bool last = false) {
-    constexpr auto kAckTimeout = std::chrono::seconds(2);
-    for (const auto& car : cars) car->WaitForAcks(kAckTimeout);
+  // Announces the step at the world's time once every reader acknowledged its messages (the
+  // protocol's rule 2); `last`: the simulator stops after it.
+  void AnnounceStep(bool last) {
+    for (const auto& car : cars) car->WaitForAcks(dds::kLockstepAckTimeout);
     for (std::size_t k = 0; k < camera_writers.size(); ++k) {
-      if (!camera_writers[k]->WaitForAcks(kAckTimeout)) {
+      if (!camera_writers[k]->WaitForAcks(dds::kLockstepAckTimeout)) {
         spdlog::warn("camera {}: a reader did not acknowledge its frame in time",
                      cameras->cameras()[k].name);
       }
     }
-    msg::Header h{};
-    h.stamp = dds::ToMsg(Stamp(world.time()));
-    dds::BorrowString(h.frame_id, last ? "end" : "");
-    step_writer->Write(h);
-    if (last) (void)step_writer->WaitForAcks(std::chrono::seconds(2));
-  }
-
-  // Waits until every controller answered the step at the world's time. False when stopped.
-  bool WaitForAnswers(const std::atomic<bool>& stop) {
-    const auto now = dds::ToMsg(Stamp(world.time()));
-    std::set<std::string> missing(options.controllers.begin(), options.controllers.end());
-    const auto wait_start = std::chrono::steady_clock::now();
-    auto next_report = wait_start + std::chrono::seconds(10);
-    while (!missing.empty()) {
-      if (stop.load()) return false;
-      while (auto m = done_reader->TakeOne()) {
-        const auto& t = (*m)->stamp;
-        if (t.sec == now.sec && t.nanosec == now.nanosec) {
-          missing.erase(std::string(dds::View((*m)->frame_id)));
-        }
-      }
-      if (missing.empty()) break;
-      (void)done_reader->WaitForData(std::chrono::milliseconds(100));
-      if (std::chrono::steady_clock::now() >= next_report) {
-        spdlog::warn("lockstep: step at {:.3f} s: still waiting for {}", ToSeconds(world.time()),
-                     fmt::join(missing, ", "));
-        next_report += std::chrono::seconds(10);
-      }
+    if (last) {
+      lockstep->End(Stamp(world.time()));
+    } else {
+      lockstep->Announce(Stamp(world.time()));
     }
-    return true;
   }
 };
 
@@ -646,24 +584,23 @@ void SimService::LogTo(std::ostream* out) {
 
 void SimService::Run(const std::atomic<bool>& stop) {
   Impl& s = *impl_;
-  const bool lockstep = s.options.mode == SimMode::kLockstep;
-  if (lockstep && !s.WaitForControllers(stop)) return;
+  dds::LockstepServer* const lockstep = s.lockstep.get();
+  if (lockstep != nullptr && !lockstep->WaitForControllers(stop)) return;
   const auto wall_start = std::chrono::steady_clock::now();
   const Duration sim_start = s.world.time();
   Duration last_report = sim_start;
-  if (lockstep) {
+  const auto duration_over = [&] {
+    return s.options.duration && s.world.time() - sim_start >= *s.options.duration;
+  };
+  if (lockstep != nullptr) {
     s.PublishState();
-    s.Tick();
+    s.AnnounceStep(false);
   }
   while (!stop.load()) {
-    if (s.options.duration && s.world.time() - sim_start >= *s.options.duration) break;
-    if (lockstep && !s.WaitForAnswers(stop)) break;
+    if (duration_over()) break;
+    if (lockstep != nullptr && !lockstep->WaitForAnswers(stop)) break;
     s.Period();
-    if (lockstep) {
-      const bool last =
-          stop.load() || (s.options.duration && s.world.time() - sim_start >= *s.options.duration);
-      s.Tick(last);
-    }
+    if (lockstep != nullptr) s.AnnounceStep(stop.load() || duration_over());
     if (s.options.mode == SimMode::kRealTime) {
       const auto due = wall_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                         (s.world.time() - sim_start) / s.options.real_time_factor);
@@ -678,6 +615,8 @@ void SimService::Run(const std::atomic<bool>& stop) {
                    ToSeconds(s.world.time() - sim_start) / wall);
     }
   }
+  // Stopped while the controllers were deciding: the step announced is the last.
+  if (lockstep != nullptr && !lockstep->ended()) lockstep->End(s.Stamp(s.world.time()));
 }
 
 std::map<SignalHeadId, LampState> SimService::Lamps() const {
