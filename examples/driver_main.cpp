@@ -13,7 +13,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "common/dds/conversions.h"
+#include "common/dds/lockstep.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
@@ -72,46 +72,37 @@ const char* ToString(vehicle_sim::DriverDecision::Reason r) {
   return "?";
 }
 
-// The simulator's lockstep protocol (docs/vehicle_sim.md, "Lockstep"): register, then at
-// each step decide on the simulated time, make sure the commands arrived, and answer.
+// A controller of the simulator's lockstep (common/dds/lockstep.h): register once the
+// simulator reads the commands, then at each step decide on the simulated time, make sure the
+// commands arrived, and answer.
 int Lockstep(const dds::Participant& participant, const std::string& name,
              const std::vector<std::unique_ptr<Car>>& cars,
              const std::function<void(Duration)>& decide, const std::atomic<bool>& stop) {
-  dds::Reader<msg::Header> steps(participant, topics::SimStep());
-  dds::Writer<msg::Header> done(participant, topics::SimStepDone());
-  const auto answer = [&](const msg::Time& stamp) {
-    msg::Header h{};
-    h.stamp = stamp;
-    dds::BorrowString(h.frame_id, name.c_str());
-    done.Write(h);
-  };
-  while (!done.WaitForReaders(1, std::chrono::milliseconds(200))) {
-    if (stop.load()) return 0;
-  }
-  answer(msg::Time{0, 0});
-  std::int64_t answered = 0;
-  while (!stop.load()) {
-    if (!steps.WaitForData(std::chrono::milliseconds(200))) continue;
-    while (auto m = steps.TakeOne()) {
-      if (std::string_view(dds::View((*m)->frame_id)) == "end") {
-        spdlog::info("lockstep: the simulator ended after {} steps", answered);
-        return 0;
-      }
-      const auto& t = (*m)->stamp;
-      decide(dds::FromMsg(t) - Time{});
-      // The commands are in the simulator's readers before the answer is sent.
-      for (const auto& car : cars) {
-        if (!car->throttle.WaitForAcks(std::chrono::seconds(2)) ||
-            !car->steering.WaitForAcks(std::chrono::seconds(2))) {
-          spdlog::warn(
-              "lockstep: {}'s commands were not acknowledged in 2 s: this step may "
-              "not be reproducible",
-              car->name);
-        }
-      }
-      answer(t);
-      ++answered;
+  dds::LockstepClient lockstep(participant, name);
+  if (!lockstep.WaitForSimulator(stop)) return 0;
+  for (const auto& car : cars) {
+    if (!car->throttle.WaitForReaders(1, std::chrono::seconds(5)) ||
+        !car->steering.WaitForReaders(1, std::chrono::seconds(5))) {
+      spdlog::warn("lockstep: the simulator does not read {}'s commands", car->name);
     }
+  }
+  if (!lockstep.Register(stop)) return 0;
+  while (const std::optional<Time> t = lockstep.NextStep(stop)) {
+    decide(*t - Time{});
+    // The commands are in the simulator's readers before the answer is sent.
+    for (const auto& car : cars) {
+      if (!car->throttle.WaitForAcks(dds::kLockstepAckTimeout) ||
+          !car->steering.WaitForAcks(dds::kLockstepAckTimeout)) {
+        spdlog::warn(
+            "lockstep: {}'s commands were not acknowledged in {} s: this step may not be "
+            "reproducible",
+            car->name, dds::kLockstepAckTimeout.count());
+      }
+    }
+    lockstep.Answer();
+  }
+  if (lockstep.ended()) {
+    spdlog::info("lockstep: the simulator ended after {} steps", lockstep.answered());
   }
   return 0;
 }

@@ -11,6 +11,7 @@
 #include "traffic/lamp_inbox.h"
 
 #include "common/dds/conversions.h"
+#include "common/dds/lockstep.h"
 #include "common/dds/messages.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
@@ -227,50 +228,35 @@ struct TrafficService::Impl {
     }
   }
 
+  // A controller of the simulator's lockstep (common/dds/lockstep.h).
   void RunLockstep(const std::atomic<bool>& stop) {
-    dds::Reader<msg::Header> steps(participant, topics::SimStep());
-    dds::Writer<msg::Header> done(participant, topics::SimStepDone());
-    const std::string& name = options.lockstep;
-    const auto answer = [&](const msg::Time& stamp) {
-      msg::Header h{};
-      h.stamp = stamp;
-      dds::BorrowString(h.frame_id, name.c_str());
-      done.Write(h);
-    };
-    while (!done.WaitForReaders(1, std::chrono::milliseconds(200))) {
-      if (stop.load()) return;
-    }
+    dds::LockstepClient lockstep(participant, options.lockstep);
+    if (!lockstep.WaitForSimulator(stop)) return;
     // The simulator's reader of the objects (when its traffic is on) before registering, so
     // that the first step's objects reach it.
     (void)writer.WaitForReaders(1, std::chrono::seconds(5));
-    answer(msg::Time{0, 0});
+    if (!lockstep.Register(stop)) return;
     const Duration step = FromSeconds(step_s);
     std::int64_t k = 0;  // SUMO steps run
     auto next_report = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (!stop.load()) {
-      if (!steps.WaitForData(std::chrono::milliseconds(200))) continue;
-      while (auto m = steps.TakeOne()) {
-        if (std::string_view(dds::View((*m)->frame_id)) == "end") {
-          Report("the simulator ended at");
-          return;
-        }
-        const Duration t = dds::FromMsg((*m)->stamp) - Time{};
-        // The SUMO steps due by this stamp, each with the inputs as they are now.
-        while (step * (k + 1) <= t && !DurationOver()) {
-          ++k;
-          const MonoTime at{step * k};
-          Step(at, Time{} + step * k);
-        }
-        if (!writer.WaitForAcks(std::chrono::seconds(2))) {
-          spdlog::warn("lockstep: the traffic objects were not acknowledged in 2 s");
-        }
-        answer((*m)->stamp);
-        if (std::chrono::steady_clock::now() >= next_report) {
-          next_report += std::chrono::seconds(10);
-          Report("at");
-        }
+    while (const std::optional<Time> at = lockstep.NextStep(stop)) {
+      const Duration t = *at - Time{};
+      // The SUMO steps due by this stamp, each with the inputs as they are now.
+      while (step * (k + 1) <= t && !DurationOver()) {
+        ++k;
+        Step(MonoTime{step * k}, Time{} + step * k);
+      }
+      if (!writer.WaitForAcks(dds::kLockstepAckTimeout)) {
+        spdlog::warn("lockstep: the traffic objects were not acknowledged in {} s",
+                     dds::kLockstepAckTimeout.count());
+      }
+      lockstep.Answer();
+      if (std::chrono::steady_clock::now() >= next_report) {
+        next_report += std::chrono::seconds(10);
+        Report("at");
       }
     }
+    if (lockstep.ended()) Report("the simulator ended at");
   }
 };
 
