@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
       "DDS (the devkit topics), stopping at red lights, at stop signs and for what its LIDAR "
       "sees ahead. Runs until SIGINT or SIGTERM."};
   std::string city_path;
-  std::string partition;
+  dds::ProgramOptions dds_cli("/autodrive/example_driver");
   std::string log_level = "info";
   double rate_hz = 20.0;
   double throttle = 0.6;
@@ -123,7 +123,6 @@ int main(int argc, char** argv) {
   app.add_option("--city", city_path, "city file (its map and the cars of its sim section)")
       ->required()
       ->check(CLI::ExistingFile);
-  app.add_option("--partition", partition, "DDS partition");
   app.add_option("--rate-hz", rate_hz, "decisions per second")
       ->check(CLI::Range(1.0, 200.0))
       ->capture_default_str();
@@ -137,20 +136,15 @@ int main(int argc, char** argv) {
                  "once per simulated step, on the simulated time (--rate-hz is then unused)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
-  auto security = dds::SecurityOptions::FromEnvironment();
-  dds::AddSecurityOptions(app, security);
+  dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
   try {
     InitLogging("autodrive-example-driver", ParseLogLevel(log_level));
     const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
     const maps::Map map = maps::LoadMapOrLayout(city.map_path);
     std::atomic<bool> stop{false};
-    ShutdownSignals signals([&](int) { stop.store(true); });
-    dds::ParticipantOptions participant_options;
-    participant_options.partition = partition;
-    if (security.enclave.empty()) security.enclave = "/autodrive/example_driver";
-    participant_options.security = security;
-    dds::Participant participant(participant_options);
+    ShutdownSignals signals([&] { stop.store(true); });
+    dds::Participant participant(dds_cli.Participant());
 
     std::vector<std::unique_ptr<Car>> cars;
     for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {

@@ -35,10 +35,9 @@ struct RunOptions {
   std::string work_dir;
   double duration_s = 0.0;
   std::string log;
-  std::string partition;
   std::string log_level = "info";
   std::int64_t seed = -1;
-  dds::SecurityOptions security = dds::SecurityOptions::FromEnvironment();
+  dds::ProgramOptions dds{"/autodrive/traffic"};
 };
 
 std::filesystem::path WorkDir(const std::string& given, const scm::City& city) {
@@ -64,17 +63,11 @@ int Run(const RunOptions& o) {
   if (o.clock == "sim") sim = std::make_unique<SimClock>();
   Clock& clock = sim ? static_cast<Clock&>(*sim) : wall;
   std::atomic<bool> stop{false};
-  ShutdownSignals signals([&](int sig) {
-    spdlog::info("signal {}: stopping", sig);
+  ShutdownSignals signals([&] {
     stop.store(true);
     clock.Interrupt();
   });
-  dds::ParticipantOptions participant_options;
-  participant_options.partition = o.partition;
-  dds::SecurityOptions security = o.security;
-  if (security.enclave.empty()) security.enclave = "/autodrive/traffic";
-  participant_options.security = security;
-  dds::Participant participant(participant_options);
+  dds::Participant participant(o.dds.Participant());
   std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
   if (sim) {
     clock_subscriber = std::make_unique<dds::SimClockSubscriber>(participant, *sim);
@@ -153,10 +146,9 @@ int main(int argc, char** argv) {
   app.add_option("--duration", o.duration_s, "stop after this many SUMO seconds (0: never)")
       ->check(CLI::Range(0.0, 1e9));
   app.add_option("--log", o.log, "write every step's vehicles to this CSV file");
-  app.add_option("--partition", o.partition, "DDS partition");
   app.add_option("--log-level", o.log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
-  dds::AddSecurityOptions(app, o.security);
+  o.dds.Add(app);
 
   std::string export_city, export_out;
   double export_duration_s = 3600;

@@ -161,8 +161,7 @@ struct ServiceOverrides {
 };
 
 int Serve(const std::string& city_path, const ServiceOverrides& overrides,
-          const std::string& log_path, const std::string& partition,
-          dds::SecurityOptions security) {
+          const std::string& log_path, const dds::ProgramOptions& dds_cli) {
   const SimCity city = LoadSimCity(city_path);
   ServiceOptions options = city.sim.service;
   std::string_view mode_name;
@@ -192,15 +191,8 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
   const maps::Map map = maps::LoadMapOrLayout(city.map_path);
   std::atomic<bool> stop{false};
   // Before any other thread starts, so that they all inherit the blocked signals.
-  ShutdownSignals signals([&](int sig) {
-    spdlog::info("signal {}: stopping", sig);
-    stop.store(true);
-  });
-  dds::ParticipantOptions participant_options;
-  participant_options.partition = partition;
-  if (security.enclave.empty()) security.enclave = "/autodrive/sim";
-  participant_options.security = security;
-  dds::Participant participant(participant_options);
+  ShutdownSignals signals([&] { stop.store(true); });
+  dds::Participant participant(dds_cli.Participant());
   SimService service(participant, city, map, options);
   std::ofstream log;
   if (!log_path.empty()) {
@@ -217,7 +209,7 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
       options.mode == SimMode::kRealTime && options.real_time_factor != 1.0
           ? " x" + std::to_string(options.real_time_factor)
           : "",
-      partition);
+      dds_cli.partition());
   service.Run(stop);
   service.LogTo(nullptr);
   if (log.is_open()) {
@@ -240,7 +232,7 @@ int main(int argc, char** argv) {
   std::string service_city;
   ServiceOverrides overrides;
   std::string log_path;
-  std::string partition;
+  dds::ProgramOptions dds_cli("/autodrive/sim");
   std::string log_level = "info";
   app.add_option("--city", service_city, "city file (its map and sim section)")
       ->check(CLI::ExistingFile);
@@ -270,12 +262,9 @@ int main(int argc, char** argv) {
                  "false: the topic is not read (default: sim.service.traffic, else true)");
   app.add_option("--log", log_path,
                  "write every car's ground truth after each control period to this CSV file");
-  app.add_option("--partition", partition,
-                 "DDS partition (separates cities or test runs sharing a domain)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
-  auto security = dds::SecurityOptions::FromEnvironment();
-  dds::AddSecurityOptions(app, security);
+  dds_cli.Add(app);
 
   auto* replay = app.add_subcommand(
       "replay",
@@ -348,7 +337,7 @@ int main(int argc, char** argv) {
                    "subcommand (--help)\n");
       return 2;
     }
-    return Serve(service_city, overrides, log_path, partition, security);
+    return Serve(service_city, overrides, log_path, dds_cli);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "autodrive-sim: %s\n", e.what());
     return 1;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <span>
 
+#include "common/aspect.h"
 #include "common/dds/conversions.h"
 #include "common/dds/topics.h"
 
@@ -167,7 +168,10 @@ std::map<SignalHeadId, LampValue> SignalLamps::Get() const {
 void SignalLamps::Lit(std::vector<HeadLamps>& out) const {
   out.clear();
   std::lock_guard lock(mutex_);
-  for (const auto& [id, state] : lamps_) out.push_back({id, state == 1, state == 2, state == 3});
+  for (const auto& [id, state] : lamps_) {
+    const std::optional<Aspect> shown = AspectFromWire(state);
+    out.push_back({id, shown == Aspect::kRed, shown == Aspect::kYellow, shown == Aspect::kGreen});
+  }
 }
 
 }  // namespace autodrive::vehicle_sim::internal
