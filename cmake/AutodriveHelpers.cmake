@@ -59,7 +59,7 @@ function(autodrive_program name)
 endfunction()
 
 # autodrive_test(NAME SOURCES ... [DEPS ...] [LABELS ...] [TIMEOUT s] [ENVIRONMENT ...]
-#                [COMPONENT c] [RESOURCE_LOCK name] [COST s])
+#                [COMPONENT c] [RESOURCE_LOCK name] [COST s] [TIMING Suite.Case ...])
 # RESOURCE_LOCK: CTest never runs two cases holding the same lock at once (other tests still
 # run beside them).
 # COST: about how long a case takes (seconds). CTest starts the costliest cases first, so that a
@@ -69,7 +69,10 @@ endfunction()
 # so discovery costs the build nothing). Every case gets:
 #   LABELS       the given kind (`unit` by default, `integration`, `slow`) and the component:
 #                the folder's name (common, maps, scm, infrastructure, ...), `system` for tests/,
-#                or COMPONENT when given; `ctest -L scm` runs one component
+#                or COMPONENT when given; `ctest -L scm` runs one component; and `timing` for
+#                the cases named in TIMING (`Suite.Case`), those that assert a bound on real
+#                time (docs/development.md, Tests). A name the program does not list fails the
+#                run as the case `NAME.Suite.Case.timing_case_not_found`.
 #   TIMEOUT      seconds per case (default 120)
 #   ENVIRONMENT  AUTODRIVE_TEST_ENVIRONMENT (loopback-only DDS configuration, source and build
 #                folders, sanitizer options) and the given entries
@@ -82,7 +85,7 @@ function(autodrive_test name)
     return()
   endif()
   cmake_parse_arguments(ARG "" "TIMEOUT;COMPONENT;RESOURCE_LOCK;COST"
-    "SOURCES;DEPS;LABELS;ENVIRONMENT" ${ARGN})
+    "SOURCES;DEPS;LABELS;ENVIRONMENT;TIMING" ${ARGN})
   if(NOT ARG_LABELS)
     set(ARG_LABELS unit)
   endif()
@@ -128,8 +131,23 @@ function(autodrive_test name)
        "      TIMEOUT ${ARG_TIMEOUT}\n"
        "${extra_properties}"
        "      ENVIRONMENT [==[${environment}]==])\n"
-       "  endforeach()\n"
-       "endif()\n")
+       "  endforeach()\n")
+  # The timing cases: their labels and `timing`. A name the program does not list (a case renamed
+  # or removed) fails the run instead of silently losing its label.
+  foreach(timing_case IN LISTS ARG_TIMING)
+    set(full "${name}.${timing_case}")
+    file(APPEND "${properties_file}"
+         "  list(FIND ${name}_CASES [==[${full}]==] autodrive_index)\n"
+         "  if(autodrive_index EQUAL -1)\n"
+         "    add_test([==[${full}.timing_case_not_found]==] \"${CMAKE_COMMAND}\" -E echo\n"
+         "      [==[autodrive_test(${name} TIMING ${timing_case}): no such case]==])\n"
+         "    set_tests_properties([==[${full}.timing_case_not_found]==] PROPERTIES\n"
+         "      WILL_FAIL TRUE LABELS [==[${labels};timing]==])\n"
+         "  else()\n"
+         "    set_tests_properties([==[${full}]==] PROPERTIES LABELS [==[${labels};timing]==])\n"
+         "  endif()\n")
+  endforeach()
+  file(APPEND "${properties_file}" "endif()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${properties_file}")
 endfunction()
 
