@@ -39,7 +39,7 @@ int Print(const OperatorAnswer& a, bool json) {
     std::cout << ToJson(a).dump() << std::endl;
   } else {
     std::cout << ToString(a.code) << ": " << a.message << "\n";
-    for (const auto& [k, v] : a.values) std::cout << "  " << k << ": " << v << "\n";
+    for (const auto& [k, v] : a.values) std::cout << "  " << k << ": " << ValueText(v) << "\n";
   }
   switch (a.code) {
     case ReplyCode::kOk:
@@ -264,7 +264,7 @@ int main(int argc, char** argv) {
         dds::Reader<msg::Event> r(participant, dds::topics::Events());
         loop(r, [](const msg::Event& e) {
           return fmt::format("{:.3f} [{}] {} {}", ToSeconds(dds::FromMsg(e.header.stamp)),
-                             e.severity, dds::View(e.code), dds::View(e.message));
+                             SeverityName(e.severity), dds::View(e.code), dds::View(e.message));
         });
       }
       return 0;

@@ -4,7 +4,7 @@
 Brings the small town up with `autodrive-city up` (its own DDS partition, run folder and a free
 port), opens the dashboard in Debian's headless Chromium through Selenium, and checks from
 outside the dashboard, with DDS clients it does not share (`scmctl watch lamps`, `scmctl watch
-fleet`, `scmctl show`):
+fleet`, `scmctl --json intersections`):
 
   1. the page loads with no console error and shows every light head of the map;
   2. each head's colour on the page follows its `signal_<i>/state` within 200 ms (every change
@@ -14,7 +14,7 @@ fleet`, `scmctl show`):
      position against the fleet message of the nearest stamp;
   4. an action without the token is refused (by the server: HTTP 401, nothing reaches the SCM);
      with the token, clicking "flash" on the centre intersection puts it into flash (scmctl
-     show) and the page shows the change;
+     --json intersections) and the page shows the change;
   5. screenshots go into the build folder (dashboard_screenshots/).
 
 Run by CTest (tests/CMakeLists.txt) with AUTODRIVE_SOURCE_DIR, AUTODRIVE_BINARY_DIR and
@@ -123,6 +123,11 @@ def main():
     run_dir = work / "state" / "autodrive" / "small_town"
     SHOTS.mkdir(parents=True, exist_ok=True)
     scmctl = [str(BIN / "scmctl"), "--partition", partition]
+
+    def centre_mode():
+        """The centre's mode, as the SCM's `intersections` answer types it (scmctl --json)."""
+        answer = json.loads(run(scmctl + ["--json", "intersections"], env).stdout)
+        return answer["values"]["centre"]["mode"]
 
     launcher = subprocess.Popen(
         [str(BIN / "autodrive-city"), "up", str(CITY), "--partition", partition,
@@ -273,8 +278,7 @@ def main():
                               {"command": "mode", "args": {"intersection": "centre",
                                                            "mode": "flash"}}, token + "x")
         check(status == 401, f"an action with a wrong token is refused (HTTP {status})")
-        show = run(scmctl + ["show", "centre"], env)
-        check("mode=flash" not in show.stdout, "the refused actions did not reach the SCM")
+        check(centre_mode() != "flash", "the refused actions did not reach the SCM")
         # The page with no token: the click is refused too.
         driver.find_element(By.CSS_SELECTOR,
                             '#x-centre button[data-action="mode-flash"]').click()
@@ -291,15 +295,16 @@ def main():
         result = wait_for(lambda: driver.find_element(By.ID, "action-result")
                           .get_attribute("data-result") == "ok" and "ok", 30, "flash's answer")
         check(result == "ok", "clicking flash with the token is accepted")
-        show = run(scmctl + ["show", "centre"], env)
-        check("mode=flash" in show.stdout, f"scmctl show centre: {show.stdout.splitlines()[:1]}")
+        mode = centre_mode()
+        check(mode == "flash", f"scmctl intersections: the centre's mode is {mode}")
         page_mode = wait_for(lambda: driver.find_element(By.ID, "x-centre")
                              .get_attribute("data-mode") == "flash", 15, "the page's flash")
         check(page_mode is not None, "the page shows the centre in flash")
         time.sleep(2.0)  # the lamps flashing, for the picture
         driver.save_screenshot(str(SHOTS / "2_centre_flash.png"))
-        events = run(scmctl + ["events", "--limit", "20"], env)
-        check(f"dashboard/{operator}@" in events.stdout,
+        events = json.loads(run(scmctl + ["--json", "events", "--limit", "20"], env).stdout)
+        check(any(e["actor"].startswith(f"dashboard/{operator}@")
+                  for e in events["values"].values()),
               "the SCM logged the action with who did it (dashboard/<name>@<address>)")
         driver.find_element(By.CSS_SELECTOR,
                             '#x-centre button[data-action="mode-auto"]').click()

@@ -332,8 +332,10 @@ int Soak(const Options& o) {
       if (auto a = reader.Call("status", {}, seconds(30))) {
         std::printf("   the SCM's status at the end: %s\n", a->message.c_str());
         for (const auto& [k, v] : a->values) {
-          std::printf("     %s: %s\n", k.c_str(), v.c_str());
-          if (k == "monitor_violations") monitor_violations = std::stoull(v);
+          std::printf("     %s: %s\n", k.c_str(), scm::ValueText(v).c_str());
+        }
+        if (const auto& n = a->Value("monitor_violations"); n.is_number_unsigned()) {
+          monitor_violations = n.get<std::uint64_t>();
         }
       } else {
         ++commands.unanswered;

@@ -9,6 +9,8 @@
 #include "common/dds/conversions.h"
 #include "common/dds/topics.h"
 #include "common/time.h"
+#include "scm/core/events.h"
+#include "scm/core/supervision.h"
 #include "scm/operator/client.h"
 
 namespace autodrive::dashboard {
@@ -29,34 +31,14 @@ double Yaw(const msg::Quaternion& q) {
 /// traffic message of 1,000 cars stays small.
 double Mm(double v) { return std::round(v * 1000.0) / 1000.0; }
 
-std::string_view SourceName(std::uint8_t s) {
-  switch (s) {
-    case autodrive_msgs_msg_TrackedVehicle_Constants_EYE:
-      return "eye";
-    case autodrive_msgs_msg_TrackedVehicle_Constants_SIM_GROUND_TRUTH:
-      return "sim";
-    case autodrive_msgs_msg_TrackedVehicle_Constants_ODOMETRY:
-      return "odometry";
-    case autodrive_msgs_msg_TrackedVehicle_Constants_FUSED:
-      return "fused";
-    case autodrive_msgs_msg_TrackedVehicle_Constants_IPS:
-      return "ips";
-    default:
-      return "unknown";
-  }
-}
+/// The page's severity scale of an event's wire severity: 0 information (the wire's debug and
+/// info are both information), 1 warning, 2 alarm, 3 critical.
+int PageSeverity(std::uint8_t wire) { return wire > 0 ? wire - 1 : 0; }
 
-std::string_view HealthName(std::uint8_t h) {
-  switch (h) {
-    case autodrive_msgs_msg_DeviceStatus_Constants_OK:
-      return "ok";
-    case autodrive_msgs_msg_DeviceStatus_Constants_DEGRADED:
-      return "degraded";
-    case autodrive_msgs_msg_DeviceStatus_Constants_FAULT:
-      return "fault";
-    default:
-      return "offline";
-  }
+/// The name of a device health (the SCM's one table, scm/core/supervision.h).
+std::string_view HealthName(std::uint8_t wire) {
+  const auto health = scm::DeviceHealthFromWire(wire);
+  return health ? scm::ToString(*health) : "unknown";
 }
 
 std::string_view DeviceModeName(std::uint8_t m) {
@@ -193,7 +175,7 @@ json SpatIntersectionJson(const msg::IntersectionState& x) {
 
 json VehicleJson(const msg::TrackedVehicle& v) {
   return {{"id", Text(v.vehicle_id)},
-          {"source", SourceName(v.source)},
+          {"source", scm::PoseSourceName(v.source)},
           {"x", Mm(v.pose.pose.position.x)},
           {"y", Mm(v.pose.pose.position.y)},
           {"yaw", Mm(Yaw(v.pose.pose.orientation))},
@@ -213,15 +195,32 @@ json TrafficObjectJson(const msg::TrafficObject& o) {
 json EventJson(const msg::Event& e) {
   return {{"id", e.event_id},
           {"stamp", Seconds(e.header.stamp)},
-          // The page's scale: 0 information, 1 warning, 2 alarm, 3 critical (the wire's
-          // debug and info are both information).
-          {"severity", e.severity > 0 ? e.severity - 1 : 0},
+          {"severity", PageSeverity(e.severity)},
           {"source", Text(e.source)},
           {"code", Text(e.code)},
           {"message", Text(e.message)},
           {"intersection", e.intersection_id},
           {"device", Text(e.device_id)},
           {"active", e.active}};
+}
+
+json HistoryEventJson(const json& event) {
+  const auto severity = scm::SeverityFromString(event.value("severity", ""));
+  return {{"id", event.value("id", std::uint64_t{0})},
+          {"stamp", event.value("stamp", 0.0)},
+          {"severity", severity ? PageSeverity(scm::ToWire(*severity)) : 0},
+          {"source", event.value("source", "")},
+          {"code", event.value("code", "")},
+          {"message", event.value("message", "")},
+          {"intersection", event.value("intersection", std::uint32_t{0})},
+          {"device", event.value("device", "")},
+          {"active", event.value("active", false)},
+          {"acked_by", nullptr}};
+}
+
+json IntersectionJson(const std::string& name, json x) {
+  x["name"] = name;
+  return x;
 }
 
 json DeviceJson(const msg::DeviceEntry& d) {

@@ -101,6 +101,12 @@ class Feed {
 [[nodiscard]] nlohmann::json VehicleJson(const msg::TrackedVehicle& v);
 [[nodiscard]] nlohmann::json TrafficObjectJson(const msg::TrafficObject& o);
 [[nodiscard]] nlohmann::json EventJson(const msg::Event& e);
+/// The page's event (E) of a value of the SCM's `events` answer (its typed fields,
+/// docs/scm.md): the same object `EventJson` makes of the same event on the wire.
+[[nodiscard]] nlohmann::json HistoryEventJson(const nlohmann::json& event);
+/// The page's intersection (I) of a value (an object) of the SCM's `intersections` answer,
+/// named `name`.
+[[nodiscard]] nlohmann::json IntersectionJson(const std::string& name, nlohmann::json x);
 [[nodiscard]] nlohmann::json DeviceJson(const msg::DeviceEntry& d);
 [[nodiscard]] nlohmann::json RequestJson(const msg::SignalRequestStatus& r);
 /// The names of the IntersectionState status bits set in `status` ("failure_flash", ...).

@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "city/dashboard/feed.h"
 #include "city/dashboard/web_assets.h"
 
 #include "common/dds/qos.h"
@@ -107,74 +108,6 @@ void Reply(httplib::Response& res, int status, const json& body) {
   res.status = status;
   res.set_header("Cache-Control", "no-store");
   res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
-}
-
-/// The fields of the SCM's `CityRuntime::Describe` text: id=3 mode=auto requested=auto
-/// plan=day (schedule) stage=green latched="reason".
-json ParseIntersection(const std::string& name, const std::string& text) {
-  json x{{"name", name}, {"text", text},  {"id", 0},     {"mode", ""},        {"requested", ""},
-         {"plan", ""},   {"plan_by", ""}, {"stage", ""}, {"latched", nullptr}};
-  std::istringstream in(text);
-  std::string word;
-  while (in >> word) {
-    const auto eq = word.find('=');
-    if (eq == std::string::npos) {
-      if (word == "(operator)" || word == "(schedule)") {
-        x["plan_by"] = word.substr(1, word.size() - 2);
-      }
-      continue;
-    }
-    const std::string key = word.substr(0, eq);
-    std::string value = word.substr(eq + 1);
-    if (key == "latched") {
-      // A quoted reason with spaces: up to the closing quote.
-      const auto open = text.find("latched=\"");
-      const auto close = text.rfind('"');
-      x["latched"] = open != std::string::npos && close > open + 9
-                         ? text.substr(open + 9, close - open - 9)
-                         : value;
-      break;
-    }
-    if (key == "id") {
-      x["id"] = std::strtoul(value.c_str(), nullptr, 10);
-    } else if (key == "mode" || key == "requested" || key == "plan" || key == "stage") {
-      x[key] = value;
-    }
-  }
-  return x;
-}
-
-/// An event of the SCM's `events` answer: key the id, value "TIME SEVERITY CODE MESSAGE
-/// [(by ACTOR)] [[active]]".
-json ParseHistoryEvent(const std::string& id, const std::string& text) {
-  std::istringstream in(text);
-  double stamp = 0.0;
-  std::string severity;
-  std::string code;
-  in >> stamp >> severity >> code;
-  std::string message;
-  std::getline(in, message);
-  if (!message.empty() && message.front() == ' ') message.erase(0, 1);
-  bool active = false;
-  constexpr std::string_view kActive = " [active]";
-  if (message.ends_with(kActive)) {
-    active = true;
-    message.resize(message.size() - kActive.size());
-  }
-  int level = 0;
-  if (severity == "warning") level = 1;
-  if (severity == "alarm") level = 2;
-  if (severity == "critical") level = 3;
-  return {{"id", std::strtoull(id.c_str(), nullptr, 10)},
-          {"stamp", stamp},
-          {"severity", level},
-          {"source", "scm"},
-          {"code", code},
-          {"message", message},
-          {"intersection", 0},
-          {"device", ""},
-          {"active", active},
-          {"acked_by", nullptr}};
 }
 
 }  // namespace
@@ -584,7 +517,10 @@ json Server::History(std::size_t limit) {
   if (!answer) return {{"error", "no answer from the SCM"}};
   if (answer->code != scm::ReplyCode::kOk) return {{"error", answer->message}};
   json events = json::array();
-  for (const auto& [id, text] : answer->values) events.push_back(ParseHistoryEvent(id, text));
+  for (const auto& [id, event] : answer->values) {
+    json typed = event.Parse();
+    if (typed.is_object()) events.push_back(HistoryEventJson(typed));
+  }
   std::sort(events.begin(), events.end(), [](const json& a, const json& b) {
     return a.value("stamp", 0.0) < b.value("stamp", 0.0);
   });
@@ -599,15 +535,17 @@ void Server::PollIntersections() {
   }
   if (!answer || answer->code != scm::ReplyCode::kOk) return;
   std::vector<json> xs;
-  for (const auto& [name, text] : answer->values) {
-    auto it = intersection_texts_.find(name);
-    if (it == intersection_texts_.end()) {
-      it = intersection_texts_.emplace(name, std::string()).first;
-    } else if (it->second == text) {
+  for (const auto& [name, x] : answer->values) {
+    auto it = intersections_shown_.find(name);
+    if (it == intersections_shown_.end()) {
+      it = intersections_shown_.emplace(name, std::string()).first;
+    } else if (it->second == x.json_text()) {
       continue;
     }
-    it->second = text;
-    xs.push_back(ParseIntersection(name, text));
+    json typed = x.Parse();
+    if (!typed.is_object()) continue;
+    it->second = x.json_text();
+    xs.push_back(IntersectionJson(name, std::move(typed)));
   }
   if (!xs.empty()) hub_.SetIntersections(xs, NowMs());
 }

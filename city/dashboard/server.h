@@ -121,9 +121,10 @@ class Server {
   std::mutex actor_mutex_;  ///< guards actor_ (state-changing commands)
   std::unique_ptr<scm::OperatorClient> actor_;
   std::atomic<bool> poll_now_{false};
-  /// The poll thread's: each intersection's last `intersections` line, so that only the lines
-  /// that changed are parsed again (a 32x32 city answers 1,024 lines a second).
-  std::map<std::string, std::string, std::less<>> intersection_texts_;
+  /// The poll thread's: each intersection's value (JSON text) in the SCM's last `intersections`
+  /// answer, so that only those that changed are read and sent to the page (a 32x32 city
+  /// answers 1,024 a second).
+  std::map<std::string, std::string, std::less<>> intersections_shown_;
 
   std::mutex cameras_mutex_;
   std::map<std::string, std::shared_ptr<Camera>> cameras_;

@@ -20,7 +20,7 @@ void DeviceTable::Take(const DeviceReportView& r, MonoTime now) {
     rows_.emplace_back().device_id = r.device_id;
   }
   DeviceRow& row = rows_[it->second];
-  const auto health = static_cast<std::uint8_t>(r.health);
+  const std::uint8_t health = ToWire(r.health);
   const bool same = row.reported && !row.lost && row.host == r.host && row.kind == r.kind &&
                     row.backend == r.backend && row.health == health && row.mode == r.mode &&
                     row.detail == r.detail;

@@ -4,14 +4,40 @@
 /// it. The daemon numbers them, logs them, publishes them on /autodrive/scm/events and queues
 /// them for the event log (docs/scm.md, "Events").
 
+#include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
 #include "common/ids.h"
-#include "scm/store/store.h"
 
 namespace autodrive::scm {
+
+/// How serious an event is. Its values are those of `autodrive_msgs/Event`'s severity
+/// (`Event_Constants`, checked in events.cpp) and of the event log's column (scm/store).
+enum class Severity : std::uint8_t {
+  kDebug = 0,
+  kInfo = 1,
+  kWarning = 2,
+  kAlarm = 3,     ///< needs an operator
+  kCritical = 4,  ///< safety, e.g. conflict-monitor flash
+};
+
+/// "debug", "info", "warning", "alarm" or "critical": the one name of each severity, in logs,
+/// operator replies (scm/operator/operator.h) and the dashboard.
+[[nodiscard]] std::string_view ToString(Severity severity);
+
+/// The severity called `name` (as `ToString` names it), or nothing.
+[[nodiscard]] std::optional<Severity> SeverityFromString(std::string_view name);
+
+/// The wire value (`Event_Constants`) of `severity`.
+[[nodiscard]] std::uint8_t ToWire(Severity severity);
+
+/// The severity with wire value `value` (0..4).
+/// @throws InputError naming the value when it is not one.
+[[nodiscard]] Severity SeverityFromWire(std::uint8_t value);
 
 /// One event, before it gets a time and a number.
 struct Event {

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "autodrive_msgs/msg/TrackedVehicle.h"
+
 #include "common/dds/conversions.h"
 #include "common/error.h"
 #include "maps/polyline.h"
@@ -68,6 +70,33 @@ maps::Polyline Simplified(const maps::Polyline& line, double tolerance_m) {
 }
 
 }  // namespace
+
+// The domain's values are the wire's: checked here, the one place that converts.
+static_assert(static_cast<int>(PoseSource::kEye) ==
+              autodrive_msgs_msg_TrackedVehicle_Constants_EYE);
+static_assert(static_cast<int>(PoseSource::kSimGroundTruth) ==
+              autodrive_msgs_msg_TrackedVehicle_Constants_SIM_GROUND_TRUTH);
+static_assert(static_cast<int>(PoseSource::kOdometry) ==
+              autodrive_msgs_msg_TrackedVehicle_Constants_ODOMETRY);
+static_assert(static_cast<int>(PoseSource::kIps) ==
+              autodrive_msgs_msg_TrackedVehicle_Constants_IPS);
+
+std::uint8_t ToWire(PoseSource source) { return static_cast<std::uint8_t>(source); }
+
+std::optional<PoseSource> PoseSourceFromWire(std::uint8_t value) {
+  switch (value) {
+    case autodrive_msgs_msg_TrackedVehicle_Constants_EYE:
+      return PoseSource::kEye;
+    case autodrive_msgs_msg_TrackedVehicle_Constants_SIM_GROUND_TRUTH:
+      return PoseSource::kSimGroundTruth;
+    case autodrive_msgs_msg_TrackedVehicle_Constants_ODOMETRY:
+      return PoseSource::kOdometry;
+    case autodrive_msgs_msg_TrackedVehicle_Constants_IPS:
+      return PoseSource::kIps;
+    default:
+      return std::nullopt;
+  }
+}
 
 std::string_view ToString(PoseSource source) {
   switch (source) {
@@ -323,7 +352,7 @@ void FleetRegistry::StateInto(Time now, FleetStateMessage& m) const {
         std::snprintf(name, sizeof name, "nigel_%u", static_cast<unsigned>(o.vehicle.value()));
     dds::UpdateString(v.vehicle_id, std::string_view(name, static_cast<std::size_t>(len)));
     v.tag_id = o.tag ? o.tag->value() : 0;
-    v.source = static_cast<std::uint8_t>(o.source);
+    v.source = ToWire(o.source);
     v.observed = dds::ToMsg(o.observed);
     v.pose.pose = dds::ToMsg(o.X_MV);
     std::copy(o.pose_covariance.begin(), o.pose_covariance.end(), v.pose.covariance);

@@ -42,8 +42,14 @@ enum class PoseSource : std::uint8_t {
   kIps = 5,
 };
 
-/// "eye", "sim_ground_truth", "odometry" or "ips".
+/// "eye", "sim_ground_truth", "odometry" or "ips": the one name of each source, for the SCM's
+/// logs and for every client that shows a fleet (scmctl, the dashboard).
 [[nodiscard]] std::string_view ToString(PoseSource source);
+/// The wire value (`TrackedVehicle_Constants`) of `source`.
+[[nodiscard]] std::uint8_t ToWire(PoseSource source);
+/// The source with wire value `value`, or nothing for a value that is none of the SCM's
+/// (`FUSED`, which no part of the platform produces, or an unknown number).
+[[nodiscard]] std::optional<PoseSource> PoseSourceFromWire(std::uint8_t value);
 
 /// One observation of one vehicle.
 struct VehicleObservation {

@@ -154,13 +154,25 @@ bool CityRuntime::FailSafe(std::size_t i, MonoTime now, const std::string& reaso
   return true;
 }
 
-std::string CityRuntime::Describe(std::size_t i) const {
+IntersectionSummary CityRuntime::Summary(std::size_t i) const {
   const IntersectionRuntime& x = xs_[i];
   const auto& c = *x.controller;
-  return fmt::format("id={} mode={} requested={} plan={}{} stage={}{}", x.model->id.value(),
-                     ToString(c.effective_mode()), ToString(c.requested_mode()), c.plan().name,
-                     c.operator_plan() ? " (operator)" : " (schedule)", ToString(c.stage()),
-                     c.latched() ? " latched=\"" + c.latch_reason() + "\"" : "");
+  return {x.model->id,
+          c.effective_mode(),
+          c.requested_mode(),
+          c.plan().name,
+          c.operator_plan().has_value(),
+          c.stage(),
+          c.latched() ? std::optional<std::string>(c.latch_reason()) : std::nullopt};
+}
+
+std::string CityRuntime::Describe(std::size_t i) const { return scm::Describe(Summary(i)); }
+
+std::string Describe(const IntersectionSummary& s) {
+  return fmt::format("id={} mode={} requested={} plan={}{} stage={}{}", s.id.value(),
+                     ToString(s.mode), ToString(s.requested), s.plan,
+                     s.plan_by_operator ? " (operator)" : " (schedule)", ToString(s.stage),
+                     s.latched ? " latched=\"" + *s.latched + "\"" : "");
 }
 
 std::vector<IntersectionStateRecord> CityRuntime::OperatorStates(Time now) const {

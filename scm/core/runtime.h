@@ -32,6 +32,21 @@ struct HeadSlot {
   std::string name;              ///< "signal_<i>"
 };
 
+/// What an operator sees of one intersection now (`CityRuntime::Summary`).
+struct IntersectionSummary {
+  IntersectionId id{0};
+  Mode mode = Mode::kAuto;             ///< the mode it runs in
+  Mode requested = Mode::kAuto;        ///< the mode asked for (by an operator or at start)
+  std::string plan;                    ///< the plan it runs
+  bool plan_by_operator = false;       ///< false: the schedule chose the plan
+  Stage stage = Stage::kStartupFlash;  ///< where in its cycle it is
+  std::optional<std::string> latched;  ///< the reason of its fail-safe flash latch, if latched
+};
+
+/// `s` for people: "id=1 mode=fixed requested=auto plan=day (schedule) stage=green
+/// [latched="reason"]".
+[[nodiscard]] std::string Describe(const IntersectionSummary& s);
+
 /// One signalised intersection at run time.
 struct IntersectionRuntime {
   const IntersectionModel* model = nullptr;
@@ -96,7 +111,9 @@ class CityRuntime {
   /// and records the flash as its output at once (its monitor and what the lights are sent).
   /// Returns true when it latched now.
   bool FailSafe(std::size_t x, MonoTime now, const std::string& reason, EventSink& events);
-  /// "id=1 mode=fixed requested=auto plan=day (schedule) stage=green ..." for operators.
+  /// Intersection `x`'s mode, plan, stage and latch now.
+  [[nodiscard]] IntersectionSummary Summary(std::size_t x) const;
+  /// `Describe(Summary(x))`.
   [[nodiscard]] std::string Describe(std::size_t x) const;
   /// Every intersection's operator state now (mode and operator plan), to restart with.
   [[nodiscard]] std::vector<IntersectionStateRecord> OperatorStates(Time now) const;

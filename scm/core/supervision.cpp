@@ -5,6 +5,8 @@
 
 #include <charconv>
 
+#include "autodrive_msgs/msg/DeviceStatus.h"
+
 namespace autodrive::scm {
 
 namespace {
@@ -25,6 +27,22 @@ std::optional<SignalHeadId> HeadIdOf(std::string_view device_id) {
   return SignalHeadId(id);
 }
 }  // namespace
+
+// The domain's values are the wire's: checked here, the one place that converts.
+static_assert(static_cast<int>(DeviceHealth::kOk) == autodrive_msgs_msg_DeviceStatus_Constants_OK);
+static_assert(static_cast<int>(DeviceHealth::kDegraded) ==
+              autodrive_msgs_msg_DeviceStatus_Constants_DEGRADED);
+static_assert(static_cast<int>(DeviceHealth::kFault) ==
+              autodrive_msgs_msg_DeviceStatus_Constants_FAULT);
+static_assert(static_cast<int>(DeviceHealth::kOffline) ==
+              autodrive_msgs_msg_DeviceStatus_Constants_OFFLINE);
+
+std::uint8_t ToWire(DeviceHealth health) { return static_cast<std::uint8_t>(health); }
+
+std::optional<DeviceHealth> DeviceHealthFromWire(std::uint8_t value) {
+  if (value > autodrive_msgs_msg_DeviceStatus_Constants_OFFLINE) return std::nullopt;
+  return static_cast<DeviceHealth>(value);
+}
 
 std::string_view ToString(DeviceHealth health) {
   switch (health) {

@@ -26,8 +26,13 @@ namespace autodrive::scm {
 
 /// DeviceStatus health; the values are the wire values (DeviceStatus_Constants).
 enum class DeviceHealth : std::uint8_t { kOk = 0, kDegraded = 1, kFault = 2, kOffline = 3 };
-/// "ok", "degraded", "fault", "offline".
+/// "ok", "degraded", "fault", "offline": the one name of each health (the SCM's messages, the
+/// dashboard).
 [[nodiscard]] std::string_view ToString(DeviceHealth health);
+/// The wire value (`DeviceStatus_Constants`) of `health`.
+[[nodiscard]] std::uint8_t ToWire(DeviceHealth health);
+/// The health with wire value `value`, or nothing when it is none.
+[[nodiscard]] std::optional<DeviceHealth> DeviceHealthFromWire(std::uint8_t value);
 
 /// One DeviceStatus sample, as views into it (valid for the call only).
 struct DeviceReportView {

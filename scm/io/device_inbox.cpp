@@ -49,7 +49,7 @@ void DeviceStatusInbox::Poll() {
     const std::string_view city = dds::View(m.city);
     const std::string_view host = dds::View(m.host);
     if (id.size() > kMaxDeviceIdBytes || city.size() > kMaxCityBytes ||
-        host.size() > kMaxHostBytes || m.health > 3) {
+        host.size() > kMaxHostBytes || !DeviceHealthFromWire(m.health)) {
       malformed_.fetch_add(1);
       continue;
     }
@@ -76,7 +76,7 @@ void DeviceStatusInbox::Poll() {
     r.city.assign(city);
     r.host.assign(host);
     r.detail.assign(dds::View(m.detail).substr(0, kMaxDetailBytes));
-    r.health = static_cast<DeviceHealth>(m.health);
+    r.health = *DeviceHealthFromWire(m.health);
     r.displayed = AspectFromWire(m.displayed_state);
     r.last_command_id = m.last_command_id;
     r.kind = m.kind;

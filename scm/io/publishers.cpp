@@ -25,28 +25,6 @@ namespace autodrive::scm {
 
 namespace {
 
-// Domain enums whose values are the wire values: checked here, at the edge.
-static_assert(static_cast<int>(Severity::kDebug) == autodrive_msgs_msg_Event_Constants_DEBUG);
-static_assert(static_cast<int>(Severity::kInfo) == autodrive_msgs_msg_Event_Constants_INFO);
-static_assert(static_cast<int>(Severity::kWarning) == autodrive_msgs_msg_Event_Constants_WARNING);
-static_assert(static_cast<int>(Severity::kAlarm) == autodrive_msgs_msg_Event_Constants_ALARM);
-static_assert(static_cast<int>(Severity::kCritical) == autodrive_msgs_msg_Event_Constants_CRITICAL);
-static_assert(static_cast<int>(PoseSource::kEye) ==
-              autodrive_msgs_msg_TrackedVehicle_Constants_EYE);
-static_assert(static_cast<int>(PoseSource::kSimGroundTruth) ==
-              autodrive_msgs_msg_TrackedVehicle_Constants_SIM_GROUND_TRUTH);
-static_assert(static_cast<int>(PoseSource::kOdometry) ==
-              autodrive_msgs_msg_TrackedVehicle_Constants_ODOMETRY);
-static_assert(static_cast<int>(PoseSource::kIps) ==
-              autodrive_msgs_msg_TrackedVehicle_Constants_IPS);
-static_assert(static_cast<int>(DeviceHealth::kOk) == autodrive_msgs_msg_DeviceStatus_Constants_OK);
-static_assert(static_cast<int>(DeviceHealth::kDegraded) ==
-              autodrive_msgs_msg_DeviceStatus_Constants_DEGRADED);
-static_assert(static_cast<int>(DeviceHealth::kFault) ==
-              autodrive_msgs_msg_DeviceStatus_Constants_FAULT);
-static_assert(static_cast<int>(DeviceHealth::kOffline) ==
-              autodrive_msgs_msg_DeviceStatus_Constants_OFFLINE);
-
 std::uint8_t ToWire(RequestStatus status) {
   switch (status) {
     case RequestStatus::kGranted:
@@ -384,7 +362,7 @@ void ScmPublishers::PublishEvent(const Event& e, Time now, std::uint64_t event_i
   dds::Message<msg::Event> m;
   m->header.stamp = dds::ToMsg(now);
   m->event_id = event_id;
-  m->severity = static_cast<std::uint8_t>(e.severity);
+  m->severity = ToWire(e.severity);
   dds::SetString(m->source, "scm");
   dds::SetString(m->code, e.code);
   dds::SetString(m->message, e.message);

@@ -90,14 +90,7 @@ void ReplyOutbox::Send(std::string_view client, std::uint64_t request_id, const 
   w.message->header.stamp = dds::ToMsg(wire);
   dds::SetString(w.message->client_id, client);
   w.message->request_id = request_id;
-  w.message->result = ToWire(reply.code);
-  dds::SetString(w.message->message, reply.message);
-  dds::ResizeSequence(w.message->values, static_cast<std::uint32_t>(reply.values.size()));
-  auto kv = dds::Elements(w.message->values);
-  for (std::size_t i = 0; i < reply.values.size(); ++i) {
-    dds::SetString(kv[i].key, reply.values[i].first);
-    dds::SetString(kv[i].value, reply.values[i].second);
-  }
+  ReplyToWire(reply, *w.message);
   w.requester = requester;
   w.since = now;
   // In order: while older replies wait for the writer, a new one waits behind them.

@@ -15,6 +15,8 @@
 #include "common/dds/topics.h"
 #include "common/error.h"
 #include "common/time.h"
+#include "scm/core/events.h"
+#include "scm/core/fleet.h"
 
 namespace autodrive::scm {
 
@@ -100,13 +102,7 @@ std::optional<OperatorAnswer> OperatorClient::Call(const std::string& command,
     reader_.WaitForData(std::min(next_send, deadline) - std::chrono::steady_clock::now());
     while (reader_.TakeOne(r)) {
       if (dds::View(r->client_id) != client_id_ || r->request_id != m->request_id) continue;
-      OperatorAnswer a;
-      a.code = ReplyCodeFromWire(r->result);
-      a.message = std::string(dds::View(r->message));
-      for (const auto& v : dds::Elements(r->values)) {
-        a.values.emplace_back(dds::View(v.key), dds::View(v.value));
-      }
-      return a;
+      return ReplyFromWire(*r);
     }
     if (std::chrono::steady_clock::now() >= next_send) {
       // No reply yet: the request or its reply may have gone before discovery completed on the
@@ -156,6 +152,15 @@ double Seconds(const msg::Time& t) { return ToSeconds(dds::FromMsg(t)); }
 std::string Text(const char* s) { return std::string(dds::View(s)); }
 }  // namespace
 
+std::string_view SeverityName(std::uint8_t severity) {
+  return severity <= ToWire(Severity::kCritical) ? ToString(SeverityFromWire(severity)) : "unknown";
+}
+
+std::string_view PoseSourceName(std::uint8_t source) {
+  const auto known = PoseSourceFromWire(source);
+  return known ? ToString(*known) : "unknown";
+}
+
 nlohmann::json ToJson(const msg::Spat& spat) {
   nlohmann::json out{{"type", "spat"},
                      {"stamp", Seconds(spat.header.stamp)},
@@ -191,7 +196,7 @@ nlohmann::json ToJson(const msg::FleetState& fleet) {
                      {"vehicles", nlohmann::json::array()}};
   for (const auto& v : dds::Elements(fleet.vehicles)) {
     out["vehicles"].push_back({{"vehicle", Text(v.vehicle_id)},
-                               {"source", v.source},
+                               {"source", PoseSourceName(v.source)},
                                {"x", v.pose.pose.position.x},
                                {"y", v.pose.pose.position.y},
                                {"lane", Text(v.map_lane_id)},
@@ -206,7 +211,7 @@ nlohmann::json ToJson(const msg::Event& e) {
   return {{"type", "event"},
           {"stamp", Seconds(e.header.stamp)},
           {"id", e.event_id},
-          {"severity", e.severity},
+          {"severity", SeverityName(e.severity)},
           {"source", Text(e.source)},
           {"code", Text(e.code)},
           {"message", Text(e.message)},
@@ -217,7 +222,12 @@ nlohmann::json ToJson(const msg::Event& e) {
 
 nlohmann::json ToJson(const OperatorAnswer& a) {
   nlohmann::json values = nlohmann::json::object();
-  for (const auto& [k, v] : a.values) values[k] = v;
+  for (const auto& [k, v] : a.values) {
+    // Typed as the SCM sent them; a value that is not JSON (an SCM of another protocol) as its
+    // text.
+    nlohmann::json value = v.Parse();
+    values[k] = value.is_discarded() ? nlohmann::json(v.json_text()) : std::move(value);
+  }
   return {{"result", ToString(a.code)}, {"message", a.message}, {"values", std::move(values)}};
 }
 

@@ -25,12 +25,8 @@
 
 namespace autodrive::scm {
 
-/// A reply as the client sees it.
-struct OperatorAnswer {
-  ReplyCode code = ReplyCode::kOk;
-  std::string message;
-  std::vector<std::pair<std::string, std::string>> values;
-};
+/// A reply as the client sees it: the reply the SCM sent, its values typed (`ReplyFromWire`).
+using OperatorAnswer = Reply;
 
 /// Talks to one SCM over DDS. Not thread-safe; not movable (readers and writers).
 class OperatorClient {
@@ -88,11 +84,16 @@ class OperatorClient {
 /// digits>" (a pid alone is recycled: pids wrapped within 30 minutes on a lab PC).
 [[nodiscard]] std::string UniqueClientId(std::string_view program);
 
-/// JSON objects of the SCM's messages and answers (`scmctl --json`, one object per line).
+/// JSON objects of the SCM's messages and answers (`scmctl --json`, one object per line). Enums
+/// by their one name (`ToString`): an event's severity "alarm", a vehicle's source "eye".
 [[nodiscard]] nlohmann::json ToJson(const msg::Spat& spat);
 [[nodiscard]] nlohmann::json ToJson(const msg::FleetState& fleet);
 [[nodiscard]] nlohmann::json ToJson(const msg::Event& event);
 [[nodiscard]] nlohmann::json ToJson(const OperatorAnswer& answer);
+/// The name of an Event `severity` wire value (`ToString(Severity)`), or "unknown".
+[[nodiscard]] std::string_view SeverityName(std::uint8_t severity);
+/// The name of a TrackedVehicle `source` wire value (`ToString(PoseSource)`), or "unknown".
+[[nodiscard]] std::string_view PoseSourceName(std::uint8_t source);
 /// The J2735 name of a SignalGroupState event_state: "dark", "stop_and_remain", ...
 [[nodiscard]] std::string_view EventStateName(std::uint8_t event_state);
 

@@ -76,6 +76,77 @@ std::uint8_t ToWire(ReplyCode code) {
   return autodrive_msgs_msg_OperatorReply_Constants_FAILED;
 }
 
+namespace {
+constexpr auto kReplace = nlohmann::json::error_handler_t::replace;
+}  // namespace
+
+ReplyValue::ReplyValue(const nlohmann::json& value) : text_(value.dump(-1, ' ', false, kReplace)) {}
+
+ReplyValue ReplyValue::FromJsonText(std::string text) {
+  ReplyValue v;
+  v.text_ = std::move(text);
+  return v;
+}
+
+nlohmann::json ReplyValue::Parse() const {
+  return nlohmann::json::parse(text_, nullptr, /*allow_exceptions=*/false);
+}
+
+nlohmann::json Reply::Value(std::string_view key) const {
+  const auto it = std::ranges::find(values, key, &ReplyValues::value_type::first);
+  return it == values.end() ? nlohmann::json() : it->second.Parse();
+}
+
+std::string ValueText(const ReplyValue& value) {
+  const nlohmann::json v = value.Parse();
+  if (v.is_discarded()) return value.json_text();
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_object()) {
+    const auto text = v.find("text");
+    if (text != v.end() && text->is_string()) return text->get<std::string>();
+  }
+  return value.json_text();
+}
+
+void AppendJsonString(std::string_view text, std::string& out) {
+  // Plain printable ASCII, as nearly every name and line is, goes as it is; anything else
+  // through nlohmann's escaping and UTF-8 repair.
+  const bool plain = std::ranges::all_of(text, [](char c) {
+    const auto u = static_cast<unsigned char>(c);
+    return u >= 0x20 && u < 0x7f && c != '"' && c != '\\';
+  });
+  if (plain) {
+    out += '"';
+    out += text;
+    out += '"';
+  } else {
+    out += nlohmann::json(text).dump(-1, ' ', false, kReplace);
+  }
+}
+
+void ReplyToWire(const Reply& reply, msg::OperatorReply& message) {
+  message.result = ToWire(reply.code);
+  dds::SetString(message.message, reply.message);
+  dds::ResizeSequence(message.values, static_cast<std::uint32_t>(reply.values.size()));
+  auto kv = dds::Elements(message.values);
+  for (std::size_t i = 0; i < reply.values.size(); ++i) {
+    dds::SetString(kv[i].key, reply.values[i].first);
+    dds::SetString(kv[i].value, reply.values[i].second.json_text());
+  }
+}
+
+Reply ReplyFromWire(const msg::OperatorReply& message) {
+  Reply r;
+  r.code = ReplyCodeFromWire(message.result);
+  r.message = std::string(dds::View(message.message));
+  r.values.reserve(message.values._length);
+  for (const auto& v : dds::Elements(message.values)) {
+    r.values.emplace_back(dds::View(v.key),
+                          ReplyValue::FromJsonText(std::string(dds::View(v.value))));
+  }
+  return r;
+}
+
 ReplyCode ReplyCodeFromWire(std::uint8_t result) {
   switch (result) {
     case autodrive_msgs_msg_OperatorReply_Constants_OK:

@@ -9,6 +9,11 @@
 /// matched by client id and request id. A client that gets no reply sends the same request
 /// again (same id): the daemon answers a repeat from its cache without running it twice.
 ///
+/// A reply carries a result, a line for people (`message`) and named values, each one JSON value
+/// (a number, a string, or an object of typed fields; docs/scm.md, "Replies"). Clients read the
+/// values' fields, never the text: an object meant for people also carries `text`, its line for
+/// scmctl's plain output, which no program parses.
+///
 /// | command | arguments | changes state | does |
 /// | --- | --- | --- | --- |
 /// | status | | | the daemon's state |
@@ -30,6 +35,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "common/dds/messages.h"
 
 namespace autodrive::scm {
@@ -42,16 +49,61 @@ enum class ReplyCode { kOk, kRejected, kInvalid, kFailed };
 [[nodiscard]] std::uint8_t ToWire(ReplyCode code);
 [[nodiscard]] ReplyCode ReplyCodeFromWire(std::uint8_t result);
 
-/// An answer as sent to a client: a result, a line for people and named values.
+/// One value of a reply: one JSON value (a number, a string, an object of typed fields...) as
+/// JSON text, as it goes on the wire. Made from a typed value, or written directly where a reply
+/// is large and asked for often (`intersections`: 1,024 of them a second to a dashboard of a
+/// 32 x 32 city); read back typed with `Parse`, only when and where a client needs it.
+class ReplyValue {
+ public:
+  /// `value` as JSON text (a string that is not UTF-8 is repaired, never thrown about).
+  ReplyValue(const nlohmann::json& value);  // NOLINT(google-explicit-constructor)
+  /// `text` as it is: a writer's own JSON text, or a value from the wire.
+  [[nodiscard]] static ReplyValue FromJsonText(std::string text);
+  /// The JSON text.
+  [[nodiscard]] const std::string& json_text() const { return text_; }
+  /// The value, typed; a discarded value (`is_discarded()`) when the text is not JSON (a server
+  /// of another protocol).
+  [[nodiscard]] nlohmann::json Parse() const;
+  bool operator==(const ReplyValue&) const = default;
+
+ private:
+  ReplyValue() = default;
+  std::string text_;
+};
+
+/// The named values of a reply, in order.
+using ReplyValues = std::vector<std::pair<std::string, ReplyValue>>;
+
+/// An answer as sent to a client (and as the client reads it): a result, a line for people and
+/// named values.
 struct Reply {
   ReplyCode code = ReplyCode::kOk;
   std::string message;
-  std::vector<std::pair<std::string, std::string>> values;
+  ReplyValues values;
+  /// The value named `key` (the first), typed: null when there is none, discarded when it is
+  /// not JSON.
+  [[nodiscard]] nlohmann::json Value(std::string_view key) const;
   static Reply Ok(std::string m) { return {ReplyCode::kOk, std::move(m), {}}; }
   static Reply Rejected(std::string m) { return {ReplyCode::kRejected, std::move(m), {}}; }
   static Reply Invalid(std::string m) { return {ReplyCode::kInvalid, std::move(m), {}}; }
   static Reply Failed(std::string m) { return {ReplyCode::kFailed, std::move(m), {}}; }
 };
+
+/// The line for people of a reply's value (scmctl's plain output): a string as it is, an
+/// object's `text` when it has one, anything else as JSON; a value that is not JSON as its text.
+[[nodiscard]] std::string ValueText(const ReplyValue& value);
+
+/// Appends `text` to `out` as a JSON string (quoted and escaped; text that is not UTF-8 is
+/// repaired): for values written directly.
+void AppendJsonString(std::string_view text, std::string& out);
+
+/// Writes `reply` into `message` (result, message, each value's JSON text): the one way a reply
+/// goes onto the wire.
+void ReplyToWire(const Reply& reply, msg::OperatorReply& message);
+
+/// The reply `message` carries, its values as they came (read them typed with `Reply::Value` or
+/// `ReplyValue::Parse`).
+[[nodiscard]] Reply ReplyFromWire(const msg::OperatorReply& message);
 
 /// Size caps on what a request may carry: nothing from the network grows without bound.
 struct RequestLimits {

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
+#include <iterator>
 
 #include "common/error.h"
 #include "scm/io/map_data.h"
@@ -28,6 +30,61 @@ std::optional<std::size_t> Intersection(const OperatorCommand& cmd, const Comman
   return std::nullopt;
 }
 
+/// Seconds of `d`, to the millisecond.
+double Ms(Duration d) { return std::round(ToSeconds(d) * 1000.0) / 1000.0; }
+
+/// A group of `show`: its aspect and times (seconds from now), its lights and what each shows.
+nlohmann::json GroupJson(const SignalGroup& group, const GroupSignal& s, MonoTime now,
+                         const CommandContext& ctx) {
+  nlohmann::json heads = nlohmann::json::array();
+  std::string heads_text;
+  for (const SignalHeadId h : group.heads) {
+    const auto hi = ctx.runtime.HeadIndex(h);
+    if (!hi) continue;
+    const HeadHealth& health = ctx.supervisor.head(*hi);
+    const std::string& name = ctx.runtime.heads()[*hi].name;
+    heads.push_back({{"head", name},
+                     {"displayed", health.displayed ? nlohmann::json(ToString(*health.displayed))
+                                                    : nlohmann::json()},
+                     {"lost", health.lost}});
+    heads_text +=
+        fmt::format(" {}={}{}", name, health.displayed ? ToString(*health.displayed) : "unseen",
+                    health.lost ? "(lost)" : "");
+  }
+  std::string text = fmt::format(
+      "{} since {:.1f} s, min end in {:.1f} s{};{}", ToString(s.aspect), ToSeconds(now - s.since),
+      ToSeconds(s.min_end - now),
+      s.likely_end ? fmt::format(", likely in {:.1f} s", ToSeconds(*s.likely_end - now)) : "",
+      heads_text);
+  return {{"group", group.id.value()},
+          {"name", group.name},
+          {"aspect", ToString(s.aspect)},
+          {"since_s", Ms(now - s.since)},
+          {"min_end_in_s", Ms(s.min_end - now)},
+          {"likely_end_in_s",
+           s.likely_end ? nlohmann::json(Ms(*s.likely_end - now)) : nlohmann::json()},
+          {"heads", std::move(heads)},
+          {"text", std::move(text)}};
+}
+
+/// An event of the log, as `events` answers it: every field of the record, and `text` for people.
+nlohmann::json EventJson(const EventRecord& e) {
+  return {{"id", e.id},
+          {"stamp", ToSeconds(e.time)},
+          {"severity", ToString(e.severity)},
+          {"source", e.source},
+          {"code", e.code},
+          {"message", e.message},
+          {"intersection", e.intersection.value()},
+          {"device", e.device_id},
+          {"actor", e.actor},
+          {"active", e.active},
+          {"text", fmt::format("{:.3f} {} {} {}{}{}", ToSeconds(e.time), ToString(e.severity),
+                               e.code, e.message,
+                               e.actor.empty() || e.actor == "scm" ? "" : " (by " + e.actor + ")",
+                               e.active ? " [active]" : "")}};
+}
+
 std::optional<Reply> Status(const OperatorCommand&, const ClockReading& now, CommandContext& ctx,
                             Responder&) {
   const City& city = ctx.runtime.city();
@@ -37,43 +94,42 @@ std::optional<Reply> Status(const OperatorCommand&, const ClockReading& now, Com
   Reply r = Reply::Ok(fmt::format("city {}: {} signalised intersections, {} lights, up {:.0f} s",
                                   city.config.name, ctx.runtime.intersections().size(),
                                   ctx.runtime.heads().size(), uptime));
-  auto add = [&](std::string k, std::string v) {
+  auto add = [&](std::string k, nlohmann::json v) {
     r.values.emplace_back(std::move(k), std::move(v));
   };
   add("city", city.config.name);
   add("config", ctx.figures.config_path);
   add("clock", ToString(ctx.figures.clock));
-  add("uptime_s", fmt::format("{:.1f}", uptime));
-  add("lights", std::to_string(ctx.runtime.heads().size()));
-  add("lights_lost", std::to_string(ctx.supervisor.lost()));
-  add("events", std::to_string(db.event_count));
-  add("events_dropped", std::to_string(db.events_dropped));
-  add("database_bytes", std::to_string(db.size_bytes));
-  add("spat_published", std::to_string(ctx.publishers.counters().spat));
-  add("write_failures",
-      std::to_string(ctx.publishers.counters().write_failures + ctx.lights.counters().failures));
-  add("light_commands", std::to_string(ctx.lights.counters().writes));
-  add("light_resends", std::to_string(ctx.lights.counters().resends));
-  add("requests", std::to_string(cp.received));
-  add("refused_invalid", std::to_string(cp.invalid));
-  add("refused_rate", std::to_string(cp.rate_limited));
-  add("refused_not_allowed", std::to_string(cp.not_allowed));
-  add("malformed_requests", std::to_string(cp.invalid + ctx.figures.malformed_inputs));
-  add("foreign_devices", std::to_string(ctx.supervisor.counters().foreign_city +
-                                        ctx.supervisor.counters().foreign_host));
-  add("signal_requests", std::to_string(ctx.figures.signal_requests));
-  add("background_vehicles", std::to_string(ctx.fleet.BackgroundVehicles(now.wire)));
-  add("monitor_violations", std::to_string(ctx.figures.monitor_violations));
-  add("stalls", std::to_string(ctx.figures.stalls));
-  add("longest_stall_ms", fmt::format("{:.0f}", ToSeconds(ctx.figures.longest_stall) * 1000.0));
-  add("reused_request_ids", std::to_string(cp.reused_ids));
+  add("uptime_s", std::round(uptime * 10.0) / 10.0);
+  add("lights", ctx.runtime.heads().size());
+  add("lights_lost", ctx.supervisor.lost());
+  add("events", db.event_count);
+  add("events_dropped", db.events_dropped);
+  add("database_bytes", db.size_bytes);
+  add("spat_published", ctx.publishers.counters().spat);
+  add("write_failures", ctx.publishers.counters().write_failures + ctx.lights.counters().failures);
+  add("light_commands", ctx.lights.counters().writes);
+  add("light_resends", ctx.lights.counters().resends);
+  add("requests", cp.received);
+  add("refused_invalid", cp.invalid);
+  add("refused_rate", cp.rate_limited);
+  add("refused_not_allowed", cp.not_allowed);
+  add("malformed_requests", cp.invalid + ctx.figures.malformed_inputs);
+  add("foreign_devices",
+      ctx.supervisor.counters().foreign_city + ctx.supervisor.counters().foreign_host);
+  add("signal_requests", ctx.figures.signal_requests);
+  add("background_vehicles", ctx.fleet.BackgroundVehicles(now.wire));
+  add("monitor_violations", ctx.figures.monitor_violations);
+  add("stalls", ctx.figures.stalls);
+  add("longest_stall_ms", std::llround(ToSeconds(ctx.figures.longest_stall) * 1000.0));
+  add("reused_request_ids", cp.reused_ids);
   const ReplyCounters& rc = ctx.figures.replies;
-  add("replies_sent", std::to_string(rc.sent));
-  add("replies_waited_for_reader", std::to_string(rc.waited_for_match));
-  add("replies_waited_for_writer", std::to_string(rc.waited_for_writer));
-  add("replies_unmatched", std::to_string(rc.unmatched));
-  add("replies_dropped", std::to_string(rc.dropped));
-  add("reply_write_refusals", std::to_string(ctx.figures.reply_write_refusals));
+  add("replies_sent", rc.sent);
+  add("replies_waited_for_reader", rc.waited_for_match);
+  add("replies_waited_for_writer", rc.waited_for_writer);
+  add("replies_unmatched", rc.unmatched);
+  add("replies_dropped", rc.dropped);
+  add("reply_write_refusals", ctx.figures.reply_write_refusals);
   return r;
 }
 
@@ -82,7 +138,8 @@ std::optional<Reply> Intersections(const OperatorCommand&, const ClockReading&, 
   Reply r =
       Reply::Ok(fmt::format("{} signalised intersections", ctx.runtime.intersections().size()));
   for (std::size_t i = 0; i < ctx.runtime.intersections().size(); ++i) {
-    r.values.emplace_back(ctx.runtime.intersections()[i].model->name, ctx.runtime.Describe(i));
+    r.values.emplace_back(ctx.runtime.intersections()[i].model->name,
+                          IntersectionValue(ctx.runtime.Summary(i)));
   }
   return r;
 }
@@ -93,34 +150,24 @@ std::optional<Reply> Show(const OperatorCommand& cmd, const ClockReading& now, C
   const auto xi = Intersection(cmd, ctx, error);
   if (!xi) return error;
   const IntersectionRuntime& x = ctx.runtime.intersections()[*xi];
-  Reply r = Reply::Ok(x.model->name + ": " + ctx.runtime.Describe(*xi));
+  Reply r = Reply::Ok(x.model->name + ": " + Describe(ctx.runtime.Summary(*xi)));
   const auto signals = x.controller->Signals(now.mono);
   for (std::size_t g = 0; g < signals.size(); ++g) {
-    const auto& s = signals[g];
-    std::string heads;
-    for (const SignalHeadId h : x.model->groups[g].heads) {
-      const auto hi = ctx.runtime.HeadIndex(h);
-      if (!hi) continue;
-      const HeadHealth& health = ctx.supervisor.head(*hi);
-      heads += fmt::format(" {}={}{}", ctx.runtime.heads()[*hi].name,
-                           health.displayed ? ToString(*health.displayed) : "unseen",
-                           health.lost ? "(lost)" : "");
-    }
-    r.values.emplace_back(
-        fmt::format("group {} {}", x.model->groups[g].id.value(), x.model->groups[g].name),
-        fmt::format("{} since {:.1f} s, min end in {:.1f} s{};{}", ToString(s.aspect),
-                    ToSeconds(now.mono - s.since), ToSeconds(s.min_end - now.mono),
-                    s.likely_end
-                        ? fmt::format(", likely in {:.1f} s", ToSeconds(*s.likely_end - now.mono))
-                        : "",
-                    heads));
+    const SignalGroup& group = x.model->groups[g];
+    r.values.emplace_back(fmt::format("group {} {}", group.id.value(), group.name),
+                          GroupJson(group, signals[g], now.mono, ctx));
   }
   // Vehicles on each approach (its ingress lanes and the box's movements from it).
   const maps::Intersection& mx = ctx.runtime.city().map.intersection(x.model->id);
   for (const ApproachCount& a : ctx.fleet.ApproachCounts(x.model->id, now.wire)) {
     const auto it = std::ranges::find(mx.approaches, a.approach, &maps::Approach::id);
-    r.values.emplace_back(fmt::format("approach {}", ApproachName(it->side)),
-                          fmt::format("{} lab, {} background vehicles", a.lab, a.background));
+    const std::string_view side = ApproachName(it->side);
+    r.values.emplace_back(fmt::format("approach {}", side),
+                          nlohmann::json{{"approach", side},
+                                         {"lab", a.lab},
+                                         {"background", a.background},
+                                         {"text", fmt::format("{} lab, {} background vehicles",
+                                                              a.lab, a.background)}});
   }
   if (ctx.supervisor.monitor_seen(*xi)) {
     r.values.emplace_back("infrastructure monitor",
@@ -242,22 +289,16 @@ std::optional<Reply> Events(const OperatorCommand& cmd, const ClockReading&, Com
     }
     q.limit = limit;
   }
-  ctx.persistence.QueryEvents(q, [respond = std::move(respond)](std::vector<EventRecord> events,
-                                                                std::string error) {
-    if (!error.empty()) {
-      respond(Reply::Failed("cannot read the event log: " + error));
-      return;
-    }
-    Reply r = Reply::Ok(fmt::format("{} events", events.size()));
-    for (const auto& e : events) {
-      r.values.emplace_back(
-          std::to_string(e.id),
-          fmt::format("{:.3f} {} {} {}{}{}", ToSeconds(e.time), ToString(e.severity), e.code,
-                      e.message, e.actor.empty() || e.actor == "scm" ? "" : " (by " + e.actor + ")",
-                      e.active ? " [active]" : ""));
-    }
-    respond(std::move(r));
-  });
+  ctx.persistence.QueryEvents(
+      q, [respond = std::move(respond)](std::vector<EventRecord> events, std::string error) {
+        if (!error.empty()) {
+          respond(Reply::Failed("cannot read the event log: " + error));
+          return;
+        }
+        Reply r = Reply::Ok(fmt::format("{} events", events.size()));
+        for (const auto& e : events) r.values.emplace_back(std::to_string(e.id), EventJson(e));
+        respond(std::move(r));
+      });
   return std::nullopt;
 }
 
@@ -326,6 +367,25 @@ constexpr Entry kHandlers[] = {
 };
 
 }  // namespace
+
+ReplyValue IntersectionValue(const IntersectionSummary& s) {
+  std::string out;
+  out.reserve(192);
+  fmt::format_to(std::back_inserter(out), R"({{"id":{},"mode":"{}","requested":"{}","plan":)",
+                 s.id.value(), ToString(s.mode), ToString(s.requested));
+  AppendJsonString(s.plan, out);
+  fmt::format_to(std::back_inserter(out), R"(,"plan_by":"{}","stage":"{}","latched":)",
+                 s.plan_by_operator ? "operator" : "schedule", ToString(s.stage));
+  if (s.latched) {
+    AppendJsonString(*s.latched, out);
+  } else {
+    out += "null";
+  }
+  out += R"(,"text":)";
+  AppendJsonString(Describe(s), out);
+  out += '}';
+  return ReplyValue::FromJsonText(std::move(out));
+}
 
 std::optional<Reply> RunOperatorCommand(const OperatorCommand& command, const ClockReading& now,
                                         CommandContext& context, Responder respond) {

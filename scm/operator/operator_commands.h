@@ -72,6 +72,11 @@ struct CommandContext {
   DayClock day;
 };
 
+/// An intersection as `intersections` answers it: `{"id", "mode", "requested", "plan",
+/// "plan_by": "operator"|"schedule", "stage", "latched": null|"reason", "text"}` (docs/scm.md),
+/// written directly rather than through a JSON object (a 32 x 32 city answers 1,024 a time).
+[[nodiscard]] ReplyValue IntersectionValue(const IntersectionSummary& s);
+
 /// Runs `command` at `now`. Returns the reply, or nothing when it will come through `respond`.
 /// State-changing commands take effect at once (the intersection is stepped) and are logged as
 /// events with the client as actor. Never throws on a command's content.

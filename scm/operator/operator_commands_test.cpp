@@ -260,23 +260,25 @@ TEST_F(OperatorCommandsTest, StatusAndShowCountTheBackgroundTrafficPerApproach) 
       {"d", leaving.name, leaving.centreline[10], 0.25},
   };
   ASSERT_EQ(bundle_->fleet->ObserveTraffic(now_.wire, cars).recorded, 4u);
-  const auto value = [](const Reply& r, const std::string& key) {
-    for (const auto& [k, v] : r.values) {
-      if (k == key) return v;
-    }
-    return std::string("(no ") + key + ")";
+  // Typed values: a count is a number, an approach an object (and its line for people).
+  const auto approach = [](std::string side, int lab, int background) {
+    return nlohmann::json{{"approach", side},
+                          {"lab", lab},
+                          {"background", background},
+                          {"text", fmt::format("{} lab, {} background vehicles", lab, background)}};
   };
-  EXPECT_EQ(value(Run("status"), "background_vehicles"), "4");
+  EXPECT_EQ(Run("status").Value("background_vehicles"), 4);
   const Reply show = Run("show", {{"intersection", "centre"}});
-  EXPECT_EQ(value(show, "approach east"), "0 lab, 2 background vehicles");
-  EXPECT_EQ(value(show, "approach north"), "0 lab, 1 background vehicles");
-  EXPECT_EQ(value(show, "approach west"), "0 lab, 0 background vehicles");
-  EXPECT_EQ(value(show, "approach south"), "0 lab, 0 background vehicles");
+  EXPECT_EQ(show.Value("approach east"), approach("east", 0, 2));
+  EXPECT_EQ(show.Value("approach north"), approach("north", 0, 1));
+  EXPECT_EQ(show.Value("approach west"), approach("west", 0, 0));
+  EXPECT_EQ(show.Value("approach south"), approach("south", 0, 0));
+  EXPECT_EQ(ValueText(show.Value("approach east")), "0 lab, 2 background vehicles");
   // Not refreshed: stale after the fleet's staleness (1 s).
   RunFor(milliseconds(1100));
-  EXPECT_EQ(value(Run("status"), "background_vehicles"), "0");
-  EXPECT_EQ(value(Run("show", {{"intersection", "centre"}}), "approach east"),
-            "0 lab, 0 background vehicles");
+  EXPECT_EQ(Run("status").Value("background_vehicles"), 0);
+  EXPECT_EQ(Run("show", {{"intersection", "centre"}}).Value("approach east"),
+            approach("east", 0, 0));
 }
 
 TEST_F(OperatorCommandsTest, AResetClearsTheLatchAndAsksOnlyThatIntersectionsMonitorToReset) {
@@ -329,6 +331,73 @@ TEST_F(OperatorCommandsTest, ARefusedResetChangesNothing) {
   EXPECT_THAT(r.message, HasSubstr("signal_5 is still lost; reset refused"));
   EXPECT_TRUE(Controller("centre").latched());
   EXPECT_TRUE(events_.WithCode("failsafe_reset").empty());
+}
+
+/// `intersections`' value written directly, against a JSON object of the same summary.
+TEST(IntersectionValue, IsWhatAJsonObjectOfTheSummaryIs) {
+  IntersectionSummary s;
+  s.id = IntersectionId(3);
+  s.mode = Mode::kFlash;
+  s.requested = Mode::kAuto;
+  s.plan = "day";
+  s.stage = Stage::kFlash;
+  for (const std::optional<std::string>& latched :
+       {std::optional<std::string>(), std::optional<std::string>("conflict: 1 and 3 \"green\""),
+        std::optional<std::string>("detail \xff\n")}) {
+    for (const bool by_operator : {false, true}) {
+      s.latched = latched;
+      s.plan_by_operator = by_operator;
+      SCOPED_TRACE(Describe(s));
+      const nlohmann::json reference{
+          {"id", 3},
+          {"mode", "flash"},
+          {"requested", "auto"},
+          {"plan", "day"},
+          {"plan_by", by_operator ? "operator" : "schedule"},
+          {"stage", "flash"},
+          {"latched", latched ? nlohmann::json(*latched) : nlohmann::json()},
+          {"text", Describe(s)}};
+      const nlohmann::json written = IntersectionValue(s).Parse();
+      ASSERT_FALSE(written.is_discarded()) << IntersectionValue(s).json_text();
+      // Text that is not UTF-8 is repaired the same way by both.
+      EXPECT_EQ(written, nlohmann::json::parse(reference.dump(
+                             -1, ' ', false, nlohmann::json::error_handler_t::replace)));
+      EXPECT_EQ(ValueText(IntersectionValue(s)), written["text"]);
+    }
+  }
+}
+
+TEST_F(OperatorCommandsTest, IntersectionsAndEventsAnswerTypedFields) {
+  RunFor(seconds(8));
+  persistence_->AppendEvent(EventRecord{0, TimeFromSeconds(1795240000.5), Severity::kAlarm,
+                                        "infra/lights", "lamp_fault", "signal_3: red lamp out",
+                                        IntersectionId(2), "signal_3", "infra/lights", true});
+  const Reply xs = Run("intersections");
+  ASSERT_EQ(xs.values.size(), 2u);
+  const nlohmann::json centre = xs.Value("centre");
+  EXPECT_EQ(centre["mode"], ToString(Controller("centre").effective_mode()));
+  EXPECT_EQ(centre["requested"], ToString(Controller("centre").requested_mode()));
+  EXPECT_EQ(centre["stage"], ToString(Controller("centre").stage()));
+  EXPECT_EQ(centre["plan_by"], "schedule");
+  EXPECT_TRUE(centre["latched"].is_null());
+  EXPECT_EQ(centre["text"], bundle_->runtime->Describe(*bundle_->runtime->Find("centre")));
+  const Reply events = Run("events", {{"limit", "100"}});
+  const auto it = std::ranges::find_if(events.values, [](const auto& v) {
+    return v.second.Parse().value("code", "") == "lamp_fault";
+  });
+  ASSERT_NE(it, events.values.end());
+  const nlohmann::json e = it->second.Parse();
+  EXPECT_EQ(e["id"], std::stoll(it->first));
+  EXPECT_EQ(e["stamp"], 1795240000.5);
+  EXPECT_EQ(e["severity"], "alarm");
+  EXPECT_EQ(e["source"], "infra/lights");
+  EXPECT_EQ(e["message"], "signal_3: red lamp out");
+  EXPECT_EQ(e["intersection"], 2);
+  EXPECT_EQ(e["device"], "signal_3");
+  EXPECT_EQ(e["actor"], "infra/lights");
+  EXPECT_EQ(e["active"], true);
+  EXPECT_EQ(ValueText(it->second),
+            "1795240000.500 alarm lamp_fault signal_3: red lamp out (by infra/lights) [active]");
 }
 
 }  // namespace

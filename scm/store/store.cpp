@@ -170,28 +170,6 @@ std::int64_t ToSqlLimit(std::size_t limit) {
 
 }  // namespace
 
-std::string_view ToString(Severity severity) {
-  switch (severity) {
-    case Severity::kDebug:
-      return "debug";
-    case Severity::kInfo:
-      return "info";
-    case Severity::kWarning:
-      return "warning";
-    case Severity::kAlarm:
-      return "alarm";
-    case Severity::kCritical:
-      return "critical";
-  }
-  return "?";
-}
-
-Severity SeverityFromWire(std::uint8_t value) {
-  AUTODRIVE_THROW_UNLESS(value <= 4, "an event severity must be 0 (debug) to 4 (critical), got "
-                                         << static_cast<int>(value));
-  return static_cast<Severity>(value);
-}
-
 std::string ContentHash(std::string_view text) {
   std::uint64_t h = 0xcbf29ce484222325ULL;
   for (const char c : text) {

@@ -21,6 +21,7 @@
 
 #include "common/ids.h"
 #include "common/time.h"
+#include "scm/core/events.h"
 
 namespace autodrive::scm {
 
@@ -37,22 +38,6 @@ class StoreError : public std::runtime_error {
  private:
   int code_;
 };
-
-/// How serious an event is; the numbering of `autodrive_msgs/Event` (`Event_Constants`).
-enum class Severity : std::uint8_t {
-  kDebug = 0,
-  kInfo = 1,
-  kWarning = 2,
-  kAlarm = 3,     ///< needs an operator
-  kCritical = 4,  ///< safety, e.g. conflict-monitor flash
-};
-
-/// "debug", "info", "warning", "alarm" or "critical".
-[[nodiscard]] std::string_view ToString(Severity severity);
-
-/// The severity with wire value `value` (0..4).
-/// @throws InputError naming the value when it is not one.
-[[nodiscard]] Severity SeverityFromWire(std::uint8_t value);
 
 /// One entry of the event log.
 struct EventRecord {

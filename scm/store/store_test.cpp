@@ -84,14 +84,6 @@ TEST(ContentHash, IsFnv1a64InSixteenHexDigits) {
   EXPECT_NE(ContentHash("yellow_s: 3.0\n"), ContentHash("yellow_s: 3.5\n"));
 }
 
-TEST(Severity, ReadsWireValuesAndRefusesOthers) {
-  EXPECT_EQ(SeverityFromWire(0), Severity::kDebug);
-  EXPECT_EQ(SeverityFromWire(4), Severity::kCritical);
-  EXPECT_EQ(ToString(Severity::kAlarm), "alarm");
-  EXPECT_EQ(test::ErrorMessage([] { (void)SeverityFromWire(5); }),
-            "an event severity must be 0 (debug) to 4 (critical), got 5");
-}
-
 TEST_F(StoreTest, AppendReturnsConsecutiveIdsAndRoundTripsEveryField) {
   Store store(":memory:");
   EXPECT_EQ(store.EventCount(), 0);
