@@ -8,15 +8,9 @@
 #include <ctime>
 #include <random>
 
-#include "autodrive_msgs/msg/DeviceStatus.h"
-
 #include "common/config.h"
 #include "common/dds/conversions.h"
-#include "common/dds/discovery.h"
-#include "common/dds/identity.h"
 #include "common/dds/loop_waitset.h"
-#include "common/dds/reader.h"
-#include "common/dds/topics.h"
 #include "common/error.h"
 #include "common/systemd.h"
 #include "scm/city_bundle.h"
