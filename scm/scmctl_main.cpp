@@ -34,6 +34,13 @@ constexpr int kRefused = 1;
 constexpr int kInvalid = 2;
 constexpr int kNoAnswer = 3;
 
+constexpr const char* kAbout =
+    "scmctl: talk to a running autodrive-scm over DDS. Every command is answered with ok, "
+    "rejected, invalid or failed and a message. Commands that change state (mode, plan, "
+    "advance, reset, config apply) are sent as an operator (--operator NAME, or the "
+    "AUTODRIVE_OPERATOR variable) and accepted only from the operators the city allows. Exit "
+    "status: 0 ok, 1 rejected/failed, 2 invalid, 3 no SCM answered. See docs/scm.md.";
+
 int Print(const OperatorAnswer& a, bool json) {
   if (json) {
     std::cout << ToJson(a).dump() << std::endl;
@@ -62,15 +69,172 @@ std::string ReadCityText(const std::string& file) {
   return text;
 }
 
+/// The arguments of `config validate --scm FILE` and `config apply FILE`: the file's text, its
+/// size and hash, its path. False (and the reason printed) when the file cannot be sent.
+bool AddCityArguments(const std::string& file, std::map<std::string, std::string>& args) {
+  std::string text;
+  try {
+    text = ReadCityText(file);
+  } catch (const InputError& e) {
+    std::cout << "invalid: " << e.what() << "\n";
+    return false;
+  }
+  args["yaml_bytes"] = std::to_string(text.size());
+  args["yaml_hash"] = ContentHash(text);
+  args["yaml"] = std::move(text);
+  args["path"] = std::filesystem::absolute(file).string();
+  return true;
+}
+
+/// Defines `watch WHAT [--count N] [--duration S] [--json]` on `app`.
+CLI::App* AddWatchCommand(CLI::App& app, std::string& watch_what, int& count, double& duration_s,
+                          bool& json) {
+  auto* watch = app.add_subcommand(
+      "watch",
+      "print SPaT, fleet, events or lamps as they come (lamps: every head of the SCM's MAP, "
+      "each report of signal_<i>/state with the wall time it arrived)");
+  watch->add_option("what", watch_what, "spat|fleet|events|lamps")
+      ->required()
+      ->check(CLI::IsMember({"spat", "fleet", "events", "lamps"}));
+  watch->add_option("--count", count, "stop after this many messages (0: until interrupted)");
+  watch->add_option("--duration", duration_s, "stop after this many seconds (0: no limit)");
+  watch->add_flag("--json", json, "one JSON object per line");
+  return watch;
+}
+
+/// `config validate FILE` without `--scm`: the file checked here.
+int ValidateHere(const std::string& file) {
+  try {
+    const City city = LoadCity(file);
+    // What an SCM would refuse of it whatever city it runs: no operator able to change
+    // state (an SCM's own --operator aside, which only the SCM knows: --scm asks it).
+    if (auto refusal = ConfigRefusal(city.config, city.config.name, {})) {
+      std::cout << "rejected: " << file << ": " << *refusal << "\n";
+      return kRefused;
+    }
+    std::cout << "ok: " << file << " is valid: city " << city.config.name << ", "
+              << city.intersections.size() << " signalised intersections\n";
+    return 0;
+  } catch (const InputError& e) {
+    std::cout << "invalid: " << e.what() << "\n";
+    return kInvalid;
+  }
+}
+
+/// `watch lamps`: a line per report of each head the SCM's MAP names, as it arrives, until
+/// `done()`. False when no MAP came within 30 s.
+template <typename Done>
+bool WatchLamps(dds::Participant& participant, bool json, std::atomic<int>& seen,
+                const Done& done) {
+  dds::Reader<msg::MapData> map(participant, dds::topics::Map());
+  std::set<std::uint32_t> heads;
+  const auto map_end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (heads.empty() && !done() && std::chrono::steady_clock::now() < map_end) {
+    map.WaitForData(std::chrono::milliseconds(100));
+    for (auto& m : map.TakeAll()) {
+      for (const auto& x : dds::Elements(m->intersections)) {
+        for (const auto& g : dds::Elements(x.signal_groups)) {
+          for (const auto& h : dds::Elements(g.signal_heads)) {
+            const std::string_view name = dds::View(h);
+            if (name.starts_with("signal_")) {
+              heads.insert(static_cast<std::uint32_t>(
+                  std::strtoul(std::string(name.substr(7)).c_str(), nullptr, 10)));
+            }
+          }
+        }
+      }
+    }
+  }
+  if (heads.empty()) {
+    std::cerr << "scmctl: no MAP from an SCM within 30 s: no heads to watch\n";
+    return false;
+  }
+  std::mutex out_mutex;
+  std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> readers;
+  for (const std::uint32_t h : heads) {
+    readers.push_back(std::make_unique<dds::Reader<msg::Int32>>(
+        participant, dds::topics::SignalState(SignalHeadId{h})));
+    readers.back()->OnDataAvailable([&, h](dds::Reader<msg::Int32>& r) {
+      dds::Message<msg::Int32> m;
+      while (r.TakeOne(m)) {
+        const double rx =
+            std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+                .count();
+        std::lock_guard lock(out_mutex);
+        if (done()) return;
+        if (json) {
+          std::cout
+              << nlohmann::json{{"type", "lamp"}, {"head", h}, {"lamp", m->data}, {"rx", rx}}.dump()
+              << std::endl;
+        } else {
+          std::cout << fmt::format("{:.3f} signal_{} {}", rx, h, m->data) << std::endl;
+        }
+        ++seen;
+      }
+    });
+  }
+  while (!done()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  readers.clear();  // waits for a listener that is running (it prints nothing more)
+  return true;
+}
+
+/// `watch WHAT`: SPaT, fleet, events or lamps as they come, until `count` messages, `duration_s`
+/// seconds or a signal.
+int Watch(const dds::ParticipantOptions& dds_options, const std::string& watch_what, int count,
+          double duration_s, bool json) {
+  dds::Participant participant(dds_options);
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&](int) { stop = true; });
+  const auto end = duration_s > 0
+                       ? std::chrono::steady_clock::now() +
+                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double>(duration_s))
+                       : std::chrono::steady_clock::time_point::max();
+  std::atomic<int> seen{0};
+  auto done = [&] {
+    return stop.load() || (count > 0 && seen >= count) || std::chrono::steady_clock::now() >= end;
+  };
+  auto loop = [&](auto& reader, auto text) {
+    while (!done()) {
+      reader.WaitForData(std::chrono::milliseconds(100));
+      for (auto& m : reader.TakeAll()) {
+        if (done()) break;
+        std::cout << (json ? ToJson(*m).dump() : text(*m)) << std::endl;
+        ++seen;
+      }
+    }
+  };
+  if (watch_what == "spat") {
+    dds::Reader<msg::Spat> r(participant, dds::topics::Spat());
+    loop(r, [](const msg::Spat& s) {
+      std::string out = fmt::format("{:.1f}", ToSeconds(dds::FromMsg(s.header.stamp)));
+      for (const auto& x : dds::Elements(s.intersections)) {
+        out += fmt::format(" | {} {}:", dds::View(x.name), dds::View(x.plan));
+        for (const auto& g : dds::Elements(x.signal_groups)) {
+          out += fmt::format(" {}={}", g.signal_group, EventStateName(g.event_state));
+        }
+      }
+      return out;
+    });
+  } else if (watch_what == "lamps") {
+    if (!WatchLamps(participant, json, seen, done)) return kNoAnswer;
+  } else if (watch_what == "fleet") {
+    dds::Reader<msg::FleetState> r(participant, dds::topics::Fleet());
+    loop(r, [](const msg::FleetState& f) { return ToJson(f).dump(); });
+  } else {
+    dds::Reader<msg::Event> r(participant, dds::topics::Events());
+    loop(r, [](const msg::Event& e) {
+      return fmt::format("{:.3f} [{}] {} {}", ToSeconds(dds::FromMsg(e.header.stamp)),
+                         SeverityName(e.severity), dds::View(e.code), dds::View(e.message));
+    });
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{
-      "scmctl: talk to a running autodrive-scm over DDS. Every command is answered with ok, "
-      "rejected, invalid or failed and a message. Commands that change state (mode, plan, "
-      "advance, reset, config apply) are sent as an operator (--operator NAME, or the "
-      "AUTODRIVE_OPERATOR variable) and accepted only from the operators the city allows. Exit "
-      "status: 0 ok, 1 rejected/failed, 2 invalid, 3 no SCM answered. See docs/scm.md."};
+  CLI::App app{kAbout};
   app.require_subcommand(1);
   dds::ProgramOptions dds_cli;
   double timeout_s = 5.0;
@@ -108,16 +272,7 @@ int main(int argc, char** argv) {
   auto* events = app.add_subcommand("events", "the event log");
   events->add_option("--since", since, "only events after this time (seconds since the epoch)");
   events->add_option("--limit", limit, "at most this many")->capture_default_str();
-  auto* watch = app.add_subcommand(
-      "watch",
-      "print SPaT, fleet, events or lamps as they come (lamps: every head of the SCM's MAP, "
-      "each report of signal_<i>/state with the wall time it arrived)");
-  watch->add_option("what", watch_what, "spat|fleet|events|lamps")
-      ->required()
-      ->check(CLI::IsMember({"spat", "fleet", "events", "lamps"}));
-  watch->add_option("--count", count, "stop after this many messages (0: until interrupted)");
-  watch->add_option("--duration", duration_s, "stop after this many seconds (0: no limit)");
-  watch->add_flag("--json", json, "one JSON object per line");
+  auto* watch = AddWatchCommand(app, watch_what, count, duration_s, json);
   auto* config = app.add_subcommand("config", "check or apply a city configuration");
   config->require_subcommand(1);
   bool validate_on_scm = false;
@@ -150,125 +305,8 @@ int main(int argc, char** argv) {
   try {
     const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
         std::chrono::duration<double>(timeout_s));
-    if (validate->parsed() && !validate_on_scm) {
-      try {
-        const City city = LoadCity(file);
-        // What an SCM would refuse of it whatever city it runs: no operator able to change
-        // state (an SCM's own --operator aside, which only the SCM knows: --scm asks it).
-        if (auto refusal = ConfigRefusal(city.config, city.config.name, {})) {
-          std::cout << "rejected: " << file << ": " << *refusal << "\n";
-          return kRefused;
-        }
-        std::cout << "ok: " << file << " is valid: city " << city.config.name << ", "
-                  << city.intersections.size() << " signalised intersections\n";
-        return 0;
-      } catch (const InputError& e) {
-        std::cout << "invalid: " << e.what() << "\n";
-        return kInvalid;
-      }
-    }
-    if (watch->parsed()) {
-      dds::Participant participant(dds_options);
-      std::atomic<bool> stop{false};
-      ShutdownSignals signals([&](int) { stop = true; });
-      const auto end = duration_s > 0
-                           ? std::chrono::steady_clock::now() +
-                                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                     std::chrono::duration<double>(duration_s))
-                           : std::chrono::steady_clock::time_point::max();
-      std::atomic<int> seen{0};
-      auto done = [&] {
-        return stop.load() || (count > 0 && seen >= count) ||
-               std::chrono::steady_clock::now() >= end;
-      };
-      auto loop = [&](auto& reader, auto text) {
-        while (!done()) {
-          reader.WaitForData(std::chrono::milliseconds(100));
-          for (auto& m : reader.TakeAll()) {
-            if (done()) break;
-            std::cout << (json ? ToJson(*m).dump() : text(*m)) << std::endl;
-            ++seen;
-          }
-        }
-      };
-      if (watch_what == "spat") {
-        dds::Reader<msg::Spat> r(participant, dds::topics::Spat());
-        loop(r, [](const msg::Spat& s) {
-          std::string out = fmt::format("{:.1f}", ToSeconds(dds::FromMsg(s.header.stamp)));
-          for (const auto& x : dds::Elements(s.intersections)) {
-            out += fmt::format(" | {} {}:", dds::View(x.name), dds::View(x.plan));
-            for (const auto& g : dds::Elements(x.signal_groups)) {
-              out += fmt::format(" {}={}", g.signal_group, EventStateName(g.event_state));
-            }
-          }
-          return out;
-        });
-      } else if (watch_what == "lamps") {
-        // The heads the SCM's MAP names; a line per report, as it arrives.
-        dds::Reader<msg::MapData> map(participant, dds::topics::Map());
-        std::set<std::uint32_t> heads;
-        const auto map_end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-        while (heads.empty() && !done() && std::chrono::steady_clock::now() < map_end) {
-          map.WaitForData(std::chrono::milliseconds(100));
-          for (auto& m : map.TakeAll()) {
-            for (const auto& x : dds::Elements(m->intersections)) {
-              for (const auto& g : dds::Elements(x.signal_groups)) {
-                for (const auto& h : dds::Elements(g.signal_heads)) {
-                  const std::string_view name = dds::View(h);
-                  if (name.starts_with("signal_")) {
-                    heads.insert(static_cast<std::uint32_t>(
-                        std::strtoul(std::string(name.substr(7)).c_str(), nullptr, 10)));
-                  }
-                }
-              }
-            }
-          }
-        }
-        if (heads.empty()) {
-          std::cerr << "scmctl: no MAP from an SCM within 30 s: no heads to watch\n";
-          return kNoAnswer;
-        }
-        std::mutex out_mutex;
-        std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> readers;
-        for (const std::uint32_t h : heads) {
-          readers.push_back(std::make_unique<dds::Reader<msg::Int32>>(
-              participant, dds::topics::SignalState(SignalHeadId{h})));
-          readers.back()->OnDataAvailable([&, h](dds::Reader<msg::Int32>& r) {
-            dds::Message<msg::Int32> m;
-            while (r.TakeOne(m)) {
-              const double rx =
-                  std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-                      .count();
-              std::lock_guard lock(out_mutex);
-              if (done()) return;
-              if (json) {
-                std::cout << nlohmann::json{{"type", "lamp"},
-                                            {"head", h},
-                                            {"lamp", m->data},
-                                            {"rx", rx}}
-                                 .dump()
-                          << std::endl;
-              } else {
-                std::cout << fmt::format("{:.3f} signal_{} {}", rx, h, m->data) << std::endl;
-              }
-              ++seen;
-            }
-          });
-        }
-        while (!done()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        readers.clear();  // waits for a listener that is running (it prints nothing more)
-      } else if (watch_what == "fleet") {
-        dds::Reader<msg::FleetState> r(participant, dds::topics::Fleet());
-        loop(r, [](const msg::FleetState& f) { return ToJson(f).dump(); });
-      } else {
-        dds::Reader<msg::Event> r(participant, dds::topics::Events());
-        loop(r, [](const msg::Event& e) {
-          return fmt::format("{:.3f} [{}] {} {}", ToSeconds(dds::FromMsg(e.header.stamp)),
-                             SeverityName(e.severity), dds::View(e.code), dds::View(e.message));
-        });
-      }
-      return 0;
-    }
+    if (validate->parsed() && !validate_on_scm) return ValidateHere(file);
+    if (watch->parsed()) return Watch(dds_options, watch_what, count, duration_s, json);
 
     std::string command;
     std::map<std::string, std::string> args;
@@ -287,17 +325,7 @@ int main(int argc, char** argv) {
     }
     if (apply->parsed() || validate->parsed()) {
       command = apply->parsed() ? "config_apply" : "config_validate";
-      std::string text;
-      try {
-        text = ReadCityText(file);
-      } catch (const InputError& e) {
-        std::cout << "invalid: " << e.what() << "\n";
-        return kInvalid;
-      }
-      args["yaml_bytes"] = std::to_string(text.size());
-      args["yaml_hash"] = ContentHash(text);
-      args["yaml"] = std::move(text);
-      args["path"] = std::filesystem::absolute(file).string();
+      if (!AddCityArguments(file, args)) return kInvalid;
     }
     const CommandSpec* spec = FindCommand(command);
     if (spec != nullptr && spec->changes_state && operator_name.empty()) {

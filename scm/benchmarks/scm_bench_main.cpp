@@ -140,6 +140,112 @@ void RequestToReply(dds::Participant& participant, const char* label, int reques
   }
 }
 
+/// SPaT as a subscriber takes it, and the SCM's CPU, for `seconds` of wall time.
+void WatchSpat(dds::Reader<msg::Spat>& spat_reader, pid_t scm_pid, double seconds) {
+  SpatWatch watch;
+  const double cpu0 = CpuSeconds(scm_pid);
+  const auto t0 = Steady::now();
+  while (Steady::now() - t0 < std::chrono::duration<double>(seconds)) {
+    spat_reader.WaitForData(milliseconds(20));
+    watch.Take(spat_reader);
+  }
+  const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
+  const double cpu = CpuSeconds(scm_pid) - cpu0;
+  watch.Print(wall);
+  std::printf("   autodrive-scm CPU: %.3f s per second of wall time (%.1f%% of one core)\n",
+              cpu / wall, 100.0 * cpu / wall);
+}
+
+/// The requests the flood's clients sent, by client, and the answers that came back.
+struct FloodLedger {
+  std::mutex mutex;
+  std::map<std::string, std::set<std::uint64_t>> sent, answered;
+  std::uint64_t ok = 0, refused = 0;
+};
+
+/// One flood client: `status` and `show` requests at `rate` per second until `t0 + flood_for`.
+void FloodClient(dds::Participant& participant, int c, double rate, Steady::time_point t0,
+                 std::chrono::duration<double> flood_for, FloodLedger& ledger) {
+  const std::string id = "flood_" + std::to_string(c);
+  dds::Writer<msg::OperatorRequest> writer(participant, dds::topics::OperatorRequests());
+  writer.WaitForReaders(1, std::chrono::seconds(10));
+  const auto period = std::chrono::duration<double>(1.0 / rate);
+  std::uint64_t k = 0;
+  auto next = Steady::now();
+  while (Steady::now() - t0 < flood_for) {
+    dds::Message<msg::OperatorRequest> m;
+    dds::SetString(m->client_id, id);
+    m->request_id = ++k;
+    dds::SetString(m->command, k % 2 ? "status" : "show");
+    if (k % 2 == 0) {
+      dds::ResizeSequence(m->arguments, 1);
+      dds::SetString(dds::Elements(m->arguments)[0].key, "intersection");
+      dds::SetString(dds::Elements(m->arguments)[0].value, "x_r1c1");
+    }
+    try {
+      writer.Write(m);
+      std::lock_guard lock(ledger.mutex);
+      ledger.sent[id].insert(k);
+    } catch (const std::exception&) {
+    }
+    next += std::chrono::duration_cast<Steady::duration>(period);
+    std::this_thread::sleep_until(next);
+  }
+}
+
+/// `clients` flood the SCM with `rate` requests/s each for `seconds`, while SPaT is watched.
+void FloodBenchmark(dds::Participant& participant, dds::Reader<msg::Spat>& spat_reader,
+                    pid_t scm_pid, double seconds, int clients, double rate) {
+  FloodLedger ledger;
+  std::atomic<bool> stop{false};
+  dds::Reader<msg::OperatorReply> replies(participant, dds::topics::OperatorReplies());
+  std::thread collector([&] {
+    while (!stop.load()) {
+      replies.WaitForData(milliseconds(20));
+      for (auto& r : replies.TakeAll()) {
+        const std::string client(dds::View(r->client_id));
+        if (!client.starts_with("flood_")) continue;
+        std::lock_guard lock(ledger.mutex);
+        if (ledger.answered[client].insert(r->request_id).second) {
+          (r->result == 0 ? ledger.ok : ledger.refused)++;
+        }
+      }
+    }
+  });
+  std::vector<std::thread> senders;
+  const auto flood_for = std::chrono::duration<double>(seconds);
+  const auto t0 = Steady::now();
+  for (int c = 0; c < clients; ++c) {
+    senders.emplace_back([&, c] { FloodClient(participant, c, rate, t0, flood_for, ledger); });
+  }
+  SpatWatch watch;
+  (void)spat_reader.TakeAll();
+  const double cpu0 = CpuSeconds(scm_pid);
+  while (Steady::now() - t0 < flood_for) {
+    spat_reader.WaitForData(milliseconds(20));
+    watch.Take(spat_reader);
+  }
+  for (auto& t : senders) t.join();
+  const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
+  const double cpu = CpuSeconds(scm_pid) - cpu0;
+  // Answers still in flight: wait for them (a moment, not a test).
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  stop = true;
+  collector.join();
+  std::size_t total = 0, missing = 0;
+  for (const auto& [client, ids] : ledger.sent) {
+    total += ids.size();
+    for (auto id : ids) missing += ledger.answered[client].count(id) == 0 ? 1u : 0u;
+  }
+  std::printf(
+      "   %zu requests sent (%.0f/s): %llu answered ok, %llu refused (rate limit), %zu "
+      "unanswered\n",
+      total, static_cast<double>(total) / wall, static_cast<unsigned long long>(ledger.ok),
+      static_cast<unsigned long long>(ledger.refused), missing);
+  watch.Print(wall);
+  std::printf("   autodrive-scm CPU during the flood: %.1f%% of one core\n", 100.0 * cpu / wall);
+}
+
 void SpatAndFloodBenchmark(int n, double seconds, int requests, int clients, double rate,
                            const std::string& partition, const fs::path& dir) {
   std::printf("== SPaT of a %d x %d grid city (%d signalised intersections), 10 Hz\n", n, n, n * n);
@@ -157,20 +263,7 @@ void SpatAndFloodBenchmark(int n, double seconds, int requests, int clients, dou
   }
   std::this_thread::sleep_for(std::chrono::seconds(2));  // settle (not a test: a benchmark)
   (void)spat_reader->TakeAll();
-  {
-    SpatWatch watch;
-    const double cpu0 = CpuSeconds(scm.pid());
-    const auto t0 = Steady::now();
-    while (Steady::now() - t0 < std::chrono::duration<double>(seconds)) {
-      spat_reader->WaitForData(milliseconds(20));
-      watch.Take(*spat_reader);
-    }
-    const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
-    const double cpu = CpuSeconds(scm.pid()) - cpu0;
-    watch.Print(wall);
-    std::printf("   autodrive-scm CPU: %.3f s per second of wall time (%.1f%% of one core)\n",
-                cpu / wall, 100.0 * cpu / wall);
-  }
+  WatchSpat(*spat_reader, scm.pid(), seconds);
 
   // Request to reply, with the grid city running.
   std::printf("== request -> reply: scmctl-like requests to the grid city's SCM\n");
@@ -184,84 +277,7 @@ void SpatAndFloodBenchmark(int n, double seconds, int requests, int clients, dou
   std::printf("== flood: %d clients x %.0f operator requests/s while the grid city runs\n", clients,
               rate);
   std::fflush(stdout);
-  {
-    std::mutex mutex;
-    std::map<std::string, std::set<std::uint64_t>> sent, answered;
-    std::uint64_t ok = 0, refused = 0;
-    std::atomic<bool> stop{false};
-    dds::Reader<msg::OperatorReply> replies(participant, dds::topics::OperatorReplies());
-    std::thread collector([&] {
-      while (!stop.load()) {
-        replies.WaitForData(milliseconds(20));
-        for (auto& r : replies.TakeAll()) {
-          const std::string client(dds::View(r->client_id));
-          if (!client.starts_with("flood_")) continue;
-          std::lock_guard lock(mutex);
-          if (answered[client].insert(r->request_id).second) {
-            (r->result == 0 ? ok : refused)++;
-          }
-        }
-      }
-    });
-    std::vector<std::thread> senders;
-    const auto flood_for = std::chrono::duration<double>(seconds);
-    const auto t0 = Steady::now();
-    for (int c = 0; c < clients; ++c) {
-      senders.emplace_back([&, c] {
-        const std::string id = "flood_" + std::to_string(c);
-        dds::Writer<msg::OperatorRequest> writer(participant, dds::topics::OperatorRequests());
-        writer.WaitForReaders(1, std::chrono::seconds(10));
-        const auto period = std::chrono::duration<double>(1.0 / rate);
-        std::uint64_t k = 0;
-        auto next = Steady::now();
-        while (Steady::now() - t0 < flood_for) {
-          dds::Message<msg::OperatorRequest> m;
-          dds::SetString(m->client_id, id);
-          m->request_id = ++k;
-          dds::SetString(m->command, k % 2 ? "status" : "show");
-          if (k % 2 == 0) {
-            dds::ResizeSequence(m->arguments, 1);
-            dds::SetString(dds::Elements(m->arguments)[0].key, "intersection");
-            dds::SetString(dds::Elements(m->arguments)[0].value, "x_r1c1");
-          }
-          try {
-            writer.Write(m);
-            std::lock_guard lock(mutex);
-            sent[id].insert(k);
-          } catch (const std::exception&) {
-          }
-          next += std::chrono::duration_cast<Steady::duration>(period);
-          std::this_thread::sleep_until(next);
-        }
-      });
-    }
-    SpatWatch watch;
-    (void)spat_reader->TakeAll();
-    const double cpu0 = CpuSeconds(scm.pid());
-    while (Steady::now() - t0 < flood_for) {
-      spat_reader->WaitForData(milliseconds(20));
-      watch.Take(*spat_reader);
-    }
-    for (auto& t : senders) t.join();
-    const double wall = std::chrono::duration<double>(Steady::now() - t0).count();
-    const double cpu = CpuSeconds(scm.pid()) - cpu0;
-    // Answers still in flight: wait for them (a moment, not a test).
-    std::this_thread::sleep_for(std::chrono::seconds(3));
-    stop = true;
-    collector.join();
-    std::size_t total = 0, missing = 0;
-    for (const auto& [client, ids] : sent) {
-      total += ids.size();
-      for (auto id : ids) missing += answered[client].count(id) == 0 ? 1u : 0u;
-    }
-    std::printf(
-        "   %zu requests sent (%.0f/s): %llu answered ok, %llu refused (rate limit), %zu "
-        "unanswered\n",
-        total, static_cast<double>(total) / wall, static_cast<unsigned long long>(ok),
-        static_cast<unsigned long long>(refused), missing);
-    watch.Print(wall);
-    std::printf("   autodrive-scm CPU during the flood: %.1f%% of one core\n", 100.0 * cpu / wall);
-  }
+  FloodBenchmark(participant, *spat_reader, scm.pid(), seconds, clients, rate);
   scm.Stop();
   subscriber.CloseStdin();
   if (auto taken = subscriber.ReadLine(milliseconds(5000))) {

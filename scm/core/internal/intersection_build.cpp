@@ -1,0 +1,464 @@
+#include "scm/core/internal/intersection_build.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include "common/error.h"
+
+namespace autodrive::scm::internal {
+
+namespace {
+
+constexpr std::string_view kSideNames[] = {"east", "north", "west", "south"};
+
+std::string_view SideName(maps::Side side) { return kSideNames[static_cast<int>(side)]; }
+
+std::optional<maps::Side> SideFromName(std::string_view name) {
+  for (int i = 0; i < 4; ++i) {
+    if (kSideNames[i] == name) return static_cast<maps::Side>(i);
+  }
+  return std::nullopt;
+}
+
+std::string Seconds(Duration d) { return fmt::format("{:g} s", ToSeconds(d)); }
+
+// --- Groups ---
+
+/// The movements group `gc` controls: those of its approaches, then those it names, sorted.
+std::vector<MovementId> GroupMovements(const SignalGroupConfig& gc, const MapSite& site,
+                                       const Where& gw) {
+  std::vector<MovementId> movements;
+  for (const auto& approach : gc.approaches) {
+    const auto side = *SideFromName(approach);
+    if (!site.HasApproach(side)) {
+      gw.Fail(fmt::format("the intersection has no {} approach", approach));
+    }
+    for (MovementId m : site.x.movements) {
+      if (site.SideOf(m) == side) movements.push_back(m);
+    }
+  }
+  for (const auto& name : gc.movements) {
+    const auto it = std::ranges::find_if(
+        site.x.movements, [&](MovementId m) { return site.map.movement(m).name == name; });
+    if (it == site.x.movements.end()) {
+      gw.Fail(fmt::format("unknown movement \"{}\" (not a movement of {})", name, site.x.name));
+    }
+    if (std::ranges::find(movements, *it) == movements.end()) movements.push_back(*it);
+  }
+  if (movements.empty()) gw.Fail("the group controls no movement");
+  std::ranges::sort(movements);
+  return movements;
+}
+
+/// Conflicting movements inside one group would be green together.
+void CheckNoConflictInside(const SignalGroup& g, const maps::Map& map, const Where& gw) {
+  for (std::size_t i = 0; i < g.movements.size(); ++i) {
+    for (std::size_t j = i + 1; j < g.movements.size(); ++j) {
+      if (map.Conflict(g.movements[i], g.movements[j])) {
+        gw.Fail(
+            fmt::format("movements {} and {} conflict but are in one group; rule: "
+                        "conflicting movements are never green together",
+                        map.movement(g.movements[i]).name, map.movement(g.movements[j]).name));
+      }
+    }
+  }
+}
+
+/// The group's timing: its own where given, else the intersection's; checked against `floors`.
+GroupTiming TimingOf(const SignalGroup& g, const GroupTimingConfig& own,
+                     const TimingConfig& intersection, const GroupTiming& floors, double time_scale,
+                     const Where& gw) {
+  const auto pick = [&](const std::optional<nanoseconds>& o, nanoseconds d) {
+    return Scaled(o.value_or(d), time_scale);
+  };
+  GroupTiming t;
+  t.min_green = pick(own.min_green_s, intersection.min_green_s);
+  t.max_green = pick(own.max_green_s, intersection.max_green_s);
+  t.yellow = pick(own.yellow_s, intersection.yellow_s);
+  t.red_clearance = pick(own.red_clearance_s, intersection.red_clearance_s);
+  const std::string label = "group " + GroupLabel(g);
+  if (t.yellow < floors.yellow) {
+    gw.Fail(fmt::format("{}: yellow {} is below the minimum {}; rule: minimum yellow", label,
+                        Seconds(t.yellow), Seconds(floors.yellow)));
+  }
+  if (t.red_clearance < floors.red_clearance) {
+    gw.Fail(fmt::format("{}: red clearance {} is below the minimum {}; rule: minimum all-red",
+                        label, Seconds(t.red_clearance), Seconds(floors.red_clearance)));
+  }
+  if (t.min_green < floors.min_green) {
+    gw.Fail(fmt::format("{}: min green {} is below the minimum {}; rule: minimum green", label,
+                        Seconds(t.min_green), Seconds(floors.min_green)));
+  }
+  if (t.max_green < t.min_green) {
+    gw.Fail(fmt::format("{}: max green {} is below its min green {}", label, Seconds(t.max_green),
+                        Seconds(t.min_green)));
+  }
+  return t;
+}
+
+// --- Plans ---
+
+PlanType PlanTypeOf(const std::string& type) {
+  return type == "fixed"      ? PlanType::kFixed
+         : type == "actuated" ? PlanType::kActuated
+         : type == "flash"    ? PlanType::kFlash
+                              : PlanType::kDark;
+}
+
+/// One phase of a plan of type `type`; marks the groups it serves in `served`.
+Phase BuildPhase(const PhaseConfig& phc, PlanType type, const IntersectionModel& x,
+                 double time_scale, std::vector<bool>& served, const Where& phw) {
+  if (phc.groups.empty()) phw.Fail("a phase needs at least one group");
+  Phase phase;
+  for (std::uint32_t id : phc.groups) {
+    const std::size_t gi = GroupById(x.groups, id, phw);
+    if (std::ranges::find(phase.groups, gi) != phase.groups.end()) {
+      phw.Fail(fmt::format("group {} is listed twice", id));
+    }
+    for (std::size_t other : phase.groups) {
+      if (x.conflicts[gi][other]) {
+        phw.Fail(
+            fmt::format("groups {} and {} conflict; rule: conflicting groups are never "
+                        "green or yellow together",
+                        GroupLabel(x.groups[other]), GroupLabel(x.groups[gi])));
+      }
+    }
+    phase.groups.push_back(gi);
+    served[gi] = true;
+  }
+  Duration lo{0};
+  Duration hi = Duration::max();
+  for (std::size_t gi : phase.groups) {
+    lo = std::max(lo, x.groups[gi].timing.min_green);
+    hi = std::min(hi, x.groups[gi].timing.max_green);
+  }
+  if (lo > hi) {
+    phw.Fail(fmt::format("its groups' min greens ({}) exceed their max greens ({})", Seconds(lo),
+                         Seconds(hi)));
+  }
+  if (phc.green_s) {
+    phase.green = Scaled(*phc.green_s, time_scale);
+    if (phase.green < lo) {
+      phw.Fail(fmt::format("green {} is below its groups' min green {}; rule: minimum green",
+                           Seconds(phase.green), Seconds(lo)));
+    }
+    if (phase.green > hi) {
+      phw.Fail(fmt::format("green {} is above its groups' max green {}", Seconds(phase.green),
+                           Seconds(hi)));
+    }
+  } else if (type == PlanType::kFixed) {
+    phw.Fail("a fixed-time phase needs green_s");
+  } else {
+    phase.green = hi;
+  }
+  return phase;
+}
+
+/// Sets `plan`'s phase starts and cycle: greens plus the clearance of the groups each phase
+/// change ends.
+void SetCycle(const std::vector<SignalGroup>& groups, Plan& plan) {
+  Duration t{0};
+  for (std::size_t k = 0; k < plan.phases.size(); ++k) {
+    plan.phase_starts.push_back(t);
+    const auto& now_groups = plan.phases[k].groups;
+    const auto& next_groups = plan.phases[(k + 1) % plan.phases.size()].groups;
+    Duration yellow{0};
+    Duration red{0};
+    for (std::size_t gi : now_groups) {
+      if (std::ranges::find(next_groups, gi) == next_groups.end()) {
+        yellow = std::max(yellow, groups[gi].timing.yellow);
+        red = std::max(red, groups[gi].timing.red_clearance);
+      }
+    }
+    t += plan.phases[k].green + yellow + red;
+  }
+  plan.cycle = t;
+}
+
+/// The detectors `dc` places: one zone per ingress lane of its approach.
+void AddDetectors(const DetectorConfig& dc, PlanType type, const IntersectionModel& x,
+                  const MapSite& site, std::vector<Detector>& out, const Where& dw) {
+  if (type != PlanType::kActuated) dw.Fail("only an actuated plan has detectors");
+  const std::size_t gi = GroupById(x.groups, dc.group, dw);
+  const auto side = *SideFromName(dc.approach);
+  const maps::Approach* approach = nullptr;
+  for (const auto& a : site.x.approaches) {
+    if (a.side == side) approach = &a;
+  }
+  if (approach == nullptr) dw.Fail(fmt::format("the intersection has no {} approach", dc.approach));
+  const bool controls = std::ranges::any_of(x.groups[gi].movements,
+                                            [&](MovementId m) { return site.SideOf(m) == side; });
+  if (!controls) {
+    dw.Fail(fmt::format("group {} controls no movement from the {} approach",
+                        GroupLabel(x.groups[gi]), dc.approach));
+  }
+  for (LaneId lane : approach->ingress) {
+    out.push_back({gi, lane, dc.setback_m, dc.setback_m + dc.length_m});
+  }
+}
+
+}  // namespace
+
+Where::Where(std::string source) : text_(std::move(source)) {}
+
+Where Where::Then(const std::string& part) const {
+  Where w = *this;
+  w.text_ += (w.first_ ? ": " : ".") + part;
+  w.first_ = false;
+  return w;
+}
+
+void Where::Fail(const std::string& what) const { throw ConfigError(text_ + ": " + what); }
+
+maps::Side MapSite::SideOf(MovementId m) const {
+  const auto& mv = map.movement(m);
+  for (const auto& a : x.approaches) {
+    if (a.id == mv.from_approach) return a.side;
+  }
+  AUTODRIVE_CHECK(false, "movement " << mv.name << " has an unknown approach");
+  return maps::Side::kEast;
+}
+
+bool MapSite::HasApproach(maps::Side side) const {
+  return std::ranges::any_of(x.approaches, [&](const auto& a) { return a.side == side; });
+}
+
+std::string GroupLabel(const SignalGroup& g) {
+  return fmt::format("{} ({})", g.id.value(), g.name);
+}
+
+std::size_t GroupById(const std::vector<SignalGroup>& groups, std::uint32_t id,
+                      const Where& where) {
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    if (groups[i].id == SignalGroupId(id)) return i;
+  }
+  where.Fail(fmt::format("unknown signal group {}", id));
+}
+
+Groups BuildGroups(const IntersectionConfig& cfg, const MapSite& site, const GroupTiming& floors,
+                   double time_scale, const Where& where) {
+  if (cfg.groups.empty()) where.Fail("no signal groups");
+  Groups out;
+  for (std::size_t gi = 0; gi < cfg.groups.size(); ++gi) {
+    const auto& gc = cfg.groups[gi];
+    const Where gw = where.Then(fmt::format("groups[{}] ({})", gi, gc.name));
+    SignalGroup g;
+    g.id = SignalGroupId(gc.id);
+    g.name = gc.name;
+    for (std::size_t k = 0; k < gi; ++k) {
+      if (cfg.groups[k].id == gc.id) gw.Fail(fmt::format("group id {} is used twice", gc.id));
+      if (cfg.groups[k].name == gc.name)
+        gw.Fail(fmt::format("group name {} is used twice", gc.name));
+    }
+    g.movements = GroupMovements(gc, site, gw);
+    for (MovementId m : g.movements) {
+      if (const auto it = out.group_of.find(m); it != out.group_of.end()) {
+        gw.Fail(
+            fmt::format("movement {} is also in group {}; rule: a movement belongs to one "
+                        "signal group",
+                        site.map.movement(m).name, GroupLabel(out.groups[it->second])));
+      }
+      out.group_of[m] = gi;
+    }
+    CheckNoConflictInside(g, site.map, gw);
+    g.timing = TimingOf(g, gc.timing, cfg.timing, floors, time_scale, gw);
+    g.flash_aspect = gc.flash == "yellow" ? Aspect::kFlashingYellow : Aspect::kFlashingRed;
+    out.groups.push_back(std::move(g));
+  }
+  for (MovementId m : site.x.movements) {
+    if (!out.group_of.contains(m)) {
+      where.Fail(
+          fmt::format("movement {} is in no signal group; rule: every movement of a "
+                      "signalised intersection is controlled",
+                      site.map.movement(m).name));
+    }
+  }
+  return out;
+}
+
+ConflictMatrix BuildConflicts(const IntersectionConfig& cfg, const MapSite& site,
+                              const Groups& groups, const Where& where) {
+  // Derived from the geometry, extended by hand, never reduced.
+  const std::size_t n = groups.groups.size();
+  ConflictMatrix conflicts(n, std::vector<bool>(n, false));
+  // One pair of conflicting movements per conflicting pair of groups (a < b), for messages.
+  std::map<std::pair<std::size_t, std::size_t>, std::pair<MovementId, MovementId>> why;
+  for (const auto& [a, b] : site.x.conflicts) {
+    const std::size_t ga = groups.group_of.at(a);
+    const std::size_t gb = groups.group_of.at(b);
+    if (ga == gb) continue;  // refused by BuildGroups
+    conflicts[ga][gb] = conflicts[gb][ga] = true;
+    why.try_emplace({std::min(ga, gb), std::max(ga, gb)}, a, b);
+  }
+  auto read_pairs = [&](const std::vector<std::vector<std::uint32_t>>& pairs, const Where& w) {
+    ConflictMatrix out(n, std::vector<bool>(n, false));
+    for (std::size_t k = 0; k < pairs.size(); ++k) {
+      const Where pw = w.Then(fmt::format("[{}]", k));
+      if (pairs[k].size() != 2 || pairs[k][0] == pairs[k][1]) {
+        pw.Fail("a conflict is a pair of two different group ids, e.g. [1, 2]");
+      }
+      const std::size_t a = GroupById(groups.groups, pairs[k][0], pw);
+      const std::size_t b = GroupById(groups.groups, pairs[k][1], pw);
+      out[a][b] = out[b][a] = true;
+    }
+    return out;
+  };
+  if (cfg.conflicts) {
+    const Where cw = where.Then("conflicts");
+    const auto given = read_pairs(*cfg.conflicts, cw);
+    for (std::size_t a = 0; a < n; ++a) {
+      for (std::size_t b = a + 1; b < n; ++b) {
+        if (conflicts[a][b] && !given[a][b]) {
+          const auto& [ma, mb] = why.at({a, b});
+          cw.Fail(
+              fmt::format("groups {} and {} conflict by geometry (movements {} and {} cross "
+                          "or merge) but are missing; rule: the conflict matrix may be "
+                          "extended, never reduced below the geometry",
+                          GroupLabel(groups.groups[a]), GroupLabel(groups.groups[b]),
+                          site.map.movement(ma).name, site.map.movement(mb).name));
+        }
+      }
+    }
+    conflicts = given;
+  }
+  const auto extra = read_pairs(cfg.extra_conflicts, where.Then("extra_conflicts"));
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = 0; b < n; ++b) {
+      if (extra[a][b]) conflicts[a][b] = true;
+    }
+  }
+  return conflicts;
+}
+
+void AssignHeads(const IntersectionConfig& cfg, const MapSite& site, Groups& groups,
+                 const Where& where) {
+  std::map<SignalHeadId, std::size_t> head_group;
+  for (std::size_t k = 0; k < cfg.heads.size(); ++k) {
+    const Where hw = where.Then(fmt::format("heads[{}]", k));
+    const SignalHeadId head(cfg.heads[k].head);
+    if (std::ranges::find(site.x.signal_heads, head) == site.x.signal_heads.end()) {
+      hw.Fail(fmt::format("signal_{} is not a head of {}", head.value(), site.x.name));
+    }
+    if (head_group.contains(head)) hw.Fail(fmt::format("signal_{} is listed twice", head.value()));
+    head_group[head] = GroupById(groups.groups, cfg.heads[k].group, hw);
+  }
+  for (SignalHeadId head : site.x.signal_heads) {
+    const auto& h = site.map.signal_heads.at(head.value() - 1);
+    maps::Side side = maps::Side::kEast;
+    for (const auto& a : site.x.approaches) {
+      if (a.id == h.approach) side = a.side;
+    }
+    std::set<std::size_t> groups_of_approach;
+    for (MovementId m : site.x.movements) {
+      if (site.SideOf(m) == side) groups_of_approach.insert(groups.group_of.at(m));
+    }
+    if (!head_group.contains(head)) {
+      if (groups_of_approach.size() != 1) {
+        where.Fail(
+            fmt::format("signal_{} faces the {} approach, whose movements are in {} "
+                        "groups; say which group it shows under heads",
+                        head.value(), SideName(side), groups_of_approach.size()));
+      }
+      head_group[head] = *groups_of_approach.begin();
+    } else if (!groups_of_approach.contains(head_group[head])) {
+      where.Fail(
+          fmt::format("signal_{} faces the {} approach but shows group {}, which controls "
+                      "no movement from there; rule: a head shows its own approach",
+                      head.value(), SideName(side), GroupLabel(groups.groups[head_group[head]])));
+    }
+  }
+  for (const auto& [head, gi] : head_group) groups.groups[gi].heads.push_back(head);
+}
+
+Plan BuildPlan(const PlanConfig& pc, const IntersectionModel& x, const MapSite& site,
+               double time_scale, const Where& pw) {
+  Plan plan;
+  plan.name = pc.name;
+  plan.type = PlanTypeOf(pc.type);
+  plan.offset = Scaled(pc.offset_s, time_scale);
+  plan.extension = Scaled(pc.extension_s, time_scale);
+  const bool phased = plan.type == PlanType::kFixed || plan.type == PlanType::kActuated;
+  if (!phased) {
+    if (!pc.phases.empty() || !pc.detectors.empty()) {
+      pw.Fail(fmt::format("a {} plan has no phases or detectors", pc.type));
+    }
+    return plan;
+  }
+  if (pc.phases.empty()) pw.Fail(fmt::format("a {} plan needs phases", pc.type));
+  const std::size_t n = x.groups.size();
+  std::vector<bool> served(n, false);
+  for (std::size_t k = 0; k < pc.phases.size(); ++k) {
+    plan.phases.push_back(BuildPhase(pc.phases[k], plan.type, x, time_scale, served,
+                                     pw.Then(fmt::format("phases[{}]", k))));
+  }
+  for (std::size_t gi = 0; gi < n; ++gi) {
+    if (!served[gi]) {
+      pw.Fail(fmt::format("group {} is never green in this plan; rule: every group is served",
+                          GroupLabel(x.groups[gi])));
+    }
+  }
+  SetCycle(x.groups, plan);
+  if (plan.cycle <= Duration{0}) pw.Fail("the cycle is empty");
+  plan.offset = plan.offset % plan.cycle;
+  for (std::size_t k = 0; k < pc.detectors.size(); ++k) {
+    AddDetectors(pc.detectors[k], plan.type, x, site, plan.detectors,
+                 pw.Then(fmt::format("detectors[{}]", k)));
+  }
+  return plan;
+}
+
+std::vector<Plan> BuildPlans(const IntersectionConfig& cfg, const IntersectionModel& x,
+                             const MapSite& site, double time_scale, const Where& where) {
+  if (cfg.plans.empty()) where.Fail("no plans");
+  std::vector<Plan> plans;
+  for (std::size_t pi = 0; pi < cfg.plans.size(); ++pi) {
+    const auto& pc = cfg.plans[pi];
+    const Where pw = where.Then(fmt::format("plans[{}] ({})", pi, pc.name));
+    for (std::size_t k = 0; k < pi; ++k) {
+      if (cfg.plans[k].name == pc.name) pw.Fail(fmt::format("plan name {} is used twice", pc.name));
+    }
+    if (pc.name.empty() || pc.name == "auto") {
+      pw.Fail("a plan needs a name other than \"\" and \"auto\"");
+    }
+    plans.push_back(BuildPlan(pc, x, site, time_scale, pw));
+  }
+  return plans;
+}
+
+int ParseMinuteOfDay(const std::string& text, const Where& where) {
+  int h = -1;
+  int m = -1;
+  char colon = 0;
+  std::istringstream in(text);
+  in >> h >> colon >> m;
+  if (!in || colon != ':' || !in.eof() || h < 0 || h > 23 || m < 0 || m > 59 || text.size() != 5) {
+    where.Fail(fmt::format("bad time of day \"{}\" (expected HH:MM, 00:00 to 23:59)", text));
+  }
+  return h * 60 + m;
+}
+
+std::vector<ScheduleEntry> BuildSchedule(const IntersectionConfig& cfg, const IntersectionModel& x,
+                                         const Where& where) {
+  std::vector<ScheduleEntry> schedule;
+  for (std::size_t k = 0; k < cfg.schedule.size(); ++k) {
+    const Where sw = where.Then(fmt::format("schedule[{}]", k));
+    const auto& sc = cfg.schedule[k];
+    const auto plan = x.PlanIndex(sc.plan);
+    if (!plan) sw.Fail(fmt::format("unknown plan \"{}\"", sc.plan));
+    const int minute = ParseMinuteOfDay(sc.at, sw);
+    for (const auto& e : schedule) {
+      if (e.minute_of_day == minute) sw.Fail(fmt::format("{} is scheduled twice", sc.at));
+    }
+    schedule.push_back({minute, *plan});
+  }
+  if (schedule.empty()) schedule.push_back({0, 0});
+  std::ranges::sort(schedule, {}, &ScheduleEntry::minute_of_day);
+  return schedule;
+}
+
+}  // namespace autodrive::scm::internal
