@@ -125,16 +125,19 @@ struct RenderWorldOptions {
   StaticSceneOptions scene;
   /// Reference tags on the ground.
   std::vector<GroundTag> ground_tags;
-  /// The ground is sampled with AVX2 where the CPU has it (about twice as fast); false forces
-  /// the portable path (`cv::remap`), which gives the same picture to within a level or two.
+  /// The ground is sampled with AVX2 where it is built in and the CPU has it (about twice as
+  /// fast; `RenderAvx2Available()`); false forces the portable path (`cv::remap`), which gives
+  /// the same picture to within a level or two.
   bool allow_avx2 = true;
 };
 
 namespace internal {
-struct RenderPart;
-struct GroundPyramid;
 struct TagBitmap;
 }  // namespace internal
+
+/// Whether the AVX2 ground sampler can run here: it is built in (x86-64 with the CMake option
+/// AUTODRIVE_RENDER_AVX2, on by default) and this CPU has AVX2 and FMA.
+[[nodiscard]] bool RenderAvx2Available();
 
 /// What does not move, prepared once: the ground's picture and its mip pyramid, the solid
 /// static objects, the tag bitmaps. Immutable; share it between cameras.
@@ -151,6 +154,9 @@ class RenderWorld {
   RenderWorld& operator=(const RenderWorld&) = delete;
 
   [[nodiscard]] const RenderWorldOptions& options() const;
+  /// Whether its ground is drawn by the AVX2 sampler: `options().allow_avx2` and
+  /// `RenderAvx2Available()`.
+  [[nodiscard]] bool uses_avx2() const;
   /// The bitmap of a tag: `total_width` x `total_width` cells, row-major from the top-left,
   /// true for a white cell. @throws InputError for an unknown family or id.
   [[nodiscard]] const internal::TagBitmap& Tag(const TagSpec& tag) const;
