@@ -44,8 +44,7 @@ class DashboardWithScm : public ::testing::Test {
 
   /// The Driving School with its map path made absolute, not waiting for lights (none here).
   std::filesystem::path City() const {
-    std::string text =
-        config::internal::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
+    std::string text = config::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
     const std::string map =
         (test::SourceDir() / "config/maps/driving_school.yaml").lexically_normal().string();
     text.replace(text.find("map: ../maps/driving_school.yaml"), 32, "map: " + map);
