@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <set>
 #include <unordered_set>
 
@@ -40,16 +39,6 @@ std::uint8_t Signals(int sumo) {
 std::string Seconds(double s) { return fmt::format("{:.6f}", s); }
 
 }  // namespace
-
-double YawFromSumoAngle(double angle_deg) {
-  return std::remainder(std::numbers::pi / 2 - angle_deg * std::numbers::pi / 180,
-                        2 * std::numbers::pi);
-}
-
-double SumoAngleFromYaw(double yaw_rad) {
-  const double a = 90.0 - yaw_rad * 180 / std::numbers::pi;
-  return a - 360.0 * std::floor(a / 360.0);
-}
 
 CoSimulation::CoSimulation(const scm::City& city, const TrafficConfig& config, Options options)
     : city_(city),

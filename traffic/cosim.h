@@ -38,6 +38,7 @@
 #include "traffic/network.h"
 #include "traffic/sumo_api.h"
 #include "traffic/sumo_cache.h"
+#include "traffic/sumo_frame.h"
 #include "traffic/sumo_time.h"
 #include "traffic/traffic_config.h"
 
@@ -168,10 +169,5 @@ class CoSimulation {
   CoSimStats stats_;
   std::set<std::pair<std::string, std::string>> colliding_;  // in the last step
 };
-
-/// SUMO's navigational angle (degrees, 0 north, clockwise) as a map yaw (rad, 0 east, CCW).
-[[nodiscard]] double YawFromSumoAngle(double angle_deg);
-/// A map yaw as SUMO's navigational angle.
-[[nodiscard]] double SumoAngleFromYaw(double yaw_rad);
 
 }  // namespace autodrive::traffic

@@ -9,8 +9,8 @@
 ///
 /// Every random draw comes from one engine seeded with `TrafficConfig::seed`, in a fixed order,
 /// so the same seed gives the same demand. Times are on SUMO's clock (`SumoTime`). New vehicles
-/// are returned as `Departure`s for the co-simulation to add; routes of vehicles running are
-/// read and set through `SumoCache`'s SUMO.
+/// are returned as `Departure`s for the co-simulation to add; the routes of vehicles running are
+/// read and set through SUMO's API (a scripted one in tests).
 
 #include <cstddef>
 #include <cstdint>

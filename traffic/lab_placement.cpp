@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "traffic/cosim.h"
+#include "traffic/sumo_frame.h"
 
 namespace autodrive::traffic {
 

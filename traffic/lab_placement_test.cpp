@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "traffic/cosim.h"
 #include "traffic/internal/scripted_sumo.h"
 #include "traffic/network.h"
+#include "traffic/sumo_frame.h"
 
 #include "common/test_support.h"
 #include "scm/core/city.h"
