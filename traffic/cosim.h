@@ -5,51 +5,44 @@
 /// in the lab's frame. No DDS here (service.h carries it), so that tests and benchmarks drive
 /// it directly.
 ///
-/// Each `Step`:
-/// 1. the lamps become SUMO's link states (lights.h) where they changed;
-/// 2. every lab car is placed in SUMO as an externally moved vehicle (moveToXY) at its pose, so
-///    that SUMO's cars follow it, stop behind it and yield to it; a car that goes stale or
-///    leaves the road network leaves SUMO. SUMO puts a moved car on the lane nearest its front
-///    bumper, whatever lane the move names, and draws its body back along that lane. In an
-///    intersection's box that is often another movement's (paths cross there, or pass side by
-///    side), and SUMO would see the car across paths it is not on, and report collisions with
-///    the cars on them that never were. So in a box a car is kept to the movement it drives
-///    (`LabCarClaims::Under`): its route in SUMO is set through the movement (from its lane in,
-///    where SUMO has it there), and its moves keep to its route (keepRoute 3: only the lanes in,
-///    through and out); where SUMO has it on another movement's internal lane (whose route
-///    cannot change there), its front is put on the movement's path for a move (keepRoute 2:
-///    SUMO takes the lane under the point, and the route through it);
-/// 3. the demand's departures due are added (flows);
-/// 4. SUMO steps;
-/// 5. a traffic light that flashes red or is dark is an all-way stop, arbitrated here (see
-///    `ArbitrateAllWayStops`): its links stay red for a vehicle until it has stood at the stop
-///    line, then open, first come first served, for movements that conflict with none inside;
-/// 6. circulating vehicles whose route is running out get a longer one (a seeded random walk
-///    over the lane graph), so that they never arrive; departures, arrivals, teleports and
-///    collisions are counted (and logged);
-/// 7. every SUMO vehicle but the lab's is read and mapped to the lab's frame.
+/// Each `Step`, in this order:
+/// 1. every lab car is placed in SUMO at its pose, or taken out of it (`LabCarPlacement`),
+///    after the links SUMO's vehicles must leave to the lab's cars are held (`LabCarClaims`);
+/// 2. the lamps become SUMO's link states where they changed (`LampMapping`, lights.h);
+/// 3. the demand's vehicles due go in (`Demand`: the circulating ones once the lab's cars are
+///    in, then the flows');
+/// 4. SUMO steps; departures, arrivals, teleports and collisions are counted (and logged);
+/// 5. every SUMO vehicle but the lab's is read and mapped to the lab's frame;
+/// 6. the all-way stops are arbitrated (`AllWayStops`): their links stay red for a vehicle
+///    until it has stood at the stop line, then open, first come first served, for movements
+///    that conflict with none inside;
+/// 7. circulating vehicles whose route is running out get a longer one, and those held up by a
+///    full road turn elsewhere (`Demand`).
 
 #include <cstdint>
 #include <filesystem>
 #include <memory>
-#include <optional>
-#include <random>
 #include <set>
 #include <string>
-#include <unordered_map>
-#include <unordered_set>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "traffic/all_way_stops.h"
+#include "traffic/demand.h"
 #include "traffic/lab_claims.h"
+#include "traffic/lab_placement.h"
+#include "traffic/lamp_mapping.h"
 #include "traffic/lights.h"
+#include "traffic/links.h"
 #include "traffic/network.h"
 #include "traffic/sumo_api.h"
+#include "traffic/sumo_cache.h"
+#include "traffic/sumo_frame.h"
+#include "traffic/sumo_time.h"
 #include "traffic/traffic_config.h"
 
 #include "common/time.h"
-#include "maps/query.h"
 
 namespace autodrive::scm {
 struct City;
@@ -87,6 +80,15 @@ struct CoSimStats {
   double sumo_step_cpu_s = 0.0;     ///< CPU time inside SUMO's own step (for the overhead figure)
 };
 
+/// The co-simulation: a thin composition of its parts, which it steps in order and connects to
+/// SUMO (the one place where SUMO's seconds become `SumoTime`):
+/// - `LampMapping` (lamp_mapping.h): the lamps as SUMO's link states;
+/// - `AllWayStops` (all_way_stops.h): the arbitration of flashing, dark and stop-controlled
+///   intersections;
+/// - `LabCarPlacement` (lab_placement.h) and `LabCarClaims` (lab_claims.h): the lab's cars in
+///   SUMO, and what SUMO's vehicles must leave to them;
+/// - `Demand` (demand.h): the background vehicles and their never-ending routes;
+/// - the read-back here: SUMO's vehicles in the lab's frame, its events counted.
 class CoSimulation {
  public:
   struct Options {
@@ -115,136 +117,45 @@ class CoSimulation {
   /// `now`. Returns the background vehicles after the step.
   const std::vector<TrafficVehicle>& Step(const std::vector<LabCarPose>& lab_cars, MonoTime now);
 
+  /// SUMO's time after the last step.
+  [[nodiscard]] SumoTime time() const { return time_; }
   /// SUMO's time after the last step (s since the start).
-  [[nodiscard]] double time_s() const { return time_s_; }
+  [[nodiscard]] double time_s() const { return ToSeconds(time_); }
   [[nodiscard]] const std::vector<TrafficVehicle>& vehicles() const { return vehicles_; }
   [[nodiscard]] const CoSimStats& stats() const { return stats_; }
   [[nodiscard]] const TrafficNetwork& network() const { return *network_; }
   [[nodiscard]] SumoApi& api() { return *api_; }
   /// The link states last set on SUMO's traffic lights, by light (LightBinding order).
-  [[nodiscard]] const std::vector<std::string>& light_states() const { return light_states_; }
+  [[nodiscard]] const std::vector<std::string>& light_states() const { return lamps_.states(); }
   [[nodiscard]] const LightBinding& lights() const { return lights_; }
 
  private:
-  struct Circulating {
-    std::size_t route_length = 0;  // edges in its route (SUMO's index restarts with a new one)
-  };
-  struct LabCar {
-    MonoTime last_seen{};
-    bool in_sumo = false;
-    std::string sumo_id;  // the name, then name#k after the k-th re-entry
-    int entries = 0;
-    std::string lane;  // SUMO's lane for it after the last step (for logs)
-    LabCarPose pose;   // the last heard
-    // The movement SUMO's route for it runs through (its lane in, then its lane out), when known:
-    // a move that keeps to its route then puts it on that movement's lanes.
-    std::optional<MovementId> route_via;
-    bool kept_route = false;  // its last move kept to its route
-  };
-  struct Flow {
-    FlowConfig config;
-    std::string from_edge, to_edge;
-    int sent = 0;
-  };
-
   void StartSumo(Options& options);
+  void Add(const std::vector<Departure>& departures);
+  void SetLights(MonoTime now);
+  void HoldForLabCars();
+  // The random vehicles go in once the lab's cars are in the network (placed in the last step),
+  // so that none is put where a lab car stands.
   void InsertRandomVehicles();
-  const std::string& PickType();
-  void AddVehicle(const std::string& id, const std::string& type, std::vector<std::string> route,
-                  bool circulating, const std::string& depart_pos);
-  void UpdateLights(MonoTime now);
-  // Lab cars: into SUMO (or out of it); then, once the claims are up to date, where they are.
-  void PlaceLabCars(const std::vector<LabCarPose>& cars, MonoTime now);
-  void MoveLabCars();
-  // For a lab car on a lane (not in a box): where SUMO is to have its front (`front`, on its
-  // lane or the next, within the lane's width) and on which SUMO lane.
-  std::optional<std::pair<Eigen::Vector2d, std::string>> FrontOnItsLane(
-      const LabCarPose& car, const Eigen::Vector2d& front);
-  void NoteLabLane(const SumoVehicleState& v);
-  // For a collision's log line: where the lab cars among `a` and `b` were.
-  [[nodiscard]] std::string DescribeLabCars(const std::string& a, const std::string& b) const;
-  void DepartFlows();
-  void ExtendRoutes();
-  void RerouteBlocked();
+  void CountEvents();
   void ReadVehicles();
-  void IndexStopLanes();
-  void ArbitrateAllWayStops();
-  const SumoTypeSize& TypeSize(const std::string& type);
 
   const scm::City& city_;
   TrafficConfig config_;
   std::unique_ptr<TrafficNetwork> network_;
   std::unique_ptr<SumoApi> api_;
+  std::unique_ptr<SumoCache> sumo_;
   LightBinding lights_;
-  std::vector<HeadReading> heads_;         // by head id
-  std::vector<std::string> light_states_;  // by light
-  std::mt19937_64 rng_;
-  double time_s_ = 0.0;
-  double step_s_ = 0.05;
-  std::int64_t next_id_ = 0;
+  LampMapping lamps_;
+  std::unique_ptr<Demand> demand_;
+  std::unique_ptr<LinkIndex> links_;
+  std::unique_ptr<LaneLookup> lanes_;
+  std::unique_ptr<AllWayStops> all_way_;
+  std::unique_ptr<LabCarPlacement> lab_;
+  SumoTime time_{};
   bool inserted_ = false;  // the random vehicles
   std::vector<std::string> expected_lab_cars_;
-  double lab_car_wait_s_ = 5.0;
-  std::unordered_map<std::string, Circulating> circulating_;
-  std::unordered_map<std::string, LabCar> lab_cars_;
-  std::unordered_set<std::string> lab_ids_;  // every SUMO id a lab car had
-  std::unique_ptr<maps::MapIndex> index_;
-  // The all-way stops of flashing or dark traffic lights.
-  struct StopLane {  // an ingress lane of a traffic light
-    std::size_t light = 0;
-    double length = 0;  // SUMO metres
-    struct Link {
-      std::string edge;  // the next edge
-      std::string lane;  // the SUMO lane it enters
-      std::size_t index = 0;
-    };
-    std::vector<Link> links;
-  };
-  struct Grant {
-    std::string vehicle;
-    std::size_t link = 0;
-    double since = 0;  // SUMO time of the grant (s)
-    double room = 0;   // what it takes of its exit lane (SUMO metres)
-  };
-  std::unordered_map<std::string, StopLane> stop_lanes_;  // by SUMO lane id
-  // Internal lanes of the traffic lights' links: (light, link).
-  std::unordered_map<std::string, std::pair<std::size_t, std::size_t>> link_of_lane_;
-  std::vector<std::vector<std::string>> exit_of_link_;
-  // Every lane a light's link enters: the lights whose links enter it.
-  std::unordered_map<std::string, std::vector<std::size_t>> exit_lights_;
-  std::vector<std::string> aspect_states_;  // by light: 's' where all-way stop
-  std::vector<bool> all_way_;               // by light: its aspect has an all-way stop now
-  std::size_t all_way_count_ = 0;
-  std::vector<std::vector<bool>> occupied_;  // by light and link: a vehicle in its lanes
-  // The lab cars' claims (lab_claims.h): by light and link, SUMO's vehicles may not start it.
-  std::unique_ptr<LabCarClaims> claims_;
-  std::vector<std::pair<std::size_t, std::size_t>> link_of_movement_;  // by movement id
-  // The internal lanes of the controlled intersections' movements: the movement.
-  std::unordered_map<std::string, MovementId> movement_of_lane_;
-  std::vector<std::vector<bool>> held_;
-  std::vector<std::size_t> held_lights_;  // the lights with a held link
-  void HoldForLabCars();
-  std::vector<LabCarPose> held_for_;                      // scratch: the lab cars in SUMO
-  std::unordered_map<std::string, double> lane_lengths_;  // SUMO metres, by SUMO lane id
-  // What a step needs to know of a SUMO lane a vehicle is on, found once (one lookup per
-  // vehicle and step): its name in the map, and the lights whose all-way stop it feeds, crosses
-  // or leaves (its vehicles' lane positions matter while one of them runs an all-way stop).
-  struct LaneInfo {
-    const std::string* map_name = nullptr;
-    std::vector<std::size_t> lights;
-  };
-  const LaneInfo& InfoOf(const std::string& sumo_lane);
-  [[nodiscard]] bool AllWayNear(const LaneInfo& info) const;
-  double LaneLength(const std::string& sumo_lane);
-  std::unordered_map<std::string, LaneInfo> lane_info_;
-  std::vector<MonoTime> recheck_until_;  // by light: a lamp went to or from dark lately
-  std::vector<bool> relight_;            // by light: a lamp changed since the last step
-  std::vector<std::vector<std::size_t>> lights_of_head_;    // by head id
-  std::vector<std::vector<Grant>> grants_;                  // by light
-  std::unordered_map<std::string, double> standing_since_;  // vehicle: s, at a stop line
-  std::unordered_map<std::string, double> blocked_since_;   // circulating vehicle: s, standing
-  std::vector<Flow> flows_;
-  std::unordered_map<std::string, SumoTypeSize> type_sizes_;
+  Duration lab_car_wait_;
   std::vector<SumoVehicleState> states_;
   std::vector<TrafficVehicle> vehicles_;
   struct ReadCache {  // by index in vehicles_: what the last step's vehicle there was on
@@ -258,10 +169,5 @@ class CoSimulation {
   CoSimStats stats_;
   std::set<std::pair<std::string, std::string>> colliding_;  // in the last step
 };
-
-/// SUMO's navigational angle (degrees, 0 north, clockwise) as a map yaw (rad, 0 east, CCW).
-[[nodiscard]] double YawFromSumoAngle(double angle_deg);
-/// A map yaw as SUMO's navigational angle.
-[[nodiscard]] double SumoAngleFromYaw(double yaw_rad);
 
 }  // namespace autodrive::traffic

@@ -170,130 +170,217 @@ struct Result {
   std::int64_t late_lamps = 0;  // steps whose lamps reached the inbox only after a wait
 };
 
+// The lamps-in part of a co-simulation step: the lights' plan written on DDS (a writer per
+// head, reporting changes as `autodrive-infra` does) and taken as `autodrive-traffic` takes them
+// (LampInbox).
+class BenchLights {
+ public:
+  BenchLights(const dds::Participant& participant, const std::vector<SignalHeadId>& heads)
+      : heads_(heads), inbox_(participant, heads), lamps_(heads.size()), shown_(heads.size(), -1) {
+    for (const SignalHeadId h : heads) {
+      writers_.push_back(
+          std::make_unique<dds::Writer<msg::Int32>>(participant, dds::topics::SignalState(h)));
+    }
+  }
+  // The lights' plan at `t` (the bench's, not the co-simulation's: not counted).
+  void Plan(const maps::Map& map, double t) {
+    for (std::size_t i = 0; i < lamps_.size(); ++i) lamps_[i] = GridLamp(map, heads_[i], t);
+  }
+  // Lamps in: the changed heads' reports written, delivered (in this process Cyclone delivers
+  // them to the inbox on this thread) and taken, and handed to SUMO's lights. Writing is the
+  // lights' work in a real city: counting it here errs on the safe side. Returns the CPU time
+  // spent waiting for a delivery (not the co-simulation's).
+  double In(CoSimulation& sim, MonoTime now, Result& r) {
+    for (std::size_t i = 0; i < lamps_.size(); ++i) {
+      if (lamps_[i] == shown_[i]) continue;
+      dds::Message<msg::Int32> lamp;
+      lamp->data = lamps_[i];
+      writers_[i]->Write(lamp);
+      shown_[i] = lamps_[i];
+      ++written_;
+    }
+    const double c_written = ThreadCpuSeconds();
+    // Should delivery ever be asynchronous, the step waits for it (not counted).
+    if (inbox_.received() < written_) ++r.late_lamps;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (inbox_.received() < written_ && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    }
+    const double c_delivered = ThreadCpuSeconds();
+    inbox_.Take(taken_);
+    for (const LampInbox::Lamp& l : taken_) sim.ReportLamp(l.head, l.lamp, now);
+    return c_delivered - c_written;
+  }
+
+ private:
+  const std::vector<SignalHeadId>& heads_;
+  LampInbox inbox_;
+  std::vector<std::unique_ptr<dds::Writer<msg::Int32>>> writers_;
+  std::vector<int> lamps_, shown_;
+  std::vector<LampInbox::Lamp> taken_;
+  std::uint64_t written_ = 0;
+};
+
+// The co-simulation's part of a run: `warmup` s, then `seconds` s measured. Fills `lane_names`
+// with the map's names of SUMO's lanes (for libsumo alone's objects).
+Result RunCoSimulation(const scm::City& city, const TrafficConfig& config, double warmup,
+                       double seconds, const std::filesystem::path& dir,
+                       const dds::Participant& participant,
+                       std::unordered_map<std::string, std::string>& lane_names) {
+  Result r;
+  CoSimulation sim(city, config,
+                   CoSimulation::Options{dir / fmt::format("cosim_{}", config.vehicles),
+                                         nullptr,
+                                         true,
+                                         {},
+                                         std::chrono::seconds(5)});
+  dds::Writer<msg::TrafficObjects> writer(participant, dds::topics::Traffic());
+  std::vector<msg::TrafficObject> buffer;
+  msg::TrafficObjects m{};
+  BenchLights lights(participant, sim.lights().heads());
+  const auto step = [&](double t) {
+    lights.Plan(city.map, t);
+    const double c0 = ThreadCpuSeconds();
+    const MonoTime now = MonoTime{} + FromSeconds(t);
+    r.lamps_cpu_s -= lights.In(sim, now, r);
+    const double c1 = ThreadCpuSeconds();
+    sim.Step({}, now);
+    const double c2 = ThreadCpuSeconds();
+    FillTrafficObjects(sim.vehicles(), Time{} + FromSeconds(sim.time_s()), buffer, m);
+    writer.Write(m);
+    const double c3 = ThreadCpuSeconds();
+    r.lamps_cpu_s += c1 - c0;
+    r.step_cpu_s += c2 - c1;
+    r.publish_cpu_s += c3 - c2;
+  };
+  while (sim.time_s() < warmup) step(sim.time_s());
+  r = Result{};
+  r.vehicles = static_cast<int>(sim.vehicles().size());
+  const double sumo0 = sim.stats().sumo_step_cpu_s;
+  const double s0 = sim.time_s();
+  while (sim.time_s() < warmup + seconds - 1e-9) step(sim.time_s());
+  r.cosim_cpu_s = r.lamps_cpu_s + r.step_cpu_s + r.publish_cpu_s;
+  r.sumo_cpu_s = sim.stats().sumo_step_cpu_s - sumo0;
+  r.step_cpu_s -= r.sumo_cpu_s;
+  r.simulated_s = sim.time_s() - s0;
+  for (const std::string& lane : libsumo::Lane::getIDList()) {
+    lane_names.emplace(lane, sim.network().MapName(lane));
+  }
+  r.collisions = sim.stats().collisions;
+  r.teleports = sim.stats().teleports;
+  r.lost = sim.stats().arrived_unplanned;
+  return r;
+}
+
+// libsumo alone on the same network and demand (SUMO's fixed programs instead of lamps): the
+// CPU time of its `seconds` s of steps after `warmup`.
+double RunAlone(const scm::City& city, const TrafficConfig& config, double warmup, double seconds,
+                const std::filesystem::path& dir, const dds::Participant& participant,
+                const std::unordered_map<std::string, std::string>& lane_names) {
+  double alone_cpu_s = 0;
+  const StandaloneFiles f =
+      ExportStandalone(city, config, dir / fmt::format("alone_{}", config.vehicles),
+                       FromSeconds(warmup + seconds + 60));
+  libsumo::Simulation::start({"sumo", "-c", f.config_file.string(), "--step-length", "0.05",
+                              "--no-step-log", "true", "--no-warnings", "true"});
+  while (libsumo::Simulation::getTime() < warmup) libsumo::Simulation::step();
+  // SUMO's steps alone are timed; between them its vehicles go out as TrafficObjects (not
+  // timed), so that the SCM beside it has the same work as in the co-simulation: the SCM's
+  // load slows this thread too (a shared cache, a shared host), by 10 to 30% on the
+  // development VM, and the comparison should not count it as the co-simulation's.
+  dds::Writer<msg::TrafficObjects> writer(participant, dds::topics::Traffic());
+  std::vector<TrafficVehicle> vehicles;
+  std::vector<msg::TrafficObject> buffer;
+  msg::TrafficObjects m{};
+  const double scale = maps::SumoOptions{}.scale;
+  while (libsumo::Simulation::getTime() < warmup + seconds - 1e-9) {
+    const double t0 = ThreadCpuSeconds();
+    libsumo::Simulation::step();
+    alone_cpu_s += ThreadCpuSeconds() - t0;
+    vehicles.clear();
+    for (const std::string& id : libsumo::Vehicle::getIDList()) {
+      TrafficVehicle& v = vehicles.emplace_back();
+      v.id = id;
+      // As CoSimulation reads its cars: SUMO gives the front bumper; the object is the body.
+      const libsumo::TraCIPosition p = libsumo::Vehicle::getPosition(id);
+      v.yaw_rad = YawFromSumoAngle(libsumo::Vehicle::getAngle(id));
+      const double length = libsumo::Vehicle::getLength(id);
+      const Eigen::Vector2d heading(std::cos(v.yaw_rad), std::sin(v.yaw_rad));
+      v.centre = (Eigen::Vector2d(p.x, p.y) - heading * (length / 2)) / scale;
+      v.length_m = length / scale;
+      v.width_m = libsumo::Vehicle::getWidth(id) / scale;
+      v.speed_mps = libsumo::Vehicle::getSpeed(id) / scale;
+      const auto name = lane_names.find(libsumo::Vehicle::getLaneID(id));
+      if (name != lane_names.end()) v.map_lane = name->second;
+    }
+    FillTrafficObjects(vehicles, Time{} + FromSeconds(libsumo::Simulation::getTime()), buffer, m);
+    writer.Write(m);
+  }
+  libsumo::Simulation::close();
+  return alone_cpu_s;
+}
+
 Result Run(const scm::City& city, int cars, double seconds, const std::filesystem::path& dir,
            const dds::Participant& participant) {
-  Result r;
   TrafficConfig config;
   config.vehicles = cars;
   const double warmup = 10.0;
   std::unordered_map<std::string, std::string> lane_names;
-  {
-    CoSimulation sim(
-        city, config,
-        CoSimulation::Options{
-            dir / fmt::format("cosim_{}", cars), nullptr, true, {}, std::chrono::seconds(5)});
-    dds::Writer<msg::TrafficObjects> writer(participant, dds::topics::Traffic());
-    std::vector<msg::TrafficObject> buffer;
-    msg::TrafficObjects m{};
-    // The lights: a writer per head, reporting changes as `autodrive-infra` does; the
-    // co-simulation's side takes them as `autodrive-traffic` does (LampInbox).
-    const std::vector<SignalHeadId>& heads = sim.lights().heads();
-    LampInbox inbox(participant, heads);
-    std::vector<std::unique_ptr<dds::Writer<msg::Int32>>> lights;
-    for (const SignalHeadId h : heads) {
-      lights.push_back(
-          std::make_unique<dds::Writer<msg::Int32>>(participant, dds::topics::SignalState(h)));
-    }
-    std::vector<int> lamps(heads.size()), shown(heads.size(), -1);
-    std::vector<LampInbox::Lamp> taken;
-    std::uint64_t written = 0;
-    const auto step = [&](double t) {
-      // The lights' plan (the bench's, not the co-simulation's: not counted).
-      for (std::size_t i = 0; i < lamps.size(); ++i) lamps[i] = GridLamp(city.map, heads[i], t);
-      // Lamps in: the changed heads' reports written, delivered (in this process Cyclone
-      // delivers them to the inbox on this thread) and taken, and handed to SUMO's lights.
-      // Writing is the lights' work in a real city: counting it here errs on the safe side.
-      const double c0 = ThreadCpuSeconds();
-      const MonoTime now = MonoTime{} + FromSeconds(t);
-      for (std::size_t i = 0; i < lamps.size(); ++i) {
-        if (lamps[i] == shown[i]) continue;
-        dds::Message<msg::Int32> lamp;
-        lamp->data = lamps[i];
-        lights[i]->Write(lamp);
-        shown[i] = lamps[i];
-        ++written;
-      }
-      const double c_written = ThreadCpuSeconds();
-      // Should delivery ever be asynchronous, the step waits for it (not counted).
-      if (inbox.received() < written) ++r.late_lamps;
-      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-      while (inbox.received() < written && std::chrono::steady_clock::now() < deadline) {
-        std::this_thread::sleep_for(std::chrono::microseconds(100));
-      }
-      const double c_delivered = ThreadCpuSeconds();
-      inbox.Take(taken);
-      for (const LampInbox::Lamp& l : taken) sim.ReportLamp(l.head, l.lamp, now);
-      r.lamps_cpu_s -= c_delivered - c_written;
-      const double c1 = ThreadCpuSeconds();
-      sim.Step({}, now);
-      const double c2 = ThreadCpuSeconds();
-      FillTrafficObjects(sim.vehicles(), Time{} + FromSeconds(sim.time_s()), buffer, m);
-      writer.Write(m);
-      const double c3 = ThreadCpuSeconds();
-      r.lamps_cpu_s += c1 - c0;
-      r.step_cpu_s += c2 - c1;
-      r.publish_cpu_s += c3 - c2;
-    };
-    while (sim.time_s() < warmup) step(sim.time_s());
-    r = Result{};
-    r.vehicles = static_cast<int>(sim.vehicles().size());
-    const double sumo0 = sim.stats().sumo_step_cpu_s;
-    const double s0 = sim.time_s();
-    while (sim.time_s() < warmup + seconds - 1e-9) step(sim.time_s());
-    r.cosim_cpu_s = r.lamps_cpu_s + r.step_cpu_s + r.publish_cpu_s;
-    r.sumo_cpu_s = sim.stats().sumo_step_cpu_s - sumo0;
-    r.step_cpu_s -= r.sumo_cpu_s;
-    r.simulated_s = sim.time_s() - s0;
-    // The map's names of SUMO's lanes, for libsumo alone's objects below.
-    for (const std::string& lane : libsumo::Lane::getIDList()) {
-      lane_names.emplace(lane, sim.network().MapName(lane));
-    }
-    r.collisions = sim.stats().collisions;
-    r.teleports = sim.stats().teleports;
-    r.lost = sim.stats().arrived_unplanned;
-  }
-  {
-    // libsumo alone: the same network and demand (SUMO's fixed programs instead of lamps).
-    const StandaloneFiles f = ExportStandalone(city, config, dir / fmt::format("alone_{}", cars),
-                                               FromSeconds(warmup + seconds + 60));
-    libsumo::Simulation::start({"sumo", "-c", f.config_file.string(), "--step-length", "0.05",
-                                "--no-step-log", "true", "--no-warnings", "true"});
-    while (libsumo::Simulation::getTime() < warmup) libsumo::Simulation::step();
-    // SUMO's steps alone are timed; between them its vehicles go out as TrafficObjects (not
-    // timed), so that the SCM beside it has the same work as in the co-simulation: the SCM's
-    // load slows this thread too (a shared cache, a shared host), by 10 to 30% on the
-    // development VM, and the comparison should not count it as the co-simulation's.
-    dds::Writer<msg::TrafficObjects> writer(participant, dds::topics::Traffic());
-    std::vector<TrafficVehicle> vehicles;
-    std::vector<msg::TrafficObject> buffer;
-    msg::TrafficObjects m{};
-    const double scale = maps::SumoOptions{}.scale;
-    while (libsumo::Simulation::getTime() < warmup + seconds - 1e-9) {
-      const double t0 = ThreadCpuSeconds();
-      libsumo::Simulation::step();
-      r.alone_cpu_s += ThreadCpuSeconds() - t0;
-      vehicles.clear();
-      for (const std::string& id : libsumo::Vehicle::getIDList()) {
-        TrafficVehicle& v = vehicles.emplace_back();
-        v.id = id;
-        // As CoSimulation reads its cars: SUMO gives the front bumper; the object is the body.
-        const libsumo::TraCIPosition p = libsumo::Vehicle::getPosition(id);
-        v.yaw_rad = YawFromSumoAngle(libsumo::Vehicle::getAngle(id));
-        const double length = libsumo::Vehicle::getLength(id);
-        const Eigen::Vector2d heading(std::cos(v.yaw_rad), std::sin(v.yaw_rad));
-        v.centre = (Eigen::Vector2d(p.x, p.y) - heading * (length / 2)) / scale;
-        v.length_m = length / scale;
-        v.width_m = libsumo::Vehicle::getWidth(id) / scale;
-        v.speed_mps = libsumo::Vehicle::getSpeed(id) / scale;
-        const auto name = lane_names.find(libsumo::Vehicle::getLaneID(id));
-        if (name != lane_names.end()) v.map_lane = name->second;
-      }
-      FillTrafficObjects(vehicles, Time{} + FromSeconds(libsumo::Simulation::getTime()), buffer, m);
-      writer.Write(m);
-    }
-    libsumo::Simulation::close();
-  }
+  Result r = RunCoSimulation(city, config, warmup, seconds, dir, participant, lane_names);
+  r.alone_cpu_s = RunAlone(city, config, warmup, seconds, dir, participant, lane_names);
   return r;
+}
+
+// The figures of one size: the median of `runs`, printed.
+void Report(int n, const std::vector<Result>& runs, const std::optional<LampReceipt>& receipt,
+            std::optional<double> scm_cpu_per_run) {
+  const auto median = [&](double Result::*field) {
+    std::vector<double> v;
+    for (const Result& r : runs) v.push_back(r.*field);
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  Result r = runs.front();
+  for (double Result::*f : {&Result::cosim_cpu_s, &Result::alone_cpu_s, &Result::lamps_cpu_s,
+                            &Result::sumo_cpu_s, &Result::step_cpu_s, &Result::publish_cpu_s}) {
+    r.*f = median(f);
+  }
+  for (const Result& x : runs) {
+    r.collisions = std::max(r.collisions, x.collisions);
+    r.teleports = std::max(r.teleports, x.teleports);
+    r.lost = std::max(r.lost, x.lost);
+    r.late_lamps = std::max(r.late_lamps, x.late_lamps);
+  }
+  std::printf("%8d %9.2fx %11.2fx %11.2fx %10.2f %lld/%lld/%lld%s\n", r.vehicles,
+              r.simulated_s / r.cosim_cpu_s, r.simulated_s / r.alone_cpu_s,
+              r.cosim_cpu_s / r.alone_cpu_s, 1000 * r.cosim_cpu_s / (r.simulated_s / 0.05),
+              static_cast<long long>(r.collisions), static_cast<long long>(r.teleports),
+              static_cast<long long>(r.lost),
+              r.vehicles < n ? fmt::format(" (room for {} of {})", r.vehicles, n).c_str() : "");
+  const double steps = r.simulated_s / 0.05;
+  std::printf(
+      "         per step: lamps in %.3f ms, SUMO's step %.3f ms (alone %.3f ms), co-sim "
+      "%.3f ms, TrafficObjects out %.3f ms; all of it over SUMO's own step: %.2fx\n",
+      1000 * r.lamps_cpu_s / steps, 1000 * r.sumo_cpu_s / steps, 1000 * r.alone_cpu_s / steps,
+      1000 * r.step_cpu_s / steps, 1000 * r.publish_cpu_s / steps, r.cosim_cpu_s / r.sumo_cpu_s);
+  if (receipt) {
+    // The lamps as received from another process in place of the in-process figure.
+    const double received_s = receipt->cpu_s / receipt->steps * steps;
+    std::printf(
+        "         with the lamps received from another process instead (%.3f ms a step): "
+        "overhead %.2fx\n",
+        1000 * received_s / steps, (r.cosim_cpu_s - r.lamps_cpu_s + received_s) / r.alone_cpu_s);
+  }
+  if (r.late_lamps > 0) {
+    std::printf(
+        "         (in %lld steps the lamps reached the inbox on another thread: its CPU is "
+        "not counted)\n",
+        static_cast<long long>(r.late_lamps));
+  }
+  if (scm_cpu_per_run) {
+    std::printf("         (the SCM used %.2f s of CPU per run meanwhile)\n", *scm_cpu_per_run);
+  }
+  std::fflush(stdout);
 }
 
 }  // namespace
@@ -370,53 +457,8 @@ int main(int argc, char** argv) {
     const double scm_cpu0 = scm ? bench::CpuSeconds(scm->pid()) : 0.0;
     for (int k = 0; k < repeat; ++k) runs.push_back(Run(city, n, seconds, dir, participant));
     const double scm_cpu = scm ? bench::CpuSeconds(scm->pid()) - scm_cpu0 : 0.0;
-    const auto median = [&](double Result::*field) {
-      std::vector<double> v;
-      for (const Result& r : runs) v.push_back(r.*field);
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-      return v[v.size() / 2];
-    };
-    Result r = runs.front();
-    for (double Result::*f : {&Result::cosim_cpu_s, &Result::alone_cpu_s, &Result::lamps_cpu_s,
-                              &Result::sumo_cpu_s, &Result::step_cpu_s, &Result::publish_cpu_s}) {
-      r.*f = median(f);
-    }
-    for (const Result& x : runs) {
-      r.collisions = std::max(r.collisions, x.collisions);
-      r.teleports = std::max(r.teleports, x.teleports);
-      r.lost = std::max(r.lost, x.lost);
-      r.late_lamps = std::max(r.late_lamps, x.late_lamps);
-    }
-    std::printf("%8d %9.2fx %11.2fx %11.2fx %10.2f %lld/%lld/%lld%s\n", r.vehicles,
-                r.simulated_s / r.cosim_cpu_s, r.simulated_s / r.alone_cpu_s,
-                r.cosim_cpu_s / r.alone_cpu_s, 1000 * r.cosim_cpu_s / (r.simulated_s / 0.05),
-                static_cast<long long>(r.collisions), static_cast<long long>(r.teleports),
-                static_cast<long long>(r.lost),
-                r.vehicles < n ? fmt::format(" (room for {} of {})", r.vehicles, n).c_str() : "");
-    const double steps = r.simulated_s / 0.05;
-    std::printf(
-        "         per step: lamps in %.3f ms, SUMO's step %.3f ms (alone %.3f ms), co-sim "
-        "%.3f ms, TrafficObjects out %.3f ms; all of it over SUMO's own step: %.2fx\n",
-        1000 * r.lamps_cpu_s / steps, 1000 * r.sumo_cpu_s / steps, 1000 * r.alone_cpu_s / steps,
-        1000 * r.step_cpu_s / steps, 1000 * r.publish_cpu_s / steps, r.cosim_cpu_s / r.sumo_cpu_s);
-    if (receipt) {
-      // The lamps as received from another process in place of the in-process figure.
-      const double received_s = receipt->cpu_s / receipt->steps * steps;
-      std::printf(
-          "         with the lamps received from another process instead (%.3f ms a step): "
-          "overhead %.2fx\n",
-          1000 * received_s / steps, (r.cosim_cpu_s - r.lamps_cpu_s + received_s) / r.alone_cpu_s);
-    }
-    if (r.late_lamps > 0) {
-      std::printf(
-          "         (in %lld steps the lamps reached the inbox on another thread: its CPU is "
-          "not counted)\n",
-          static_cast<long long>(r.late_lamps));
-    }
-    if (scm) {
-      std::printf("         (the SCM used %.2f s of CPU per run meanwhile)\n", scm_cpu / repeat);
-    }
-    std::fflush(stdout);
+    Report(n, runs, receipt,
+           scm ? std::optional<double>(scm_cpu / repeat) : std::optional<double>());
   }
   if (scm) scm->Stop();
   std::filesystem::remove_all(dir);
