@@ -303,8 +303,10 @@ def main():
         time.sleep(2.0)  # the lamps flashing, for the picture
         driver.save_screenshot(str(SHOTS / "2_centre_flash.png"))
         events = json.loads(run(scmctl + ["--json", "events", "--limit", "20"], env).stdout)
-        check(any(e["actor"].startswith(f"dashboard/{operator}@")
-                  for e in events["values"].values()),
+        # The actor of an operator's command is "NAME (CLIENT)": the dashboard's client id is
+        # dashboard/<name>@<address>.
+        check(any(f"dashboard/{operator}@" in e.get("actor", "")
+                  for e in events["values"].values() if isinstance(e, dict)),
               "the SCM logged the action with who did it (dashboard/<name>@<address>)")
         driver.find_element(By.CSS_SELECTOR,
                             '#x-centre button[data-action="mode-auto"]').click()
