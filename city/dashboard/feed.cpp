@@ -193,15 +193,11 @@ json TrafficObjectJson(const msg::TrafficObject& o) {
 }
 
 json EventJson(const msg::Event& e) {
-  return {{"id", e.event_id},
-          {"stamp", Seconds(e.header.stamp)},
-          {"severity", PageSeverity(e.severity)},
-          {"source", Text(e.source)},
-          {"code", Text(e.code)},
-          {"message", Text(e.message)},
-          {"intersection", e.intersection_id},
-          {"device", Text(e.device_id)},
-          {"active", e.active}};
+  // scmctl's JSON of the event (one conversion of its fields), with the page's severity.
+  json out = scm::ToJson(e);
+  out.erase("type");
+  out["severity"] = PageSeverity(e.severity);
+  return out;
 }
 
 json HistoryEventJson(const json& event) {

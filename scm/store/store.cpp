@@ -405,23 +405,7 @@ Store& Store::operator=(Store&&) noexcept = default;
 
 const std::string& Store::path() const { return impl_->path; }
 
-std::int64_t Store::AppendEvent(const EventRecord& e) {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->Write(false, [&] {
-    Use use(impl_->db, impl_->insert_event);
-    use.Bind(1, ToNs(e.time))
-        .Bind(2, std::int64_t{static_cast<std::uint8_t>(e.severity)})
-        .Bind(3, e.source)
-        .Bind(4, e.code)
-        .Bind(5, e.message)
-        .Bind(6, std::int64_t{e.intersection.value()})
-        .Bind(7, e.device_id)
-        .Bind(8, e.actor)
-        .Bind(9, std::int64_t{e.active ? 1 : 0});
-    use.Run();
-    return static_cast<std::int64_t>(sqlite3_last_insert_rowid(impl_->db));
-  });
-}
+std::int64_t Store::AppendEvent(const EventRecord& e) { return AppendEvents({e}); }
 
 std::int64_t Store::AppendEvents(const std::vector<EventRecord>& events) {
   if (events.empty()) return 0;
