@@ -231,14 +231,117 @@ int Watch(const dds::ParticipantOptions& dds_options, const std::string& watch_w
   return 0;
 }
 
+/// What the command line asks for, as CLI11 fills it.
+struct CommandLine {
+  std::string intersection, mode, plan, file, watch_what, since;
+  int limit = 100;
+  int count = 0;
+  double duration_s = 0.0;
+  bool json = false;
+  bool validate_on_scm = false;
+  CLI::App* status = nullptr;
+  CLI::App* intersections = nullptr;
+  CLI::App* show = nullptr;
+  CLI::App* mode_cmd = nullptr;
+  CLI::App* plan_cmd = nullptr;
+  CLI::App* advance = nullptr;
+  CLI::App* reset = nullptr;
+  CLI::App* events = nullptr;
+  CLI::App* watch = nullptr;
+  CLI::App* validate = nullptr;
+  CLI::App* apply = nullptr;
+};
+
+void AddCommands(CLI::App& app, CommandLine& c) {
+  c.status = app.add_subcommand("status", "the daemon's state");
+  c.intersections = app.add_subcommand("intersections", "every signalised intersection");
+  c.show = app.add_subcommand("show", "one intersection: mode, plan, groups and lights");
+  c.show->add_option("intersection", c.intersection, "name or id")->required();
+  c.mode_cmd = app.add_subcommand("mode", "set the mode of an intersection (operator)");
+  c.mode_cmd->add_option("intersection", c.intersection, "name or id")->required();
+  c.mode_cmd->add_option("mode", c.mode, "auto|fixed|actuated|manual|flash|dark")->required();
+  c.plan_cmd = app.add_subcommand("plan", "run a plan from the next safe point (operator)");
+  c.plan_cmd->add_option("intersection", c.intersection, "name or id")->required();
+  c.plan_cmd->add_option("plan", c.plan, "plan name, or auto for the schedule")->required();
+  c.advance = app.add_subcommand("advance", "manual mode: end the current phase (operator)");
+  c.advance->add_option("intersection", c.intersection, "name or id")->required();
+  c.reset =
+      app.add_subcommand("reset", "clear a fail-safe flash latch, and the lights' (operator)");
+  c.reset->add_option("intersection", c.intersection, "name or id")->required();
+  c.events = app.add_subcommand("events", "the event log");
+  c.events->add_option("--since", c.since, "only events after this time (seconds since the epoch)");
+  c.events->add_option("--limit", c.limit, "at most this many")->capture_default_str();
+  c.watch = AddWatchCommand(app, c.watch_what, c.count, c.duration_s, c.json);
+  auto* config = app.add_subcommand("config", "check or apply a city configuration");
+  config->require_subcommand(1);
+  c.validate = config->add_subcommand(
+      "validate",
+      "check a city file here (no SCM needed): the safety rules and that it allows an operator; "
+      "with --scm, ask the running SCM, which also checks it is the city it runs");
+  c.validate->add_option("file", c.file, "city file")->required()->check(CLI::ExistingFile);
+  c.validate->add_flag("--scm", c.validate_on_scm,
+                       "send the file to the running SCM to check (as config apply would, "
+                       "without applying it)");
+  c.apply = config->add_subcommand("apply", "check a city file and make the SCM run it (operator)");
+  c.apply->add_option("file", c.file, "city file")->required()->check(CLI::ExistingFile);
+}
+
+/// The request the command line makes of the SCM: its command and arguments. False (the
+/// reason printed) when a city file cannot be sent.
+bool ToRequest(const CommandLine& c, std::string& command,
+               std::map<std::string, std::string>& args) {
+  if (c.status->parsed()) command = "status";
+  if (c.intersections->parsed()) command = "intersections";
+  if (c.show->parsed()) command = "show";
+  if (c.mode_cmd->parsed()) command = "mode", args["mode"] = c.mode;
+  if (c.plan_cmd->parsed()) command = "plan", args["plan"] = c.plan;
+  if (c.advance->parsed()) command = "advance";
+  if (c.reset->parsed()) command = "reset";
+  if (!c.intersection.empty()) args["intersection"] = c.intersection;
+  if (c.events->parsed()) {
+    command = "events";
+    if (!c.since.empty()) args["since"] = c.since;
+    args["limit"] = std::to_string(c.limit);
+  }
+  if (c.apply->parsed() || c.validate->parsed()) {
+    command = c.apply->parsed() ? "config_apply" : "config_validate";
+    if (!AddCityArguments(c.file, args)) return false;
+  }
+  return true;
+}
+
+/// Sends the request to the SCM and prints its answer; the exit status.
+int Ask(const dds::ParticipantOptions& dds_options, const std::string& command,
+        const std::map<std::string, std::string>& args, const std::string& operator_name,
+        double timeout_s, bool json) {
+  const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(timeout_s));
+  dds::Participant participant(dds_options);
+  OperatorClient client(
+      participant, UniqueClientId("scmctl"),
+      operator_name.empty() ? std::nullopt : std::optional<std::string>(operator_name));
+  if (!client.WaitForScm(timeout)) {
+    std::cerr << "scmctl: no SCM answered within " << timeout_s
+              << " s (is autodrive-scm running, on this partition and domain?)\n";
+    return kNoAnswer;
+  }
+  const auto answer = client.Call(command, args, timeout);
+  if (!answer) {
+    std::cerr << "scmctl: the SCM did not answer " << command << " within " << timeout_s << " s\n";
+    return kNoAnswer;
+  }
+  return Print(*answer, json);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{kAbout};
   app.require_subcommand(1);
+  app.fallthrough();  // scmctl status --timeout 1 as well as scmctl --timeout 1 status
   dds::ProgramOptions dds_cli;
   double timeout_s = 5.0;
-  bool json = false;
+  CommandLine c;
   std::string operator_name;
   if (const char* env = std::getenv("AUTODRIVE_OPERATOR")) operator_name = env;
   dds_cli.Add(app, "DDS partition of the SCM");
@@ -248,45 +351,8 @@ int main(int argc, char** argv) {
                  "seconds to wait for the SCM and its answer (config apply: 120 unless given; "
                  "the SCM builds the whole city before it answers)")
       ->capture_default_str();
-  app.add_flag("--json", json, "print answers (and watched messages) as JSON, one per line");
-
-  std::string intersection, mode, plan, file, watch_what, since;
-  int limit = 100;
-  int count = 0;
-  double duration_s = 0.0;
-  auto* status = app.add_subcommand("status", "the daemon's state");
-  auto* intersections = app.add_subcommand("intersections", "every signalised intersection");
-  auto* show = app.add_subcommand("show", "one intersection: mode, plan, groups and lights");
-  show->add_option("intersection", intersection, "name or id")->required();
-  auto* mode_cmd = app.add_subcommand("mode", "set the mode of an intersection (operator)");
-  mode_cmd->add_option("intersection", intersection, "name or id")->required();
-  mode_cmd->add_option("mode", mode, "auto|fixed|actuated|manual|flash|dark")->required();
-  auto* plan_cmd = app.add_subcommand("plan", "run a plan from the next safe point (operator)");
-  plan_cmd->add_option("intersection", intersection, "name or id")->required();
-  plan_cmd->add_option("plan", plan, "plan name, or auto for the schedule")->required();
-  auto* advance = app.add_subcommand("advance", "manual mode: end the current phase (operator)");
-  advance->add_option("intersection", intersection, "name or id")->required();
-  auto* reset =
-      app.add_subcommand("reset", "clear a fail-safe flash latch, and the lights' (operator)");
-  reset->add_option("intersection", intersection, "name or id")->required();
-  auto* events = app.add_subcommand("events", "the event log");
-  events->add_option("--since", since, "only events after this time (seconds since the epoch)");
-  events->add_option("--limit", limit, "at most this many")->capture_default_str();
-  auto* watch = AddWatchCommand(app, watch_what, count, duration_s, json);
-  auto* config = app.add_subcommand("config", "check or apply a city configuration");
-  config->require_subcommand(1);
-  bool validate_on_scm = false;
-  auto* validate = config->add_subcommand(
-      "validate",
-      "check a city file here (no SCM needed): the safety rules and that it allows an operator; "
-      "with --scm, ask the running SCM, which also checks it is the city it runs");
-  validate->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
-  validate->add_flag("--scm", validate_on_scm,
-                     "send the file to the running SCM to check (as config apply would, without "
-                     "applying it)");
-  auto* apply =
-      config->add_subcommand("apply", "check a city file and make the SCM run it (operator)");
-  apply->add_option("file", file, "city file")->required()->check(CLI::ExistingFile);
+  app.add_flag("--json", c.json, "print answers (and watched messages) as JSON, one per line");
+  AddCommands(app, c);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -301,32 +367,14 @@ int main(int argc, char** argv) {
 
   // A city of a thousand intersections takes the SCM seconds to build (its map, its
   // controllers, its writers), more on a busy machine; the loop runs on meanwhile.
-  if (apply->parsed() && app.count("--timeout") == 0) timeout_s = 120.0;
+  if (c.apply->parsed() && app.count("--timeout") == 0) timeout_s = 120.0;
   try {
-    const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(timeout_s));
-    if (validate->parsed() && !validate_on_scm) return ValidateHere(file);
-    if (watch->parsed()) return Watch(dds_options, watch_what, count, duration_s, json);
+    if (c.validate->parsed() && !c.validate_on_scm) return ValidateHere(c.file);
+    if (c.watch->parsed()) return Watch(dds_options, c.watch_what, c.count, c.duration_s, c.json);
 
     std::string command;
     std::map<std::string, std::string> args;
-    if (status->parsed()) command = "status";
-    if (intersections->parsed()) command = "intersections";
-    if (show->parsed()) command = "show";
-    if (mode_cmd->parsed()) command = "mode", args["mode"] = mode;
-    if (plan_cmd->parsed()) command = "plan", args["plan"] = plan;
-    if (advance->parsed()) command = "advance";
-    if (reset->parsed()) command = "reset";
-    if (!intersection.empty()) args["intersection"] = intersection;
-    if (events->parsed()) {
-      command = "events";
-      if (!since.empty()) args["since"] = since;
-      args["limit"] = std::to_string(limit);
-    }
-    if (apply->parsed() || validate->parsed()) {
-      command = apply->parsed() ? "config_apply" : "config_validate";
-      if (!AddCityArguments(file, args)) return kInvalid;
-    }
+    if (!ToRequest(c, command, args)) return kInvalid;
     const CommandSpec* spec = FindCommand(command);
     if (spec != nullptr && spec->changes_state && operator_name.empty()) {
       std::cerr << "scmctl: " << command
@@ -334,22 +382,7 @@ int main(int argc, char** argv) {
                    "operator the city allows\n";
       return kInvalid;
     }
-    dds::Participant participant(dds_options);
-    OperatorClient client(
-        participant, UniqueClientId("scmctl"),
-        operator_name.empty() ? std::nullopt : std::optional<std::string>(operator_name));
-    if (!client.WaitForScm(timeout)) {
-      std::cerr << "scmctl: no SCM answered within " << timeout_s
-                << " s (is autodrive-scm running, on this partition and domain?)\n";
-      return kNoAnswer;
-    }
-    const auto answer = client.Call(command, args, timeout);
-    if (!answer) {
-      std::cerr << "scmctl: the SCM did not answer " << command << " within " << timeout_s
-                << " s\n";
-      return kNoAnswer;
-    }
-    return Print(*answer, json);
+    return Ask(dds_options, command, args, operator_name, timeout_s, c.json);
   } catch (const std::exception& e) {
     std::cerr << "scmctl: " << e.what() << "\n";
     return kRefused;

@@ -16,6 +16,7 @@
 
 #include <pugixml.hpp>
 
+#include "traffic/internal/small_town.h"
 #include "traffic/lights.h"
 #include "traffic/standalone.h"
 
@@ -37,11 +38,7 @@ class TempDir : public test::TempDir {
   TempDir() : test::TempDir("traffic_cosim_test") {}
 };
 
-const scm::City& SmallTown() {
-  static const scm::City city =
-      scm::LoadCity(test::SourceDir() / "config" / "cities" / "small_town.yaml");
-  return city;
-}
+using internal::SmallTown;
 
 MonoTime At(double s) { return MonoTime{} + FromSeconds(s); }
 
@@ -536,6 +533,39 @@ LabCarPose AcrossPath(const std::string& name, const maps::Polyline& path, doubl
                     0.1};
 }
 
+// Steps and misplacements counted by DriveAcross.
+struct WayCheck {
+  int checked = 0;
+  int wrong = 0;
+};
+
+// Lab car `name` driven along `path` from `begin` to `end` m, 1 cm a step, `offset` m left of it
+// and turned `turn` rad across it. At each step where `counts(along)` holds, SUMO must have the
+// car, on one of the lanes of `way`; `what` names the drive in a failure.
+template <typename Counts>
+void DriveAcross(CoSimulation& sim, const std::string& name, const maps::Polyline& path,
+                 double begin, double end, double offset, double turn,
+                 const std::set<std::string>& way, const std::string& what, Counts counts,
+                 WayCheck& check) {
+  for (double along = begin; along < end; along += 0.01) {
+    const double t = sim.time_s();
+    sim.Step({AcrossPath(name, path, along, offset, turn)}, At(t));
+    if (!counts(along)) continue;
+    ++check.checked;
+    const auto ids = libsumo::Vehicle::getIDList();
+    if (std::find(ids.begin(), ids.end(), name) == ids.end()) {
+      ADD_FAILURE() << name << " is not in SUMO " << along << " m along " << what;
+      return;
+    }
+    const std::string lane = libsumo::Vehicle::getLaneID(name);
+    if (way.count(lane) == 0 && ++check.wrong <= 10) {
+      ADD_FAILURE() << name << " " << what << " (" << offset << " m, " << turn << " rad), " << along
+                    << " m along: on " << lane << " in SUMO (" << sim.network().MapName(lane)
+                    << ")";
+    }
+  }
+}
+
 // A lab car driven through every movement of the small town's intersections, its body 2 cm off
 // its path and turned 0.15 rad across it, either way (when SUMO saw nigel_1 across another
 // path in a system test, its front was 4 cm off its own): SUMO has the car on its way (its
@@ -550,7 +580,8 @@ TEST(CoSim, ALabCarDrivingThroughABoxIsOnItsOwnWayInSumo) {
   const scm::City& city = SmallTown();
   CoSimulation sim(city, TrafficConfig{}, InProcess(dir));
   const maps::SumoExport& sumo = sim.network().files();
-  int cars = 0, checked = 0, wrong = 0;
+  int cars = 0;
+  WayCheck check;
   for (const maps::Intersection& x : city.map.intersections) {
     if (x.control != maps::Control::kSignal && x.control != maps::Control::kStop) continue;
     for (const MovementId mid : x.movements) {
@@ -564,28 +595,20 @@ TEST(CoSim, ALabCarDrivingThroughABoxIsOnItsOwnWayInSumo) {
         for (const std::string& l : sim.network().InternalLanes(sibling)) way.insert(l);
       }
       for (const auto& [offset, turn] : {std::pair{-0.02, -0.15}, std::pair{0.02, 0.15}}) {
-        const std::string name = "nigel_" + std::to_string(++cars);
-        // From 0.4 m before the stop line to 0.4 m past the box, 1 cm a step.
-        for (double along = from.length_m - 0.4; along < from.length_m + m.length_m + 0.4;
-             along += 0.01) {
-          const double t = sim.time_s();
-          sim.Step({AcrossPath(name, path, along, offset, turn)}, At(t));
-          // Its front in the box (SUMO's position is the front bumper's).
+        // From 0.4 m before the stop line to 0.4 m past the box, counted while its front (SUMO's
+        // position is the front bumper's) is in the box.
+        const auto front_in_box = [&](double along) {
           const double front = along + 0.318 / 2;
-          if (front < from.length_m + 0.02 || front > from.length_m + m.length_m - 0.02) continue;
-          ++checked;
-          const std::string lane = libsumo::Vehicle::getLaneID(name);
-          if (way.count(lane) == 0 && ++wrong <= 10) {
-            ADD_FAILURE() << name << " on " << m.name << " (" << offset << " m, " << turn
-                          << " rad), " << along - from.length_m << " m into the box: on " << lane
-                          << " in SUMO (" << sim.network().MapName(lane) << ")";
-          }
-        }
+          return front >= from.length_m + 0.02 && front <= from.length_m + m.length_m - 0.02;
+        };
+        DriveAcross(sim, "nigel_" + std::to_string(++cars), path, from.length_m - 0.4,
+                    from.length_m + m.length_m + 0.4, offset, turn, way, "on " + m.name,
+                    front_in_box, check);
       }
     }
   }
-  EXPECT_GT(checked, 2000);
-  EXPECT_EQ(wrong, 0) << "of " << checked << " steps in a box";
+  EXPECT_GT(check.checked, 2000);
+  EXPECT_EQ(check.wrong, 0) << "of " << check.checked << " steps in a box";
   EXPECT_EQ(sim.stats().lab_car_misses, 0);
 }
 
@@ -602,7 +625,8 @@ TEST(CoSim, ALabCarDrivingAlongEveryLaneIsOnItsOwnWayInSumo) {
   const scm::City& city = SmallTown();
   CoSimulation sim(city, TrafficConfig{}, InProcess(dir));
   const maps::SumoExport& sumo = sim.network().files();
-  int cars = 0, checked = 0, wrong = 0;
+  int cars = 0;
+  WayCheck check;
   for (const maps::Lane& from : city.map.lanes) {
     for (const LaneId next : from.successors) {
       const maps::Lane& to = city.map.lane(next);
@@ -620,29 +644,15 @@ TEST(CoSim, ALabCarDrivingAlongEveryLaneIsOnItsOwnWayInSumo) {
       for (const auto& [offset, turn] :
            {std::pair{-0.02, -0.15}, std::pair{0.02, 0.15}, std::pair{0.0, -0.3},
             std::pair{0.0, 0.3}, std::pair{-0.05, -0.4}, std::pair{0.05, 0.4}}) {
-        const std::string name = "nigel_" + std::to_string(++cars);
         const double end = from.length_m + std::min(0.4, to.length_m - 0.318);
-        for (double along = 0.0; along < end; along += 0.01) {
-          const double t = sim.time_s();
-          sim.Step({AcrossPath(name, path, along, offset, turn)}, At(t));
-          ++checked;
-          const auto ids = libsumo::Vehicle::getIDList();
-          if (std::find(ids.begin(), ids.end(), name) == ids.end()) {
-            ADD_FAILURE() << name << " is not in SUMO " << along << " m along " << from.name;
-            break;
-          }
-          const std::string lane = libsumo::Vehicle::getLaneID(name);
-          if (way.count(lane) == 0 && ++wrong <= 10) {
-            ADD_FAILURE() << name << " from " << from.name << " to " << to.name << " (" << offset
-                          << " m, " << turn << " rad), " << along << " m along: on " << lane
-                          << " in SUMO (" << sim.network().MapName(lane) << ")";
-          }
-        }
+        DriveAcross(
+            sim, "nigel_" + std::to_string(++cars), path, 0.0, end, offset, turn, way,
+            "from " + from.name + " to " + to.name, [](double) { return true; }, check);
       }
     }
   }
-  EXPECT_GT(checked, 10000);
-  EXPECT_EQ(wrong, 0) << "of " << checked << " steps";
+  EXPECT_GT(check.checked, 10000);
+  EXPECT_EQ(check.wrong, 0) << "of " << check.checked << " steps";
   EXPECT_EQ(sim.stats().lab_car_misses, 0);
 }
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "traffic/internal/scripted_sumo.h"
+#include "traffic/internal/small_town.h"
 #include "traffic/network.h"
 #include "traffic/sumo_frame.h"
 
@@ -21,11 +22,7 @@ namespace {
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 
-const scm::City& SmallTown() {
-  static const scm::City city =
-      scm::LoadCity(test::SourceDir() / "config" / "cities" / "small_town.yaml");
-  return city;
-}
+using internal::SmallTown;
 
 MonoTime At(Duration d) { return MonoTime{} + d; }
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "traffic/all_way_stops.h"
+#include "traffic/internal/small_town.h"
 #include "traffic/links.h"
 
 #include "common/test_support.h"
@@ -20,11 +21,7 @@ namespace {
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 
-const scm::City& SmallTown() {
-  static const scm::City city =
-      scm::LoadCity(test::SourceDir() / "config" / "cities" / "small_town.yaml");
-  return city;
-}
+using internal::SmallTown;
 
 MonoTime At(Duration d) { return MonoTime{} + d; }
 

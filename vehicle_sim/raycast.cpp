@@ -406,26 +406,21 @@ StaticScene StaticScene::FromMap(const maps::Map& map, const StaticSceneOptions&
   return StaticScene(GeometryFromMap(map, options), options.cell_size_m);
 }
 
-void StaticScene::Index(double requested_cell_m) {
-  AUTODRIVE_THROW_UNLESS(
-      requested_cell_m >= 0.01 && requested_cell_m <= 10.0,
-      "StaticScene: cell size must be in [0.01, 10] m, got " << requested_cell_m);
-  const TerrainModel& terrain = geometry_.terrain;
-  const double T = terrain.tile_size_m();
-  const bool has_tiles = terrain.tiles_x() > 0 && terrain.tiles_y() > 0;
-  // Cells divide tiles evenly, so that each cell lies in one tile.
-  cell_m_ = requested_cell_m;
-  if (has_tiles) cell_m_ = T / std::max(1.0, std::round(T / requested_cell_m));
-  const double h = cell_m_;
+namespace {
 
-  // What the grid covers: the map and everything in the geometry.
+// What the grid must cover: the map's tiles and everything in the geometry, which is checked
+// on the way (finite coordinates, z_top >= z_bottom, radii >= 0, footprints of 3 vertices or
+// more).
+Eigen::AlignedBox2d CheckedBounds(const StaticGeometry& geometry) {
+  const TerrainModel& terrain = geometry.terrain;
   Eigen::AlignedBox2d bounds;
-  if (has_tiles) {
+  if (terrain.tiles_x() > 0 && terrain.tiles_y() > 0) {
+    const double T = terrain.tile_size_m();
     bounds.extend(Eigen::Vector2d(0, 0));
     bounds.extend(Eigen::Vector2d(terrain.tiles_x() * T, terrain.tiles_y() * T));
   }
-  for (std::size_t i = 0; i < geometry_.prisms.size(); ++i) {
-    const Prism& p = geometry_.prisms[i];
+  for (std::size_t i = 0; i < geometry.prisms.size(); ++i) {
+    const Prism& p = geometry.prisms[i];
     AUTODRIVE_THROW_UNLESS(p.footprint_M.size() >= 3, "prism " << i
                                                                << ": a footprint needs at "
                                                                   "least 3 vertices, got "
@@ -440,8 +435,8 @@ void StaticScene::Index(double requested_cell_m) {
       bounds.extend(v);
     }
   }
-  for (std::size_t i = 0; i < geometry_.cylinders.size(); ++i) {
-    const Cylinder& c = geometry_.cylinders[i];
+  for (std::size_t i = 0; i < geometry.cylinders.size(); ++i) {
+    const Cylinder& c = geometry.cylinders[i];
     CheckFinite(c.centre_M.x(), "cylinder", i);
     CheckFinite(c.centre_M.y(), "cylinder", i);
     AUTODRIVE_THROW_UNLESS(std::isfinite(c.radius_m) && c.radius_m >= 0,
@@ -453,6 +448,62 @@ void StaticScene::Index(double requested_cell_m) {
     bounds.extend(c.centre_M - Eigen::Vector2d::Constant(c.radius_m));
     bounds.extend(c.centre_M + Eigen::Vector2d::Constant(c.radius_m));
   }
+  return bounds;
+}
+
+// Per cell of an nx x ny grid, the Chebyshev distance (at most 255) to the nearest of the cells
+// that have entries, by two chamfer passes.
+std::vector<std::uint8_t> ChamferClearance(
+    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& entries, int nx, int ny) {
+  const auto cell_index = [nx](int ix, int iy) {
+    return static_cast<std::size_t>(iy) * static_cast<std::size_t>(nx) +
+           static_cast<std::size_t>(ix);
+  };
+  const auto num_cells = static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny);
+  std::vector<int> clear(num_cells, 255);
+  for (const auto& entry : entries) clear[entry.first] = 0;
+  const auto relax = [&](int ix, int iy, int jx, int jy) {
+    if (jx < 0 || jy < 0 || jx >= nx || jy >= ny) return;
+    int& c = clear[cell_index(ix, iy)];
+    c = std::min(c, clear[cell_index(jx, jy)] + 1);
+  };
+  for (int iy = 0; iy < ny; ++iy) {
+    for (int ix = 0; ix < nx; ++ix) {
+      relax(ix, iy, ix - 1, iy);
+      relax(ix, iy, ix - 1, iy - 1);
+      relax(ix, iy, ix, iy - 1);
+      relax(ix, iy, ix + 1, iy - 1);
+    }
+  }
+  for (int iy = ny - 1; iy >= 0; --iy) {
+    for (int ix = nx - 1; ix >= 0; --ix) {
+      relax(ix, iy, ix + 1, iy);
+      relax(ix, iy, ix + 1, iy + 1);
+      relax(ix, iy, ix, iy + 1);
+      relax(ix, iy, ix - 1, iy + 1);
+    }
+  }
+  std::vector<std::uint8_t> clearance(num_cells);
+  for (std::size_t i = 0; i < num_cells; ++i) {
+    clearance[i] = static_cast<std::uint8_t>(std::min(clear[i], 255));
+  }
+  return clearance;
+}
+
+}  // namespace
+
+void StaticScene::Index(double requested_cell_m) {
+  AUTODRIVE_THROW_UNLESS(
+      requested_cell_m >= 0.01 && requested_cell_m <= 10.0,
+      "StaticScene: cell size must be in [0.01, 10] m, got " << requested_cell_m);
+  const TerrainModel& terrain = geometry_.terrain;
+  const double T = terrain.tile_size_m();
+  const bool has_tiles = terrain.tiles_x() > 0 && terrain.tiles_y() > 0;
+  // Cells divide tiles evenly, so that each cell lies in one tile.
+  cell_m_ = requested_cell_m;
+  if (has_tiles) cell_m_ = T / std::max(1.0, std::round(T / requested_cell_m));
+  const double h = cell_m_;
+  const Eigen::AlignedBox2d bounds = CheckedBounds(geometry_);
 
   planes_.clear();
   for (int iy = 0; iy < terrain.tiles_y(); ++iy) {
@@ -486,15 +537,6 @@ void StaticScene::Index(double requested_cell_m) {
   nx_ = static_cast<int>(cells_x);
   ny_ = static_cast<int>(cells_y);
   const auto num_cells = static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_);
-  const auto cell_index = [&](int ix, int iy) {
-    return static_cast<std::size_t>(iy) * static_cast<std::size_t>(nx_) +
-           static_cast<std::size_t>(ix);
-  };
-  const auto cell_rect = [&](int ix, int iy) {
-    return std::array<double, 4>{x0_ + ix * h - kCellMargin, y0_ + iy * h - kCellMargin,
-                                 x0_ + (ix + 1) * h + kCellMargin,
-                                 y0_ + (iy + 1) * h + kCellMargin};
-  };
 
   // The terrain plane of each cell, from its centre.
   cell_plane_.assign(num_cells, flat);
@@ -504,105 +546,97 @@ void StaticScene::Index(double requested_cell_m) {
         const int tx = FloorToInt((x0_ + (ix + 0.5) * h) / T);
         const int ty = FloorToInt((y0_ + (iy + 0.5) * h) / T);
         if (tx >= 0 && ty >= 0 && tx < terrain.tiles_x() && ty < terrain.tiles_y()) {
-          cell_plane_[cell_index(ix, iy)] = static_cast<std::uint32_t>(ty * terrain.tiles_x() + tx);
+          cell_plane_[CellIndex(ix, iy)] = static_cast<std::uint32_t>(ty * terrain.tiles_x() + tx);
         }
       }
     }
   }
 
   // (cell, entry) pairs, then sorted into cells.
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  const auto add = [&](int ix, int iy, std::uint32_t kind, std::size_t index) {
-    AUTODRIVE_THROW_UNLESS(index <= kIndexMask, "StaticScene: too many faces (" << index << ")");
-    pairs.emplace_back(static_cast<std::uint32_t>(cell_index(ix, iy)),
+  CellEntries entries;
+  for (const Prism& prism : geometry_.prisms) IndexPrism(prism, entries);
+  for (const Cylinder& c : geometry_.cylinders) IndexCylinder(c, entries);
+  cell_clearance_ = ChamferClearance(entries, nx_, ny_);
+
+  std::sort(entries.begin(), entries.end());  // by cell, then entry: faces before poles and caps
+  cell_start_.assign(num_cells + 1, 0);
+  for (const auto& [cell, item] : entries) ++cell_start_[cell + 1];
+  for (std::size_t i = 0; i < num_cells; ++i) cell_start_[i + 1] += cell_start_[i];
+  cell_items_.reserve(entries.size());
+  for (const auto& [cell, item] : entries) cell_items_.push_back(item);
+}
+
+std::size_t StaticScene::CellIndex(int ix, int iy) const {
+  return static_cast<std::size_t>(iy) * static_cast<std::size_t>(nx_) +
+         static_cast<std::size_t>(ix);
+}
+
+void StaticScene::AddEntry(int ix, int iy, std::uint32_t kind, std::size_t index,
+                           CellEntries& entries) const {
+  AUTODRIVE_THROW_UNLESS(index <= kIndexMask, "StaticScene: too many faces (" << index << ")");
+  entries.emplace_back(static_cast<std::uint32_t>(CellIndex(ix, iy)),
                        (kind << kKindShift) | static_cast<std::uint32_t>(index));
-  };
-  for (const Prism& prism : geometry_.prisms) {
-    const maps::Polyline& v = prism.footprint_M;
-    const std::size_t n = v.size();
-    Eigen::AlignedBox2d box;
-    for (std::size_t i = 0; i < n; ++i) {
-      const Eigen::Vector2d& a = v[i];
-      const Eigen::Vector2d& b = v[(i + 1) % n];
-      box.extend(a);
-      const std::size_t index = edges_.size();
-      edges_.push_back(
-          {a.x(), a.y(), b.x() - a.x(), b.y() - a.y(), prism.z_bottom_m, prism.z_top_m});
-      const auto [ix0, ix1] = CellSpan(std::min(a.x(), b.x()), std::max(a.x(), b.x()), x0_, h, nx_);
-      const auto [iy0, iy1] = CellSpan(std::min(a.y(), b.y()), std::max(a.y(), b.y()), y0_, h, ny_);
-      for (int iy = iy0; iy <= iy1; ++iy) {
-        for (int ix = ix0; ix <= ix1; ++ix) {
-          const auto r = cell_rect(ix, iy);
-          if (SegmentTouchesRect(a, b, r[0], r[1], r[2], r[3])) add(ix, iy, kEdge, index);
-        }
-      }
-    }
-    // The caps: every cell the footprint touches (crossed by an edge or with its centre inside).
-    const std::size_t cap = caps_.size();
-    caps_.push_back({static_cast<std::uint32_t>(cap_vertices_.size()),
-                     static_cast<std::uint32_t>(n), prism.z_bottom_m, prism.z_top_m});
-    for (const auto& p : v) cap_vertices_.push_back(p);
-    const auto [ix0, ix1] = CellSpan(box.min().x(), box.max().x(), x0_, h, nx_);
-    const auto [iy0, iy1] = CellSpan(box.min().y(), box.max().y(), y0_, h, ny_);
+}
+
+bool StaticScene::SegmentTouchesCell(const Eigen::Vector2d& a, const Eigen::Vector2d& b, int ix,
+                                     int iy) const {
+  const double h = cell_m_;
+  return SegmentTouchesRect(a, b, x0_ + ix * h - kCellMargin, y0_ + iy * h - kCellMargin,
+                            x0_ + (ix + 1) * h + kCellMargin, y0_ + (iy + 1) * h + kCellMargin);
+}
+
+// A prism's side faces into every cell they cross; its caps into every cell the footprint
+// touches (crossed by an edge or with its centre inside).
+void StaticScene::IndexPrism(const Prism& prism, CellEntries& entries) {
+  const double h = cell_m_;
+  const maps::Polyline& v = prism.footprint_M;
+  const std::size_t n = v.size();
+  Eigen::AlignedBox2d box;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d& a = v[i];
+    const Eigen::Vector2d& b = v[(i + 1) % n];
+    box.extend(a);
+    const std::size_t index = edges_.size();
+    edges_.push_back({a.x(), a.y(), b.x() - a.x(), b.y() - a.y(), prism.z_bottom_m, prism.z_top_m});
+    const auto [ix0, ix1] = CellSpan(std::min(a.x(), b.x()), std::max(a.x(), b.x()), x0_, h, nx_);
+    const auto [iy0, iy1] = CellSpan(std::min(a.y(), b.y()), std::max(a.y(), b.y()), y0_, h, ny_);
     for (int iy = iy0; iy <= iy1; ++iy) {
       for (int ix = ix0; ix <= ix1; ++ix) {
-        const auto r = cell_rect(ix, iy);
-        bool touches = InsidePolygon(v.data(), static_cast<std::uint32_t>(n), x0_ + (ix + 0.5) * h,
-                                     y0_ + (iy + 0.5) * h);
-        for (std::size_t i = 0; i < n && !touches; ++i) {
-          touches = SegmentTouchesRect(v[i], v[(i + 1) % n], r[0], r[1], r[2], r[3]);
-        }
-        if (touches) add(ix, iy, kCap, cap);
+        if (SegmentTouchesCell(a, b, ix, iy)) AddEntry(ix, iy, kEdge, index, entries);
       }
     }
   }
-  for (const Cylinder& c : geometry_.cylinders) {
-    const std::size_t index = poles_.size();
-    poles_.push_back(
-        {c.centre_M.x(), c.centre_M.y(), c.radius_m * c.radius_m, c.z_bottom_m, c.z_top_m});
-    const auto [ix0, ix1] =
-        CellSpan(c.centre_M.x() - c.radius_m, c.centre_M.x() + c.radius_m, x0_, h, nx_);
-    const auto [iy0, iy1] =
-        CellSpan(c.centre_M.y() - c.radius_m, c.centre_M.y() + c.radius_m, y0_, h, ny_);
-    for (int iy = iy0; iy <= iy1; ++iy) {
-      for (int ix = ix0; ix <= ix1; ++ix) add(ix, iy, kPole, index);
+  const std::size_t cap = caps_.size();
+  caps_.push_back({static_cast<std::uint32_t>(cap_vertices_.size()), static_cast<std::uint32_t>(n),
+                   prism.z_bottom_m, prism.z_top_m});
+  for (const auto& p : v) cap_vertices_.push_back(p);
+  const auto [ix0, ix1] = CellSpan(box.min().x(), box.max().x(), x0_, h, nx_);
+  const auto [iy0, iy1] = CellSpan(box.min().y(), box.max().y(), y0_, h, ny_);
+  for (int iy = iy0; iy <= iy1; ++iy) {
+    for (int ix = ix0; ix <= ix1; ++ix) {
+      bool touches = InsidePolygon(v.data(), static_cast<std::uint32_t>(n), x0_ + (ix + 0.5) * h,
+                                   y0_ + (iy + 0.5) * h);
+      for (std::size_t i = 0; i < n && !touches; ++i) {
+        touches = SegmentTouchesCell(v[i], v[(i + 1) % n], ix, iy);
+      }
+      if (touches) AddEntry(ix, iy, kCap, cap, entries);
     }
   }
-  // Clearance: Chebyshev distance to the nearest cell with entries, by two chamfer passes.
-  std::vector<int> clear(num_cells, 255);
-  for (const auto& pair : pairs) clear[pair.first] = 0;
-  const auto relax = [&](int ix, int iy, int jx, int jy) {
-    if (jx < 0 || jy < 0 || jx >= nx_ || jy >= ny_) return;
-    int& c = clear[cell_index(ix, iy)];
-    c = std::min(c, clear[cell_index(jx, jy)] + 1);
-  };
-  for (int iy = 0; iy < ny_; ++iy) {
-    for (int ix = 0; ix < nx_; ++ix) {
-      relax(ix, iy, ix - 1, iy);
-      relax(ix, iy, ix - 1, iy - 1);
-      relax(ix, iy, ix, iy - 1);
-      relax(ix, iy, ix + 1, iy - 1);
-    }
-  }
-  for (int iy = ny_ - 1; iy >= 0; --iy) {
-    for (int ix = nx_ - 1; ix >= 0; --ix) {
-      relax(ix, iy, ix + 1, iy);
-      relax(ix, iy, ix + 1, iy + 1);
-      relax(ix, iy, ix, iy + 1);
-      relax(ix, iy, ix - 1, iy + 1);
-    }
-  }
-  cell_clearance_.resize(num_cells);
-  for (std::size_t i = 0; i < num_cells; ++i) {
-    cell_clearance_[i] = static_cast<std::uint8_t>(std::min(clear[i], 255));
-  }
+}
 
-  std::sort(pairs.begin(), pairs.end());  // by cell, then entry: faces before poles and caps
-  cell_start_.assign(num_cells + 1, 0);
-  for (const auto& [cell, item] : pairs) ++cell_start_[cell + 1];
-  for (std::size_t i = 0; i < num_cells; ++i) cell_start_[i + 1] += cell_start_[i];
-  cell_items_.reserve(pairs.size());
-  for (const auto& [cell, item] : pairs) cell_items_.push_back(item);
+// A pole into every cell its bounding square touches.
+void StaticScene::IndexCylinder(const Cylinder& c, CellEntries& entries) {
+  const double h = cell_m_;
+  const std::size_t index = poles_.size();
+  poles_.push_back(
+      {c.centre_M.x(), c.centre_M.y(), c.radius_m * c.radius_m, c.z_bottom_m, c.z_top_m});
+  const auto [ix0, ix1] =
+      CellSpan(c.centre_M.x() - c.radius_m, c.centre_M.x() + c.radius_m, x0_, h, nx_);
+  const auto [iy0, iy1] =
+      CellSpan(c.centre_M.y() - c.radius_m, c.centre_M.y() + c.radius_m, y0_, h, ny_);
+  for (int iy = iy0; iy <= iy1; ++iy) {
+    for (int ix = ix0; ix <= ix1; ++ix) AddEntry(ix, iy, kPole, index, entries);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

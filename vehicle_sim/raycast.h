@@ -45,6 +45,7 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -248,7 +249,17 @@ class StaticScene {
   friend Hit CastBruteForce(const StaticScene& scene, std::span<const DynamicBox> boxes,
                             const Ray& ray, double max_range_m, std::optional<BoxId> exclude);
 
+  /// (cell, entry) pairs, the entry's kind in its top 2 bits.
+  using CellEntries = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+
   void Index(double requested_cell_m);
+  void IndexPrism(const Prism& prism, CellEntries& entries);
+  void IndexCylinder(const Cylinder& c, CellEntries& entries);
+  [[nodiscard]] std::size_t CellIndex(int ix, int iy) const;
+  void AddEntry(int ix, int iy, std::uint32_t kind, std::size_t index, CellEntries& entries) const;
+  /// Whether segment a -> b touches cell (ix, iy), grown by a rounding margin.
+  [[nodiscard]] bool SegmentTouchesCell(const Eigen::Vector2d& a, const Eigen::Vector2d& b, int ix,
+                                        int iy) const;
 
   StaticGeometry geometry_;
   std::vector<internal::GridEdge> edges_;

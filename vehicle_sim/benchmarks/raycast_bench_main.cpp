@@ -138,6 +138,63 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
+namespace vs = autodrive::vehicle_sim;
+
+struct GridRun {
+  std::size_t returns[4] = {0, 0, 0, 0};  // by Hit::What
+  double range_sum = 0;                   // over the rays that hit something (m)
+  double seconds = 0;
+};
+
+// `scans` full scans of every vehicle with the grid caster.
+GridRun RunGrid(const vs::StaticScene& scene, const std::vector<DynamicBox>& boxes,
+                const std::vector<Vehicle>& placed, const std::vector<std::vector<Ray>>& rays,
+                int scans) {
+  GridRun run;
+  std::vector<Hit> hits(kBeams);
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int s = 0; s < scans; ++s) {
+    for (std::size_t v = 0; v < placed.size(); ++v) {
+      vs::CastScan(scene, boxes, rays[v], kMaxRange, placed[v].box.id, hits);
+      for (const Hit& h : hits) {
+        ++run.returns[static_cast<int>(h.what)];
+        if (h.what != Hit::What::kNothing) run.range_sum += h.range_m;
+      }
+    }
+  }
+  run.seconds = Seconds(t0);
+  return run;
+}
+
+struct BruteRun {
+  std::size_t disagreements = 0;  // rays of the first scans where brute force and grid differ
+  double seconds = 0;
+};
+
+// `scans` full scans of every vehicle with the brute force, comparing its first with the grid's.
+BruteRun RunBrute(const vs::StaticScene& scene, const std::vector<DynamicBox>& boxes,
+                  const std::vector<Vehicle>& placed, const std::vector<std::vector<Ray>>& rays,
+                  int scans) {
+  BruteRun run;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int s = 0; s < scans; ++s) {
+    for (std::size_t v = 0; v < placed.size(); ++v) {
+      for (int i = 0; i < kBeams; ++i) {
+        const auto& ray = rays[v][static_cast<std::size_t>(i)];
+        const Hit b = vs::CastBruteForce(scene, boxes, ray, kMaxRange, placed[v].box.id);
+        if (s == 0) {
+          const Hit g = vs::Cast(scene, boxes, ray, kMaxRange, placed[v].box.id);
+          const bool same = g.what == b.what && (g.what == Hit::What::kNothing ||
+                                                 std::abs(g.range_m - b.range_m) <= 1e-9);
+          run.disagreements += same ? 0 : 1;
+        }
+      }
+    }
+  }
+  run.seconds = Seconds(t0);
+  return run;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -174,7 +231,6 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   autodrive::InitLogging("autodrive-bench-raycast", autodrive::ParseLogLevel(log_level));
   try {
-    namespace vs = autodrive::vehicle_sim;
     const fs::path path = grid_city > 0 ? fs::path("generated") : Resolve(map_path);
     const auto map = autodrive::maps::Build(
         grid_city > 0 ? autodrive::maps::GridCity(grid_city, grid_city, "mixed")
@@ -196,7 +252,6 @@ int main(int argc, char** argv) {
     std::vector<DynamicBox> boxes;
     for (const auto& v : placed) boxes.push_back(v.box);
     const auto rays = Scans(placed);
-    std::vector<Hit> hits(kBeams);
 
     std::printf("map %s (%s): %d x %d tiles, %zu prisms, %zu poles, %d vehicles\n",
                 map.name.c_str(), path.string().c_str(), map.cols, map.rows,
@@ -205,59 +260,30 @@ int main(int argc, char** argv) {
                 scene.cells_x(), scene.cells_y(), scene.cell_size_m(), scene.num_cell_entries(),
                 build_s * 1e3);
 
-    // Grid caster.
-    std::size_t returns[4] = {0, 0, 0, 0};
-    double range_sum = 0;
-    const auto t_grid = std::chrono::steady_clock::now();
-    for (int s = 0; s < scans; ++s) {
-      for (std::size_t v = 0; v < placed.size(); ++v) {
-        vs::CastScan(scene, boxes, rays[v], kMaxRange, placed[v].box.id, hits);
-        for (const Hit& h : hits) {
-          ++returns[static_cast<int>(h.what)];
-          if (h.what != Hit::What::kNothing) range_sum += h.range_m;
-        }
-      }
-    }
-    const double grid_s = Seconds(t_grid);
+    const GridRun grid = RunGrid(scene, boxes, placed, rays, scans);
+    const BruteRun brute = RunBrute(scene, boxes, placed, rays, brute_scans);
     const double grid_rays = static_cast<double>(scans) * vehicles * kBeams;
-
-    // Brute force, and how often it disagrees with the grid.
-    std::size_t disagreements = 0;
-    const auto t_brute = std::chrono::steady_clock::now();
-    for (int s = 0; s < brute_scans; ++s) {
-      for (std::size_t v = 0; v < placed.size(); ++v) {
-        for (int i = 0; i < kBeams; ++i) {
-          const auto& ray = rays[v][static_cast<std::size_t>(i)];
-          const Hit b = vs::CastBruteForce(scene, boxes, ray, kMaxRange, placed[v].box.id);
-          if (s == 0) {
-            const Hit g = vs::Cast(scene, boxes, ray, kMaxRange, placed[v].box.id);
-            const bool same = g.what == b.what && (g.what == Hit::What::kNothing ||
-                                                   std::abs(g.range_m - b.range_m) <= 1e-9);
-            disagreements += same ? 0 : 1;
-          }
-        }
-      }
-    }
-    const double brute_s = Seconds(t_brute);
     const double brute_rays = static_cast<double>(brute_scans) * vehicles * kBeams;
-
     const double total = grid_rays;
     std::printf(
         "returns: %.1f%% static, %.1f%% terrain, %.1f%% vehicles, %.1f%% none; mean "
         "range %.3f m\n",
-        100.0 * static_cast<double>(returns[1]) / total,
-        100.0 * static_cast<double>(returns[2]) / total,
-        100.0 * static_cast<double>(returns[3]) / total,
-        100.0 * static_cast<double>(returns[0]) / total,
-        range_sum / std::max(1.0, static_cast<double>(returns[1] + returns[2] + returns[3])));
+        100.0 * static_cast<double>(grid.returns[1]) / total,
+        100.0 * static_cast<double>(grid.returns[2]) / total,
+        100.0 * static_cast<double>(grid.returns[3]) / total,
+        100.0 * static_cast<double>(grid.returns[0]) / total,
+        grid.range_sum / std::max(1.0, static_cast<double>(grid.returns[1] + grid.returns[2] +
+                                                           grid.returns[3])));
     std::printf("%-12s %12s %10s %14s %14s\n", "caster", "rays", "time (s)", "rays/s",
                 "scans/s (360)");
-    std::printf("%-12s %12.0f %10.3f %14.0f %14.0f\n", "grid", grid_rays, grid_s,
-                grid_rays / grid_s, grid_rays / grid_s / kBeams);
-    std::printf("%-12s %12.0f %10.3f %14.0f %14.0f\n", "brute force", brute_rays, brute_s,
-                brute_rays / brute_s, brute_rays / brute_s / kBeams);
+    std::printf("%-12s %12.0f %10.3f %14.0f %14.0f\n", "grid", grid_rays, grid.seconds,
+                grid_rays / grid.seconds, grid_rays / grid.seconds / kBeams);
+    std::printf("%-12s %12.0f %10.3f %14.0f %14.0f\n", "brute force", brute_rays, brute.seconds,
+                brute_rays / brute.seconds, brute_rays / brute.seconds / kBeams);
     std::printf("speed-up %.1fx; grid and brute force disagree on %zu of %d rays\n",
-                (grid_rays / grid_s) / (brute_rays / brute_s), disagreements, vehicles * kBeams);
+                (grid_rays / grid.seconds) / (brute_rays / brute.seconds), brute.disagreements,
+                vehicles * kBeams);
+    const std::size_t disagreements = brute.disagreements;
     return disagreements == 0 ? 0 : 1;
   } catch (const autodrive::InputError& e) {
     std::fprintf(stderr, "autodrive-bench-raycast: %s\n", e.what());
