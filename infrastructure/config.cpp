@@ -113,10 +113,7 @@ HostPlan PlanHost(const InfraConfig& config, const std::filesystem::path& config
   std::vector<SignalHeadId> all;
   for (const auto& h : map.signal_heads) all.push_back(h.id);
   const auto find_head = [&](std::uint32_t id) -> const maps::SignalHead* {
-    for (const auto& h : map.signal_heads) {
-      if (h.id.value() == id) return &h;
-    }
-    return nullptr;
+    return map.HasSignalHead(SignalHeadId(id)) ? &map.signal_head(SignalHeadId(id)) : nullptr;
   };
   const std::string known = all.empty() ? "it has none" : "it has " + JoinIds(all);
 

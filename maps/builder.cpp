@@ -40,6 +40,39 @@ std::string_view ToString(Turn turn) {
   return "?";
 }
 
+namespace {
+auto FindHead(const std::vector<SignalHead>& heads, SignalHeadId id) {
+  return std::lower_bound(heads.begin(), heads.end(), id,
+                          [](const SignalHead& h, SignalHeadId i) { return h.id < i; });
+}
+}  // namespace
+
+const SignalHead& Map::signal_head(SignalHeadId id) const {
+  const auto it = FindHead(signal_heads, id);
+  if (it == signal_heads.end() || it->id != id) {
+    throw std::out_of_range("the map has no signal head " + std::to_string(id.value()));
+  }
+  return *it;
+}
+
+bool Map::HasSignalHead(SignalHeadId id) const {
+  const auto it = FindHead(signal_heads, id);
+  return it != signal_heads.end() && it->id == id;
+}
+
+std::string Map::DescribeSignalHead(SignalHeadId id) const {
+  const std::string head = "signal_" + std::to_string(id.value());
+  if (!HasSignalHead(id)) return head + " (not in map " + name + ")";
+  const SignalHead& h = signal_head(id);
+  const Intersection& x = intersection(h.intersection);
+  for (const Approach& a : x.approaches) {
+    if (a.id == h.approach) {
+      return head + " (" + x.name + ", " + std::string(1, SideLetter(a.side)) + " approach)";
+    }
+  }
+  return head + " (" + x.name + ")";
+}
+
 bool Map::Conflict(MovementId a, MovementId b) const {
   if (b < a) std::swap(a, b);
   const auto& c = intersection(movement(a).intersection).conflicts;
@@ -547,9 +580,10 @@ class Builder {
         }
       }
       ComputeConflicts(x);
-      if (x.control == Control::kSignal) AddSignalHeads(x);
+      if (x.control == Control::kSignal) AddSignalHeads(x, t);
       map_.intersections.push_back(std::move(x));
     }
+    NumberSignalHeads();
   }
 
   void AddMovement(Intersection& x, const TileInfo& t, const Approach& from, const Approach& to,
@@ -597,20 +631,74 @@ class Builder {
     }
   }
 
-  void AddSignalHeads(Intersection& x) {
+  // One head per approach, with the ids the cell gives (heads=FIRST or heads=E4/N5/...), or
+  // 0 for NumberSignalHeads to give.
+  void AddSignalHeads(Intersection& x, const TileInfo& t) {
+    const Cell& cell = t.cell;
+    for (const auto& [side, id] : cell.head_by_side) {
+      bool found = false;
+      for (const auto& a : x.approaches) found = found || SideLetter(a.side) == side;
+      if (!found) {
+        Fail(t.Describe() + ": heads= gives head " + std::to_string(id) + " to its " +
+             std::string(1, side) + " approach, but it has no road on that side");
+      }
+    }
+    std::uint32_t next = cell.first_head.value_or(0);
     for (const auto& a : x.approaches) {
       const Lane& kerb = map_.lanes[a.ingress.back().value() - 1];
       const Vec d = -Outward(a.side);
       // At the corner on the approach's right, just beyond the kerb, facing the traffic.
       const Vec pos = kerb.right_boundary.back() + RightOf(d) * 0.06 + d * 0.06;
       SignalHead h;
-      h.id = SignalHeadId(static_cast<std::uint32_t>(map_.signal_heads.size() + 1));
+      if (cell.first_head) {
+        h.id = SignalHeadId(next++);
+      } else if (!cell.head_by_side.empty()) {
+        const auto it = cell.head_by_side.find(SideLetter(a.side));
+        if (it == cell.head_by_side.end()) {
+          Fail(t.Describe() + ": heads= gives no id to its " + std::string(1, SideLetter(a.side)) +
+               " approach (give every approach one: " + HeadsExample(x) + ")");
+        }
+        h.id = SignalHeadId(it->second);
+      }
       h.intersection = x.id;
       h.approach = a.id;
       h.X_MH = RigidTransform2::FromXyYaw(pos.x(), pos.y(), WrapAngle(Angle(d) + kPi));
-      x.signal_heads.push_back(h.id);
       map_.signal_heads.push_back(h);
     }
+  }
+
+  static std::string HeadsExample(const Intersection& x) {
+    std::string s = "heads=";
+    for (std::size_t i = 0; i < x.approaches.size(); ++i) {
+      s +=
+          (i ? "/" : "") + std::string(1, SideLetter(x.approaches[i].side)) + std::to_string(i + 1);
+    }
+    return s;
+  }
+
+  // Heads without an id from their cell get the next ids above every id a cell gives, in map
+  // order, so that giving a new intersection's heads no ids never moves another's. Two heads
+  // with one id are refused. Then the heads in ascending id order, and each intersection's in
+  // the order of its approaches.
+  void NumberSignalHeads() {
+    std::uint32_t next = 1;
+    for (const SignalHead& h : map_.signal_heads) next = std::max(next, h.id.value() + 1);
+    std::map<SignalHeadId, const SignalHead*> seen;
+    for (SignalHead& h : map_.signal_heads) {
+      if (h.id.value() == 0) h.id = SignalHeadId(next++);
+      const auto [it, fresh] = seen.emplace(h.id, &h);
+      if (!fresh) {
+        Fail("signal head " + std::to_string(h.id.value()) + " is given twice: to intersection " +
+             map_.intersection(it->second->intersection).name + " and to " +
+             map_.intersection(h.intersection).name + " (heads= of their cells)");
+      }
+    }
+    for (Intersection& x : map_.intersections) x.signal_heads.clear();
+    for (const SignalHead& h : map_.signal_heads) {
+      map_.intersections[h.intersection.value() - 1].signal_heads.push_back(h.id);
+    }
+    std::sort(map_.signal_heads.begin(), map_.signal_heads.end(),
+              [](const SignalHead& a, const SignalHead& b) { return a.id < b.id; });
   }
 
   void MakeObstacles() {

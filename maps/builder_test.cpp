@@ -259,10 +259,92 @@ TEST(MapBuilder, StopControlledIntersectionsGetStopSignsAndNoHeads) {
   }
 }
 
+// The ids of each intersection's heads by the side of the approach they face: "E4 N5 W6 S7".
+std::map<std::string, std::string> HeadIdsBySide(const Map& map) {
+  std::map<std::string, std::string> out;
+  for (const Intersection& x : map.intersections) {
+    for (const SignalHeadId h : x.signal_heads) {
+      for (const Approach& a : x.approaches) {
+        if (a.id != map.signal_head(h).approach) continue;
+        std::string& ids = out[x.name];
+        ids += (ids.empty() ? "" : " ") + std::string(1, SideLetter(a.side)) +
+               std::to_string(h.value());
+      }
+    }
+  }
+  return out;
+}
+
+// What a lab does in its first week: a stop-controlled junction made signalised. The heads the
+// layout numbers keep their ids; the new ones get ids above them, whatever their place in the
+// map (before this, west_t's new heads took 4..6 and moved centre's from 4..7 to 7..10).
+TEST(MapBuilder, HeadIdsAreTheLayoutsAndANewSignalisedIntersectionMovesNoOther) {
+  Layout town = LoadLayout((test::SourceDir() / "config" / "maps" / "small_town.yaml").string());
+  const Map before = Build(town);
+  EXPECT_EQ(HeadIdsBySide(before), (std::map<std::string, std::string>{{"north_t", "E1 W2 S3"},
+                                                                       {"centre", "E4 N5 W6 S7"}}));
+  Cell& west_t = town.grid[2][0];
+  ASSERT_EQ(west_t.name, "west_t");
+  west_t.control = Control::kSignal;
+  const Map after = Build(town);
+  EXPECT_EQ(HeadIdsBySide(after),
+            (std::map<std::string, std::string>{
+                {"north_t", "E1 W2 S3"}, {"centre", "E4 N5 W6 S7"}, {"west_t", "E8 N9 S10"}}));
+  // In ascending id order, and each found by its id.
+  for (std::size_t i = 0; i < after.signal_heads.size(); ++i) {
+    EXPECT_EQ(after.signal_heads[i].id.value(), i + 1);
+    EXPECT_EQ(&after.signal_head(after.signal_heads[i].id), &after.signal_heads[i]);
+  }
+  EXPECT_EQ(after.DescribeSignalHead(SignalHeadId(9)), "signal_9 (west_t, N approach)");
+  EXPECT_EQ(after.DescribeSignalHead(SignalHeadId(11)), "signal_11 (not in map small_town)");
+}
+
+TEST(MapBuilder, HeadIdsMayLeaveGapsAndBeGivenAsAFirstId) {
+  const Map map =
+      Build(MakeLayout({{"empty", "straight@90", "empty", "empty", "straight@90", "empty"},
+                        {"straight", "x4 name=a heads=E20/N3/W7/S12", "straight", "straight",
+                         "x4 name=b heads=40", "straight"},
+                        {"empty", "straight@90", "empty", "empty", "straight@90", "empty"}}));
+  EXPECT_EQ(HeadIdsBySide(map),
+            (std::map<std::string, std::string>{{"a", "E20 N3 W7 S12"}, {"b", "E40 N41 W42 S43"}}));
+  ASSERT_EQ(map.signal_heads.size(), 8u);
+  EXPECT_EQ(map.signal_heads.front().id.value(), 3u);
+  EXPECT_EQ(map.signal_heads.back().id.value(), 43u);
+  EXPECT_FALSE(map.HasSignalHead(SignalHeadId(1)));
+  EXPECT_THROW((void)map.signal_head(SignalHeadId(1)), std::out_of_range);
+}
+
 // ---- Bad layouts: each kind of error names the place and the reason ----------------------
 
 std::string BuildError(const Layout& layout) {
   return test::ErrorMessage([&] { (void)Build(layout); });
+}
+
+TEST(MapBuilderErrors, HeadIdsGivenTwiceToASideWithoutARoadOrToTooFewApproaches) {
+  const auto two_ways = [](const std::string& a, const std::string& b) {
+    return MakeLayout(
+        {{"empty", "straight@90", "empty", "empty", "straight@90", "empty"},
+         {"straight", "x4 name=a " + a, "straight", "straight", "x4 name=b " + b, "straight"},
+         {"empty", "straight@90", "empty", "empty", "straight@90", "empty"}});
+  };
+  EXPECT_EQ(BuildError(two_ways("heads=1", "heads=E9/N4/W10/S11")),
+            "signal head 4 is given twice: to intersection a and to b (heads= of their cells)");
+  EXPECT_EQ(BuildError(two_ways("heads=E1/N2/W3", "")),
+            "tile r1c1 (row 1, column 1, \"x4 name=a heads=E1/N2/W3\"): heads= gives no id to "
+            "its S approach (give every approach one: heads=E1/N2/W3/S4)");
+  EXPECT_EQ(BuildError(MakeLayout({{"straight", "t name=t heads=E1/N2/W3/S4", "straight"},
+                                   {"empty", "straight@90", "empty"}})),
+            "tile r0c1 (row 0, column 1, \"t name=t heads=E1/N2/W3/S4\"): heads= gives head 2 to "
+            "its N approach, but it has no road on that side");
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("x4 control=stop heads=1"); }),
+            "heads applies to signalised intersections (x4, t with control=signal) only, in cell "
+            "\"x4 control=stop heads=1\"");
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("x4 heads=E1,N2"); }),
+            "a head id must be a number, got \"1,N2\" in cell \"x4 heads=E1,N2\"");
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("x4 heads=E1/E2"); }),
+            "heads gives side E twice in cell \"x4 heads=E1/E2\"");
+  EXPECT_EQ(test::ErrorMessage([] { (void)Cell::FromConfigString("x4 heads=0"); }),
+            "a head id must be in [1, 999999], got 0 in cell \"x4 heads=0\"");
 }
 
 TEST(MapBuilderErrors, RoadMeetingAnEdgeWithoutARoad) {
@@ -364,7 +446,8 @@ TEST(MapBuilderErrors, RaggedGridAndRoadsTooWideForTheTile) {
 TEST(MapLayout, CellsRoundTripThroughText) {
   for (const char* text :
        {"empty", "straight@90", "x4 control=stop name=main", "ramp@180 rise=0.05",
-        "t@270 lanes=2 control=yield", "parking elevation=0.1", "straight width=0.25"}) {
+        "t@270 lanes=2 control=yield", "parking elevation=0.1", "straight width=0.25",
+        "x4 heads=12", "t@90 name=a heads=S3/N1/E2"}) {
     EXPECT_EQ(Cell::FromConfigString(Cell::FromConfigString(text).ToConfigString()),
               Cell::FromConfigString(text))
         << text;

@@ -1,5 +1,6 @@
 #include "maps/layout.h"
 
+#include <cctype>
 #include <charconv>
 #include <sstream>
 
@@ -63,6 +64,43 @@ std::string_view ToString(Control control) {
   }
   AUTODRIVE_CHECK(false, "unknown Control " << static_cast<int>(control));
 }
+
+namespace {
+
+// A head id: a whole number in [1, 999999] (it names the head's topics, signal_<id>).
+std::uint32_t ParseHeadId(std::string_view value, std::string_view text) {
+  const int id = ParseNumber<int>(value, "a head id", text);
+  AUTODRIVE_THROW_UNLESS(id >= 1 && id <= 999999, "a head id must be in [1, 999999], got "
+                                                      << id << " in cell \"" << text << "\"");
+  return static_cast<std::uint32_t>(id);
+}
+
+// heads=FIRST or heads=E4/N5/W6/S7 (no commas or colons: the cell is a plain scalar in a YAML
+// flow sequence).
+void ParseHeads(std::string_view value, std::string_view text, Cell& cell) {
+  AUTODRIVE_THROW_UNLESS(!cell.first_head && cell.head_by_side.empty(),
+                         "heads is given twice in cell \"" << text << "\"");
+  if (!value.empty() && std::isdigit(static_cast<unsigned char>(value[0])) != 0) {
+    cell.first_head = ParseHeadId(value, text);
+    return;
+  }
+  std::size_t begin = 0;
+  while (begin <= value.size()) {
+    const std::size_t end = std::min(value.find('/', begin), value.size());
+    const std::string_view item = value.substr(begin, end - begin);
+    AUTODRIVE_THROW_UNLESS(
+        item.size() >= 2 && std::string_view("ENWS").find(item[0]) != std::string_view::npos,
+        "heads wants a first id (heads=4) or SIDE and id per approach with SIDE one of E, N, W, "
+        "S (heads=E4/N5/W6/S7), got \""
+            << item << "\" in cell \"" << text << "\"");
+    const std::uint32_t id = ParseHeadId(item.substr(1), text);
+    AUTODRIVE_THROW_UNLESS(cell.head_by_side.emplace(item[0], id).second,
+                           "heads gives side " << item[0] << " twice in cell \"" << text << "\"");
+    begin = end + 1;
+  }
+}
+
+}  // namespace
 
 Cell Cell::FromConfigString(std::string_view text) {
   std::istringstream words{std::string(text)};
@@ -132,11 +170,19 @@ Cell Cell::FromConfigString(std::string_view text) {
     } else if (key == "name") {
       AUTODRIVE_THROW_UNLESS(!value.empty(), "name must not be empty");
       cell.name = value;
+    } else if (key == "heads") {
+      ParseHeads(value, text, cell);
     } else {
       throw InputError("unknown cell option \"" + key +
-                       "\" (known: lanes, width, control, rise, elevation, name)");
+                       "\" (known: lanes, width, control, rise, elevation, name, heads)");
     }
   }
+  AUTODRIVE_THROW_UNLESS(
+      (!cell.first_head && cell.head_by_side.empty()) ||
+          ((cell.type == ModuleType::kIntersection || cell.type == ModuleType::kTJunction) &&
+           cell.control == Control::kSignal),
+      "heads applies to signalised intersections (x4, t with control=signal) only, in cell \""
+          << text << "\"");
   return cell;
 }
 
@@ -152,6 +198,17 @@ std::string Cell::ToConfigString() const {
   if (rise_m != 0.0) s += " rise=" + FormatNumber(rise_m);
   if (elevation_m != 0.0) s += " elevation=" + FormatNumber(elevation_m);
   if (!name.empty()) s += " name=" + name;
+  if (first_head) s += " heads=" + std::to_string(*first_head);
+  if (!head_by_side.empty()) {
+    s += " heads=";
+    bool first = true;
+    for (const char side : {'E', 'N', 'W', 'S'}) {
+      if (const auto it = head_by_side.find(side); it != head_by_side.end()) {
+        s += (first ? "" : "/") + std::string(1, side) + std::to_string(it->second);
+        first = false;
+      }
+    }
+  }
   return s;
 }
 

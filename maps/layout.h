@@ -15,6 +15,8 @@
 ///   - {kind: box, x_m: 1.5, y_m: 1.5, length_m: 0.2, width_m: 0.2, height_m: 0.2}
 /// ```
 
+#include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -44,7 +46,10 @@ enum class Control { kSignal, kStop, kYield, kUncontrolled };
 /// `straight@90 lanes=2`, `ramp rise=0.1`, `empty` (or `.`). Rotation is counter-clockwise in
 /// degrees, a multiple of 90. Keys: `lanes` (per direction, 1 or 2; default: the layout's), `width`
 /// (lane width in m; default: the layout's), `control` (signal|stop|yield|none; intersections,
-/// default signal), `rise` (ramps, m), `elevation` (m, default 0), `name` (intersections). Types:
+/// default signal), `rise` (ramps, m), `elevation` (m, default 0), `name` (intersections),
+/// `heads` (signalised intersections: the ids of their signal heads, `heads=E4/N5/W6/S7` by
+/// the side of the approach each faces, or `heads=4` for consecutive ids in the order E, N, W, S
+/// of the approaches there are; without it the builder gives ids above every id given). Types:
 /// empty (or .), straight, curve, x4, t, end, parking, ramp, open. Written in YAML as one string.
 struct Cell {
   ModuleType type = ModuleType::kEmpty;
@@ -55,6 +60,8 @@ struct Cell {
   double rise_m = 0.0;
   double elevation_m = 0.0;
   std::string name;
+  std::optional<std::uint32_t> first_head;     ///< heads=FIRST
+  std::map<char, std::uint32_t> head_by_side;  ///< heads=E4/N5/...: by the side 'E', 'N', 'W', 'S'
 
   /// Parses the cell text. Throws `InputError` naming what is wrong and the text seen.
   static Cell FromConfigString(std::string_view text);

@@ -201,7 +201,8 @@ struct BuildOptions {
   bool operator==(const BuildOptions&) const = default;
 };
 
-/// The whole built map. Value type; ids index the vectors: `lanes[id.value() - 1]`.
+/// The whole built map. Value type; ids of lanes, movements and intersections index their
+/// vectors (`lanes[id.value() - 1]`); signal head ids are the layout's (`signal_head(id)`).
 struct Map {
   Layout layout;         ///< what it was built from
   BuildOptions options;  ///< how
@@ -229,6 +230,15 @@ struct Map {
   const Intersection& intersection(IntersectionId id) const {
     return intersections.at(id.value() - 1);
   }
+  /// The head with id `id`. Head ids are the layout's (docs/maps.md), not positions:
+  /// `signal_heads` is in ascending id order and may have gaps. @throws std::out_of_range for
+  /// an id the map has not.
+  [[nodiscard]] const SignalHead& signal_head(SignalHeadId id) const;
+  /// Whether the map has a head with id `id`.
+  [[nodiscard]] bool HasSignalHead(SignalHeadId id) const;
+  /// "signal_5 (centre, W approach)": the head's name, its intersection and the side of the
+  /// approach it faces; "signal_5 (not in map NAME)" for an id the map has not.
+  [[nodiscard]] std::string DescribeSignalHead(SignalHeadId id) const;
   /// The centre of tile `t` in the map frame.
   [[nodiscard]] Eigen::Vector2d TileCentre(const TileIndex& t) const {
     return {(t.col + 0.5) * tile_size_m, (rows - 1 - t.row + 0.5) * tile_size_m};

@@ -41,6 +41,19 @@ int Info(const std::string& path) {
                 x.name.c_str(), x.tile.Name().c_str(), std::string(ToString(x.control)).c_str(),
                 x.centre.x(), x.centre.y(), x.approaches.size(), x.movements.size(),
                 x.conflicts.size());
+    if (!x.signal_heads.empty()) {
+      // The heads' ids, which the lights files list and a real track is wired by.
+      std::string heads;
+      for (const auto& a : x.approaches) {
+        for (const autodrive::SignalHeadId h : x.signal_heads) {
+          if (map.signal_head(h).approach == a.id) {
+            heads += (heads.empty() ? "" : ", ") + std::string(1, SideLetter(a.side)) + ": " +
+                     autodrive::SignalHeadName(h);
+          }
+        }
+      }
+      std::printf("      signal heads by approach: %s\n", heads.c_str());
+    }
   }
   const auto problems = CheckReachability(map);
   std::printf("  reachability: %s\n",

@@ -500,6 +500,9 @@ class Scene {
       for (const auto& [offset, colour] : lamps) {
         canvas_.Circle(P(Vec(c + y * (offset * r_m))), r_m * s_, colour, std::nullopt, 0);
       }
+      // Its id (signal_<id>, what the lights files list), behind it, away from the traffic.
+      canvas_.Text(P(Vec(c - x * (4.5 * r_m))), std::to_string(h.id.value()),
+                   std::max(8.0, 3.0 * r_m * s_), kText, true);
     }
   }
 

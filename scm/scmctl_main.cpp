@@ -321,8 +321,13 @@ int Ask(const dds::ParticipantOptions& dds_options, const std::string& command,
       participant, UniqueClientId("scmctl"),
       operator_name.empty() ? std::nullopt : std::optional<std::string>(operator_name));
   if (!client.WaitForScm(timeout)) {
-    std::cerr << "scmctl: no SCM answered within " << timeout_s
-              << " s (is autodrive-scm running, on this partition and domain?)\n";
+    const char* uri = std::getenv("CYCLONEDDS_URI");
+    std::cerr << fmt::format(
+        "scmctl: no SCM answered within {} s on DDS domain {}, partition \"{}\", with "
+        "CYCLONEDDS_URI={}. Is autodrive-scm running, and with the same three? "
+        "(scripts/run-city: domain 0, the default partition, config/dds/localhost.xml)\n",
+        timeout_s, participant.domain_id(), participant.partition(),
+        uri != nullptr ? uri : "(unset)");
     return kNoAnswer;
   }
   const auto answer = client.Call(command, args, timeout);

@@ -44,7 +44,8 @@ CoSimulation::CoSimulation(const scm::City& city, const TrafficConfig& config, O
     : city_(city),
       config_(config),
       lights_(city),
-      lamps_(lights_, city.map.signal_heads.size(), config.lights.flash_window_s, config.step_s),
+      lamps_(lights_, city.map.signal_heads.empty() ? 0 : city.map.signal_heads.back().id.value(),
+             config.lights.flash_window_s, config.step_s),
       expected_lab_cars_(options.expected_lab_cars),
       lab_car_wait_(options.lab_car_wait) {
   std::filesystem::create_directories(options.work_dir);
@@ -78,23 +79,15 @@ CoSimulation::~CoSimulation() {
 
 void CoSimulation::StartSumo(Options& options) {
   const maps::SumoExport& files = network_->files();
-  std::vector<std::string> args = {config_.sumo.binary,
-                                   "-c",
-                                   files.config_file.string(),
-                                   "--step-length",
-                                   Seconds(ToSeconds(config_.step_s)),
-                                   "--seed",
-                                   std::to_string(config_.seed % 2147483647),
-                                   "--no-step-log",
-                                   "true",
-                                   "--time-to-teleport",
-                                   "-1",
-                                   "--collision.check-junctions",
-                                   options.check_junction_collisions ? "true" : "false",
-                                   "--collision.action",
-                                   "warn",
-                                   "--log",
-                                   (options.work_dir / "sumo.log").string()};
+  std::vector<std::string> args = {
+      config_.sumo.binary, "-c", files.config_file.string(), "--step-length",
+      Seconds(ToSeconds(config_.step_s)), "--seed", std::to_string(config_.seed % 2147483647),
+      "--no-step-log", "true", "--time-to-teleport", "-1", "--collision.check-junctions",
+      options.check_junction_collisions ? "true" : "false", "--collision.action", "warn",
+      // SUMO's cars brake hard behind lab cars, which stop and
+      // start as no SUMO driver would: after 5 warnings of a kind
+      // SUMO counts the rest instead of printing each.
+      "--aggregate-warnings", "5", "--log", (options.work_dir / "sumo.log").string()};
   if (!config_.route_files.empty()) {
     std::string joined;
     for (const std::string& f : config_.route_files) joined += (joined.empty() ? "" : ",") + f;

@@ -114,7 +114,7 @@ LightBinding::LightBinding(const scm::City& city) {
       std::vector<SignalHeadId> facing, all;
       for (const SignalHeadId h : group.heads) {
         all.push_back(h);
-        if (map.signal_heads.at(h.value() - 1).approach == m.from_approach) facing.push_back(h);
+        if (map.signal_head(h).approach == m.from_approach) facing.push_back(h);
       }
       AUTODRIVE_THROW_UNLESS(!all.empty(), "intersection " << x.name << ": movement " << m.name
                                                            << " is shown by no head");

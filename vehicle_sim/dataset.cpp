@@ -30,7 +30,7 @@ void FixedCycleLamps(const maps::Map& map, Duration t, std::vector<HeadLamps>& o
     // The approaches that have heads, in the map's order.
     std::vector<ApproachId> served;
     for (const SignalHeadId h : x.signal_heads) {
-      const ApproachId a = map.signal_heads.at(h.value() - 1).approach;
+      const ApproachId a = map.signal_head(h).approach;
       if (std::find(served.begin(), served.end(), a) == served.end()) served.push_back(a);
     }
     if (served.empty()) continue;
@@ -38,7 +38,7 @@ void FixedCycleLamps(const maps::Map& map, Duration t, std::vector<HeadLamps>& o
     const auto slot = static_cast<std::size_t>(in_cycle / kSlot);
     const double in_slot = in_cycle - kSlot * static_cast<double>(slot);
     for (const SignalHeadId h : x.signal_heads) {
-      const bool mine = map.signal_heads.at(h.value() - 1).approach == served[slot];
+      const bool mine = map.signal_head(h).approach == served[slot];
       HeadLamps l{h, true, false, false};
       if (mine && in_slot < kGreen) l = {h, false, false, true};
       if (mine && in_slot >= kGreen && in_slot < kGreen + kYellow) l = {h, false, true, false};

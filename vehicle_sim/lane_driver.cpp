@@ -217,7 +217,7 @@ DriverDecision LaneDriver::Step(
       // Red, yellow (unless too close to stop) or unknown: stop at the line.
       std::optional<Aspect> shown;
       for (SignalHeadId h : x.signal_heads) {
-        const maps::SignalHead& head = map_->signal_heads.at(h.value() - 1);
+        const maps::SignalHead& head = map_->signal_head(h);
         if (head.approach == piece.lane->ingress_approach) {
           const std::optional<std::int32_t> wire = lamp(h);
           shown = wire ? AspectFromWire(*wire) : std::nullopt;

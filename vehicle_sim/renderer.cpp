@@ -63,7 +63,7 @@ struct CameraRenderer::Impl {
       : world(CheckWorld(std::move(w))),
         raster(world->impl_->scene, intrinsics, f),
         film(f, intrinsics.width_px, intrinsics.height_px),
-        frame_scene(world->impl_->scene.heads()),
+        frame_scene(world->impl_->scene.head_ids()),
         colour(raster.rays().W() * static_cast<std::size_t>(raster.rays().h) * 3) {}
 
   static std::shared_ptr<const RenderWorld> CheckWorld(std::shared_ptr<const RenderWorld> w) {

@@ -256,8 +256,13 @@ json MapJson(const scm::City& city, double px_per_tile, int margin_px, int width
   const maps::Map& map = city.map;
   json heads = json::array();
   for (const maps::SignalHead& h : map.signal_heads) {
+    std::string side;  // of the approach it faces, for the page's tooltip
+    for (const maps::Approach& a : map.intersection(h.intersection).approaches) {
+      if (a.id == h.approach) side = std::string(1, maps::SideLetter(a.side));
+    }
     heads.push_back({{"id", h.id.value()},
                      {"intersection", h.intersection.value()},
+                     {"side", side},
                      {"x", Mm(h.X_MH.translation().x())},
                      {"y", Mm(h.X_MH.translation().y())},
                      {"yaw", Mm(h.X_MH.yaw())}});

@@ -160,8 +160,8 @@ TEST_F(DashboardWithScm, AnEventReachesThePageAndScmctlJsonWithEveryFieldAsTheSc
     EXPECT_EQ(e["actor"], "infra/lights_east");
     EXPECT_EQ(e["active"], true);
     EXPECT_EQ(scm::ValueText(answer->Value(std::to_string(id))),  // scmctl's plain line
-              "1795240000.125 alarm lamp_fault signal_3: red lamp out (by infra/lights_east) "
-              "[active]");
+              scm::LocalDateTime(1795240000.125) +
+                  " alarm lamp_fault signal_3: red lamp out (by infra/lights_east) [active]");
   }
 
   server.Stop();

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -408,14 +409,23 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
 Server::~Server() { Stop(); }
 
 void Server::Start() {
+  // cpp-httplib sets SO_REUSEPORT on Linux, with which a second dashboard could bind the same
+  // port and take half the connections; SO_REUSEADDR alone lets it bind only a free port (or
+  // one whose last use lingers in TIME_WAIT).
+  http_->set_socket_options([](socket_t sock) {
+    const int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   if (options_.port == 0) {
     port_ = http_->bind_to_any_port(options_.host);
   } else {
     port_ = http_->bind_to_port(options_.host, options_.port) ? options_.port : -1;
   }
   if (port_ <= 0) {
-    throw InputError(fmt::format("cannot listen on {}:{} (in use, or not an address of this host)",
-                                 options_.host, options_.port));
+    throw InputError(fmt::format(
+        "cannot listen on {}:{} (in use by another program, or not an address of this host); "
+        "give another with --listen HOST:PORT",
+        options_.host, options_.port));
   }
   http_thread_ = std::thread([this] { http_->listen_after_bind(); });
   poll_thread_ = std::thread([this] { Poll(); });

@@ -1,16 +1,20 @@
 // autodrive-city: brings a whole city up from its file and down again (docs/launcher.md).
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <netdb.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 
@@ -90,6 +94,45 @@ struct UpOptions {
   double duration_s = 0;
 };
 
+// Refuses to start the city when the dashboard's HOST:PORT is taken: found now, before
+// anything starts, not when the dashboard exits and takes the city down with it.
+void CheckDashboardAddressFree(const std::string& listen) {
+  const auto colon = listen.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == listen.size() ||
+      listen.find_first_not_of("0123456789", colon + 1) != std::string::npos) {
+    throw InputError(fmt::format("the dashboard's address \"{}\" is not HOST:PORT", listen));
+  }
+  const std::string host = listen.substr(0, colon);
+  const std::string port = listen.substr(colon + 1);
+  if (std::stoul(port) == 0) return;  // any free port
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (const int rc = ::getaddrinfo(host.c_str(), port.c_str(), &hints, &found); rc != 0) {
+    throw InputError(fmt::format("the dashboard's address {}: {}", listen, ::gai_strerror(rc)));
+  }
+  std::unique_ptr<addrinfo, decltype(&::freeaddrinfo)> list(found, &::freeaddrinfo);
+  for (const addrinfo* a = found; a != nullptr; a = a->ai_next) {
+    const int fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+    if (fd < 0) continue;
+    const int one = 1;
+    ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);  // as the dashboard binds
+    const bool bound = ::bind(fd, a->ai_addr, a->ai_addrlen) == 0;
+    const int error = errno;
+    ::close(fd);
+    if (!bound && error == EADDRINUSE) {
+      throw InputError(fmt::format(
+          "the dashboard's address {} is taken by another program (`ss -ltnp 'sport = :{}'` "
+          "shows which); nothing was started. Give the dashboard another address: "
+          "`autodrive-city up --dashboard {}:{}` (scripts/run-city --dashboard {}:{}) or "
+          "launch.dashboard.listen in the city file",
+          listen, port, host, std::stoul(port) + 10, host, std::stoul(port) + 10));
+    }
+  }
+}
+
 int Up(const UpOptions& o) {
   LaunchPlan plan = PlanCity(o.city, o.bin_dir.empty() ? ExecutableDir() : o.bin_dir);
   if (!o.dashboard.empty()) {
@@ -116,6 +159,14 @@ int Up(const UpOptions& o) {
         fmt::format("the city {} is already up (autodrive-city, pid {}); "
                     "`autodrive-city down {}` stops it",
                     plan.city_name, *pid, o.city));
+  }
+  if (plan.dashboard) {
+    for (const ProcessPlan& p : plan.processes) {
+      const auto at = std::ranges::find(p.argv, std::string("--listen"));
+      if (p.name == "dashboard" && at != p.argv.end() && at + 1 != p.argv.end()) {
+        CheckDashboardAddressFree(*(at + 1));
+      }
+    }
   }
   std::filesystem::create_directories(plan.run_dir);
   std::ofstream(plan.run_dir / "launcher.pid") << ::getpid() << '\n';

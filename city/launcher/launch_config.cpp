@@ -1,6 +1,7 @@
 #include "city/launcher/launch_config.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstdlib>
@@ -100,6 +101,45 @@ std::filesystem::path RunDirOf(const std::filesystem::path& city_file) {
   return ResolveRunDir(file, name, launch.run_dir);
 }
 
+namespace {
+
+// The city's light host must drive every head of the city's signalised intersections, and only
+// those, each at the same intersection and approach in its map as in the city's: a head that
+// no one drives keeps its intersection in start-up flash for good.
+void CheckHeadsHosted(const maps::Map& city_map, const infrastructure::HostPlan& host,
+                      const std::string& city_path, const std::string& lights_path) {
+  std::set<SignalHeadId> hosted;
+  std::vector<std::string> problems;
+  for (const infrastructure::HeadPlan& h : host.heads) {
+    hosted.insert(h.id);
+    const std::string there = host.map.DescribeSignalHead(h.id);
+    const std::string here = city_map.DescribeSignalHead(h.id);
+    if (!city_map.HasSignalHead(h.id)) {
+      problems.push_back(
+          fmt::format("it hosts {}, which the city's map {} has not", there, city_map.name));
+    } else if (there != here) {
+      problems.push_back(fmt::format("its map has {} where the city's has {}", there, here));
+    }
+  }
+  std::vector<std::string> missing;
+  for (const maps::SignalHead& h : city_map.signal_heads) {
+    if (!hosted.contains(h.id)) missing.push_back(city_map.DescribeSignalHead(h.id));
+  }
+  if (!missing.empty()) {
+    problems.push_back(fmt::format("it does not host {} (add {} to its heads)",
+                                   fmt::join(missing, ", "), missing.size() == 1 ? "it" : "them"));
+  }
+  if (!problems.empty()) {
+    throw ConfigError(fmt::format(
+        "{}: launch.lights: the light host's file {} does not match the city: {}. Head ids are "
+        "the map's heads= (autodrive-map info lists them); set launch.lights.mode: off when the "
+        "lights run on other hosts",
+        city_path, lights_path, fmt::join(problems, "; ")));
+  }
+}
+
+}  // namespace
+
 LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesystem::path& bin_dir) {
   LaunchPlan plan;
   plan.city_file = std::filesystem::absolute(city_file).lexically_normal();
@@ -147,6 +187,8 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
                                     city_path, file.lexically_normal().string(), infra.city,
                                     plan.city_name));
     }
+    CheckHeadsHosted(city.map, infrastructure::PlanHost(infra, file), city_path,
+                     file.lexically_normal().string());
     add("lights", lights.process,
         {bin("autodrive-infra"), "--config", file.lexically_normal().string()}, Restart::kAlways,
         {Readiness::Kind::kHeartbeat, "infra/" + infra.name, {}});

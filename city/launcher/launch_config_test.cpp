@@ -131,5 +131,63 @@ TEST_F(Plan, BadFilesAreRefusedWithOneErrorNamingWhere) {
               HasSubstr("autodrive-eye is not there"));
 }
 
+// A lab's first change: west_t made signalised (docs/tutorials/add-an-intersection.md). The
+// shipped lights file hosts heads 1..7, which keep their ids; west_t's new heads (8..10) are
+// hosted by no one, and the city is refused naming them, as is a lights file that misses one of
+// the shipped heads.
+TEST_F(Plan, ALightsFileThatDoesNotHostEveryHeadIsRefusedNamingTheHeads) {
+  std::string map = config::ReadFile(test::SourceDir() / "config/maps/small_town.yaml");
+  const std::string stop = "t@90 control=stop name=west_t";
+  ASSERT_NE(map.find(stop), std::string::npos);
+  map.replace(map.find(stop), stop.size(), "t@90 control=signal name=west_t");
+  std::filesystem::create_directories(dir_ / "maps");
+  std::ofstream(dir_ / "maps" / "small_town.yaml") << map;
+  const std::string west_t =
+      "  - name: west_t\n"
+      "    timing: {min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 2.0}\n"
+      "    groups:\n"
+      "      - {id: 1, name: east, approaches: [east]}\n"
+      "      - {id: 2, name: north, approaches: [north]}\n"
+      "      - {id: 3, name: south, approaches: [south]}\n"
+      "    plans:\n"
+      "      - name: day\n"
+      "        type: fixed\n"
+      "        phases: [{groups: [1], green_s: 8.0}, {groups: [2], green_s: 8.0}, "
+      "{groups: [3], green_s: 8.0}]\n"
+      "    schedule: [{at: \"00:00\", plan: day}]\n";
+  const auto write_lights = [&](const std::string& heads) {
+    std::string text = config::ReadFile(test::SourceDir() / "config/infra/small_town.yaml");
+    text.replace(text.find("map: ../maps/"), 13, "map: " + (dir_ / "maps").string() + "/");
+    text.replace(text.find("heads: [1, 2, 3, 4, 5, 6, 7]"), 28, "heads: " + heads);
+    std::ofstream(dir_ / "lights.yaml") << text;
+    return "launch:\n  lights: {config: " + (dir_ / "lights.yaml").string() + "}\n";
+  };
+  const auto city = [&](const std::string& lights) {
+    const auto file = City(lights);
+    std::string text = config::ReadFile(file);
+    text.replace(text.find("map: "), text.find('\n', text.find("map: ")) - text.find("map: "),
+                 "map: " + (dir_ / "maps" / "small_town.yaml").string());
+    text.insert(text.find("\nfleet:") + 1, west_t);
+    std::ofstream(file) << text;
+    return file;
+  };
+  EXPECT_EQ(
+      test::ErrorMessage<ConfigError>(
+          [&] { (void)PlanCity(city(write_lights("[1, 2, 3, 4, 5, 6, 7]")), dir_ / "bin"); }),
+      (dir_ / "city.yaml").string() + ": launch.lights: the light host's file " +
+          (dir_ / "lights.yaml").string() +
+          " does not match the city: it does not host signal_8 (west_t, E approach), signal_9 "
+          "(west_t, N approach), signal_10 (west_t, S approach) (add them to its heads). Head ids "
+          "are the map's heads= (autodrive-map info lists them); set launch.lights.mode: off "
+          "when the lights run on other hosts");
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] {
+                (void)PlanCity(city(write_lights("[1, 2, 3, 4, 6, 7, 8, 9, 10]")), dir_ / "bin");
+              }),
+              HasSubstr("it does not host signal_5 (centre, N approach) (add it to its heads)"));
+  const LaunchPlan plan =
+      PlanCity(city(write_lights("[1, 2, 3, 4, 5, 6, 7, 8, 9, 10]")), dir_ / "bin");
+  EXPECT_EQ(Names(plan).front(), "lights");
+}
+
 }  // namespace
 }  // namespace autodrive::launcher

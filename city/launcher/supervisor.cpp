@@ -28,11 +28,15 @@ std::string Iso(std::chrono::system_clock::time_point t) {
   return fmt::format("{:%Y-%m-%dT%H:%M:%S}Z", std::chrono::floor<std::chrono::seconds>(t));
 }
 
-// The last lines of a log, to say why a process failed.
+constexpr std::string_view kStartMark = "==== autodrive-city: starting ";
+
+// The last lines of a log since the process's last start, to say why it failed (the log holds
+// the earlier runs too).
 std::string Tail(const std::filesystem::path& log, std::size_t lines) {
   std::ifstream in(log);
   std::deque<std::string> last;
   for (std::string line; std::getline(in, line);) {
+    if (line.starts_with(kStartMark)) last.clear();
     last.push_back(line);
     if (last.size() > lines) last.pop_front();
   }
@@ -176,9 +180,8 @@ struct Supervisor::Impl {
     heard.clear();
     heard_clock = heard_traffic = false;
     {
-      std::ofstream(p.plan->log, std::ios::app)
-          << fmt::format("==== autodrive-city: starting {} at {} ====\n", p.plan->name,
-                         Iso(std::chrono::system_clock::now()));
+      std::ofstream(p.plan->log, std::ios::app) << fmt::format(
+          "{}{} at {} ====\n", kStartMark, p.plan->name, Iso(std::chrono::system_clock::now()));
     }
     if (p.plan->ready.kind == Readiness::Kind::kFile) {
       std::error_code ec;

@@ -40,6 +40,16 @@ inline void AddSecurityOptions(CLI::App& app, SecurityOptions& options) {
       ->capture_default_str();
 }
 
+/// The shipped DDS configuration a program uses when `CYCLONEDDS_URI` is not set:
+/// `config/dds/localhost.xml` of the source tree the program was built in (found from the
+/// executable's folder, `build/bin/../../config/dds`), or empty when there is none.
+[[nodiscard]] std::string ShippedDdsConfig();
+
+/// Sets `CYCLONEDDS_URI` to `file://` + `ShippedDdsConfig()` when it is unset or empty and that
+/// file exists, and says so in the debug log (once); leaves a set variable alone. Call it before
+/// the process's first participant (Cyclone reads the variable when it creates a domain).
+void UseShippedDdsConfigUnlessSet();
+
 /// A program's DDS options: where its participant lives (domain, partition) and who it is
 /// (DDS Security). Keep it alive while `app` parses (the options write into it).
 class ProgramOptions {
@@ -64,8 +74,11 @@ class ProgramOptions {
   /// The identity used when neither `--enclave` nor the environment names one.
   void SetOwnEnclave(std::string enclave) { own_enclave_ = std::move(enclave); }
 
-  /// The participant the options describe.
+  /// The participant the options describe. When `CYCLONEDDS_URI` is not set, first sets it to
+  /// the project's shipped configuration (`UseShippedDdsConfigUnlessSet`), so that a program
+  /// started in a new shell finds the city `scripts/run-city` started.
   [[nodiscard]] ParticipantOptions Participant() const {
+    UseShippedDdsConfigUnlessSet();
     ParticipantOptions o = options_;
     SecurityOptions s = security_;
     if (s.enclave.empty()) s.enclave = own_enclave_;

@@ -120,7 +120,11 @@ ReaderBase::ReaderBase(const Participant& participant, const dds_topic_descripto
 }
 
 ReaderBase::~ReaderBase() {
-  // Delete the reader (which waits for a running listener) before the callback it may call.
+  // Detach the listener first: dds_set_listener waits for a running one to return, and none
+  // starts after. (Deleting the reader also waits for it, but a listener that runs while the
+  // reader is being deleted has its dds_take refused, "Bad Parameter".)
+  if (reader_.handle() > 0) (void)dds_set_listener(reader_.handle(), nullptr);
+  // Delete the reader before the callback it may call.
   read_condition_.reset();
   waitset_.reset();
   reader_.reset();

@@ -157,22 +157,28 @@ bool CityRuntime::FailSafe(std::size_t i, MonoTime now, const std::string& reaso
 IntersectionSummary CityRuntime::Summary(std::size_t i) const {
   const IntersectionRuntime& x = xs_[i];
   const auto& c = *x.controller;
+  const std::optional<std::size_t> asked = c.operator_plan();
+  const bool running_asked = asked && *asked == c.plan_index();
   return {x.model->id,
           c.effective_mode(),
           c.requested_mode(),
           c.plan().name,
-          c.operator_plan().has_value(),
+          running_asked,
           c.stage(),
-          c.latched() ? std::optional<std::string>(c.latch_reason()) : std::nullopt};
+          c.latched() ? std::optional<std::string>(c.latch_reason()) : std::nullopt,
+          asked && !running_asked ? std::optional<std::string>(x.model->plans[*asked].name)
+                                  : std::nullopt};
 }
 
 std::string CityRuntime::Describe(std::size_t i) const { return scm::Describe(Summary(i)); }
 
 std::string Describe(const IntersectionSummary& s) {
-  return fmt::format("id={} mode={} requested={} plan={}{} stage={}{}", s.id.value(),
-                     ToString(s.mode), ToString(s.requested), s.plan,
-                     s.plan_by_operator ? " (operator)" : " (schedule)", ToString(s.stage),
-                     s.latched ? " latched=\"" + *s.latched + "\"" : "");
+  return fmt::format(
+      "id={} mode={} requested={} plan={}{} stage={}{}{}", s.id.value(), ToString(s.mode),
+      ToString(s.requested), s.plan, s.plan_by_operator ? " (operator)" : " (schedule)",
+      ToString(s.stage),
+      s.pending_plan ? " next plan=" + *s.pending_plan + " (operator, at the next safe point)" : "",
+      s.latched ? " latched=\"" + *s.latched + "\"" : "");
 }
 
 std::vector<IntersectionStateRecord> CityRuntime::OperatorStates(Time now) const {

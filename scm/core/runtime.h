@@ -38,13 +38,15 @@ struct IntersectionSummary {
   Mode mode = Mode::kAuto;             ///< the mode it runs in
   Mode requested = Mode::kAuto;        ///< the mode asked for (by an operator or at start)
   std::string plan;                    ///< the plan it runs
-  bool plan_by_operator = false;       ///< false: the schedule chose the plan
+  bool plan_by_operator = false;       ///< false: the schedule chose the plan it runs
   Stage stage = Stage::kStartupFlash;  ///< where in its cycle it is
   std::optional<std::string> latched;  ///< the reason of its fail-safe flash latch, if latched
+  /// The plan an operator asked for that has not started yet (it starts at the next safe point).
+  std::optional<std::string> pending_plan;
 };
 
 /// `s` for people: "id=1 mode=fixed requested=auto plan=day (schedule) stage=green
-/// [latched="reason"]".
+/// [next plan=evening (operator, at the next safe point)] [latched="reason"]".
 [[nodiscard]] std::string Describe(const IntersectionSummary& s);
 
 /// One signalised intersection at run time.

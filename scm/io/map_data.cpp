@@ -120,8 +120,7 @@ std::unordered_map<MovementId, SignalGroupId> CheckGroups(const Map& map,
       }
       for (const SignalHeadId h : g.heads) {
         AUTODRIVE_THROW_UNLESS(
-            h.value() >= 1 && h.value() <= map.signal_heads.size() &&
-                map.signal_heads[h.value() - 1].intersection == xid,
+            map.HasSignalHead(h) && map.signal_head(h).intersection == xid,
             where << ": " << SignalHeadName(h) << " is not a signal head of this intersection");
         const auto [it, inserted] = head_group.emplace(h, g.id);
         AUTODRIVE_THROW_UNLESS(inserted, where << ": " << SignalHeadName(h)

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <ctime>
 
 #include "autodrive_msgs/msg/OperatorReply.h"
 
@@ -103,9 +105,31 @@ std::string ValueText(const ReplyValue& value) {
   if (v.is_string()) return v.get<std::string>();
   if (v.is_object()) {
     const auto text = v.find("text");
-    if (text != v.end() && text->is_string()) return text->get<std::string>();
+    if (text != v.end() && text->is_string()) {
+      const auto stamp = v.find("stamp");
+      if (stamp != v.end() && stamp->is_number()) {
+        return LocalDateTime(stamp->get<double>()) + " " + text->get<std::string>();
+      }
+      return text->get<std::string>();
+    }
   }
   return value.json_text();
+}
+
+std::string LocalDateTime(double seconds_since_epoch) {
+  const double whole = std::floor(seconds_since_epoch);
+  const auto t = static_cast<std::time_t>(whole);
+  int ms = static_cast<int>(std::lround((seconds_since_epoch - whole) * 1000.0));
+  std::time_t shown = t;
+  if (ms == 1000) {
+    ms = 0;
+    ++shown;
+  }
+  std::tm local{};
+  if (::localtime_r(&shown, &local) == nullptr) return fmt::format("{:.3f}", seconds_since_epoch);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%d %H:%M:%S", &local);
+  return fmt::format("{}.{:03d}", buffer, ms);
 }
 
 void AppendJsonString(std::string_view text, std::string& out) {

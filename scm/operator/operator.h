@@ -90,8 +90,14 @@ struct Reply {
 };
 
 /// The line for people of a reply's value (scmctl's plain output): a string as it is, an
-/// object's `text` when it has one, anything else as JSON; a value that is not JSON as its text.
+/// object's `text` when it has one (after its `stamp`, seconds since the epoch, as a local
+/// date-time when it has one: an event), anything else as JSON; a value that is not JSON as its
+/// text.
 [[nodiscard]] std::string ValueText(const ReplyValue& value);
+
+/// "2026-11-28 11:52:03.125": seconds since the epoch as this host's local date and time, to
+/// the millisecond.
+[[nodiscard]] std::string LocalDateTime(double seconds_since_epoch);
 
 /// Appends `text` to `out` as a JSON string (quoted and escaped; text that is not UTF-8 is
 /// repaired): for values written directly.

@@ -79,8 +79,8 @@ nlohmann::json EventJson(const EventRecord& e) {
           {"device", e.device_id},
           {"actor", e.actor},
           {"active", e.active},
-          {"text", fmt::format("{:.3f} {} {} {}{}{}", ToSeconds(e.time), ToString(e.severity),
-                               e.code, e.message,
+          // The line for people, after the stamp (which scmctl prints as a local date-time).
+          {"text", fmt::format("{} {} {}{}{}", ToString(e.severity), e.code, e.message,
                                e.actor.empty() || e.actor == "scm" ? "" : " (by " + e.actor + ")",
                                e.active ? " [active]" : "")}};
 }
@@ -378,6 +378,12 @@ ReplyValue IntersectionValue(const IntersectionSummary& s) {
                  s.plan_by_operator ? "operator" : "schedule", ToString(s.stage));
   if (s.latched) {
     AppendJsonString(*s.latched, out);
+  } else {
+    out += "null";
+  }
+  out += R"(,"pending_plan":)";
+  if (s.pending_plan) {
+    AppendJsonString(*s.pending_plan, out);
   } else {
     out += "null";
   }

@@ -347,6 +347,7 @@ TEST(IntersectionValue, IsWhatAJsonObjectOfTheSummaryIs) {
     for (const bool by_operator : {false, true}) {
       s.latched = latched;
       s.plan_by_operator = by_operator;
+      s.pending_plan = by_operator ? std::nullopt : std::optional<std::string>("evening");
       SCOPED_TRACE(Describe(s));
       const nlohmann::json reference{
           {"id", 3},
@@ -356,6 +357,7 @@ TEST(IntersectionValue, IsWhatAJsonObjectOfTheSummaryIs) {
           {"plan_by", by_operator ? "operator" : "schedule"},
           {"stage", "flash"},
           {"latched", latched ? nlohmann::json(*latched) : nlohmann::json()},
+          {"pending_plan", by_operator ? nlohmann::json() : nlohmann::json("evening")},
           {"text", Describe(s)}};
       const nlohmann::json written = IntersectionValue(s).Parse();
       ASSERT_FALSE(written.is_discarded()) << IntersectionValue(s).json_text();
@@ -396,8 +398,9 @@ TEST_F(OperatorCommandsTest, IntersectionsAndEventsAnswerTypedFields) {
   EXPECT_EQ(e["device"], "signal_3");
   EXPECT_EQ(e["actor"], "infra/lights");
   EXPECT_EQ(e["active"], true);
-  EXPECT_EQ(ValueText(it->second),
-            "1795240000.500 alarm lamp_fault signal_3: red lamp out (by infra/lights) [active]");
+  EXPECT_EQ(ValueText(it->second), LocalDateTime(1795240000.5) +
+                                       " alarm lamp_fault signal_3: red lamp out (by "
+                                       "infra/lights) [active]");
 }
 
 }  // namespace

@@ -80,6 +80,21 @@ TEST(ValueText, StringsAsTheyAreObjectsByTheirTextOthersAsJson) {
   EXPECT_EQ(ValueText(json{{"id", 3}, {"text", "id=3 mode=auto"}}), "id=3 mode=auto");
   EXPECT_EQ(ValueText(json{{"id", 3}}), "{\"id\":3}");
   EXPECT_EQ(ValueText(json()), "null");
+  // An event: its stamp as a local date-time before its text.
+  EXPECT_EQ(ValueText(json{{"stamp", 1795240000.125}, {"text", "alarm x"}}),
+            LocalDateTime(1795240000.125) + " alarm x");
+}
+
+TEST(LocalDateTime, IsTheLocalDateAndTimeToTheMillisecond) {
+  ::setenv("TZ", "UTC", 1);
+  ::tzset();
+  EXPECT_EQ(LocalDateTime(1795240000.125), "2026-11-21 05:46:40.125");
+  EXPECT_EQ(LocalDateTime(1795240000.9996), "2026-11-21 05:46:41.000");
+  ::setenv("TZ", "Europe/Berlin", 1);  // CET in November: UTC+1
+  ::tzset();
+  EXPECT_EQ(LocalDateTime(1795240000.125), "2026-11-21 06:46:40.125");
+  ::unsetenv("TZ");
+  ::tzset();
 }
 
 }  // namespace

@@ -47,7 +47,7 @@ using namespace autodrive::traffic;
 // in turn green 12 s, yellow 3 s, all red 2 s), so that the co-simulation and libsumo alone run
 // the same signal timing.
 int GridLamp(const maps::Map& map, SignalHeadId h, double t) {
-  const maps::SignalHead& head = map.signal_heads.at(h.value() - 1);
+  const maps::SignalHead& head = map.signal_head(h);
   const maps::Intersection& x = map.intersection(head.intersection);
   static const maps::SumoOptions kProgram;
   const double green = ToSeconds(kProgram.green), yellow = ToSeconds(kProgram.yellow);

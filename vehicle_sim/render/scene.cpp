@@ -270,7 +270,8 @@ void StaticScene::AddTerrain(const TerrainModel& terrain) {
 void StaticScene::AddHeads(const maps::Map& map, const TerrainModel& terrain) {
   const double pole_r = options_.scene.pole_radius_m;
   for (std::size_t i = 0; i < map.signal_heads.size(); ++i) {
-    const maps::SignalHead& head = map.signal_heads[i];
+    const maps::SignalHead& head = map.signal_heads[i];  // ascending ids
+    head_ids_.push_back(head.id);
     const Eigen::Vector2d p = head.X_MH.translation();
     const double yaw = head.X_MH.rotation().angle();
     const double ground = terrain.HeightAt(p.x(), p.y());
@@ -296,7 +297,6 @@ void StaticScene::AddHeads(const maps::Map& map, const TerrainModel& terrain) {
     }
     parts_.push_back(part);
   }
-  heads_ = static_cast<int>(map.signal_heads.size());
 }
 
 // Each sign: a plate on top of its pole, facing where the sign looks.
@@ -344,7 +344,8 @@ bool IndicatorsLit(std::chrono::duration<double> t) {
   return std::fmod(t.count(), 1.0 / 1.5) < 0.5 / 1.5;
 }
 
-FrameScene::FrameScene(int heads) : lamp_state_(static_cast<std::size_t>(heads)) {
+FrameScene::FrameScene(std::vector<SignalHeadId> head_ids)
+    : head_ids_(std::move(head_ids)), lamp_state_(head_ids_.size()) {
   parts_.reserve(256);
 }
 
@@ -430,8 +431,9 @@ void FrameScene::AddTraffic(const RenderTraffic& o, bool blink, bool far) {
 void FrameScene::SetLamps(std::span<const HeadLamps> lamps) {
   std::fill(lamp_state_.begin(), lamp_state_.end(), 0);
   for (const HeadLamps& l : lamps) {
-    const auto i = static_cast<std::size_t>(l.head.value() - 1);
-    if (i < lamp_state_.size()) {
+    const auto it = std::lower_bound(head_ids_.begin(), head_ids_.end(), l.head);
+    const auto i = static_cast<std::size_t>(it - head_ids_.begin());
+    if (it != head_ids_.end() && *it == l.head) {
       lamp_state_[i] =
           static_cast<std::uint8_t>((l.red ? 1 : 0) | (l.yellow ? 2 : 0) | (l.green ? 4 : 0));
     }

@@ -125,8 +125,8 @@ class StaticScene {
   [[nodiscard]] const std::vector<RenderPart>& parts() const { return parts_; }
   /// The raised and sloping tiles and the blocks under them (drawn with the ground).
   [[nodiscard]] const std::vector<RenderPart>& terrain() const { return terrain_; }
-  /// The map's signal heads (a `HeadLamps::head` of 1..heads() is drawn).
-  [[nodiscard]] int heads() const { return heads_; }
+  /// The map's signal heads' ids, ascending (a part's `head` indexes this).
+  [[nodiscard]] const std::vector<SignalHeadId>& head_ids() const { return head_ids_; }
   /// Made on first use and kept; thread-safe. @throws InputError for an unknown family or id.
   [[nodiscard]] const TagBitmap& Tag(const TagSpec& spec) const;
 
@@ -141,7 +141,7 @@ class StaticScene {
   GroundPyramid ground_;
   std::vector<RenderPart> parts_;
   std::vector<RenderPart> terrain_;
-  int heads_ = 0;
+  std::vector<SignalHeadId> head_ids_;
   mutable std::mutex tags_mutex_;
   mutable std::map<std::pair<std::string, int>, std::unique_ptr<TagBitmap>> tags_;
 };
@@ -154,8 +154,8 @@ class StaticScene {
 /// state). Copyable and movable as a value.
 class FrameScene {
  public:
-  /// For a world of `heads` signal heads.
-  explicit FrameScene(int heads);
+  /// For a world of the signal heads `head_ids` (ascending, as `StaticScene::head_ids`).
+  explicit FrameScene(std::vector<SignalHeadId> head_ids);
 
   /// Drops the last frame's parts and lamps.
   void Clear();
@@ -169,11 +169,12 @@ class FrameScene {
   void SetLamps(std::span<const HeadLamps> lamps);
 
   [[nodiscard]] const std::vector<RenderPart>& parts() const { return parts_; }
-  /// Per head (index = id - 1): bits red, yellow, green.
+  /// Per head (in the order of the head ids): bits red, yellow, green.
   [[nodiscard]] const std::vector<std::uint8_t>& lamp_state() const { return lamp_state_; }
 
  private:
   std::vector<RenderPart> parts_;
+  std::vector<SignalHeadId> head_ids_;
   std::vector<std::uint8_t> lamp_state_;
 };
 

@@ -19,11 +19,13 @@ TEST(RenderScene, IndicatorsAreLitTheFirstHalfOfEachPeriodOf1Point5Hz) {
   EXPECT_FALSE(IndicatorsLit(Seconds(100.0 / 1.5 + 0.4)));
 }
 
-TEST(RenderScene, LampsAreSetPerHeadAndUnknownHeadsAreIgnored) {
-  FrameScene scene(3);
-  const std::vector<HeadLamps> lamps{{SignalHeadId{2}, true, false, true},
-                                     {SignalHeadId{3}, false, true, false},
-                                     {SignalHeadId{9}, true, true, true}};
+// Head ids need not be 1..n: a map may give its heads ids with gaps (docs/maps.md).
+TEST(RenderScene, LampsAreSetPerHeadIdAndUnknownHeadsAreIgnored) {
+  FrameScene scene({SignalHeadId{2}, SignalHeadId{7}, SignalHeadId{12}});
+  const std::vector<HeadLamps> lamps{{SignalHeadId{7}, true, false, true},
+                                     {SignalHeadId{12}, false, true, false},
+                                     {SignalHeadId{9}, true, true, true},
+                                     {SignalHeadId{1}, true, true, true}};
   scene.SetLamps(lamps);
   EXPECT_EQ(scene.lamp_state(), (std::vector<std::uint8_t>{0, 5, 2}));
   scene.SetLamps({});
@@ -39,7 +41,7 @@ TEST(RenderScene, TrafficIsDrawnByItsShapeAndAFarObjectIsOneBlockInItsRoofColour
   o.brake = true;
   o.left_indicator = true;
   const auto parts_of = [&](TrafficShape shape, bool blink, bool far) {
-    FrameScene scene(0);
+    FrameScene scene({});
     o.shape = shape;
     scene.AddTraffic(o, blink, far);
     return scene.parts();
@@ -64,7 +66,7 @@ TEST(RenderScene, TrafficIsDrawnByItsShapeAndAFarObjectIsOneBlockInItsRoofColour
 }
 
 TEST(RenderScene, ClearDropsTheLastFramesPartsAndLamps) {
-  FrameScene scene(1);
+  FrameScene scene({SignalHeadId{1}});
   RenderTraffic o;
   o.size_m = {1, 1, 1};
   scene.AddTraffic(o, false, true);

@@ -306,7 +306,9 @@
         '<circle id="head-' + esc(id) + '" class="head" data-lamp="' + lamp + '" data-head="' + esc(id) +
           '"' + (xname ? ' data-xname="' + esc(xname) + '"' : '') +
           ' cx="' + u.toFixed(1) + '" cy="' + v.toFixed(1) + '" r="' + M.headR.toFixed(2) +
-          '" fill="' + (LAMP_FILL[lamp] || LAMP_FILL[0]) + '"></circle>'
+          '" fill="' + (LAMP_FILL[lamp] || LAMP_FILL[0]) + '"><title>signal_' + esc(id) +
+          (xname ? ' (' + esc(xname) + (h.side ? ', ' + esc(String(h.side)) + ' approach' : '') + ')' : '') +
+          '</title></circle>'
       );
     }
     gHeads.innerHTML = out.join('');
@@ -321,6 +323,7 @@
     const key = String(id);
     const n = lampNum(value);
     lamps.set(key, n);
+    devLampChanged(key);
     const el = headEls.get(key);
     if (!el || el._lamp === n) return;
     el._lamp = n;
@@ -487,10 +490,14 @@
     cars.set(id, c);
     return c;
   }
+  // A lab car's pose is the middle of its rear axle (docs/eye.md, docs/vehicle_sim.md); a Nigel's
+  // body (0.318 m long) is centred half its wheelbase (0.14154 m) ahead of it, in body lengths.
+  const CAR_CENTRE_AHEAD = 0.07077 / 0.318;
   function placeCarBody(c) {
     c.body.setAttribute(
       'transform',
-      'rotate(' + ((-c.yaw * 180) / Math.PI).toFixed(2) + ') scale(' + M.carLen.toFixed(3) + ')'
+      'rotate(' + ((-c.yaw * 180) / Math.PI).toFixed(2) + ') scale(' + M.carLen.toFixed(3) + ') translate(' +
+        CAR_CENTRE_AHEAD.toFixed(4) + ' 0)'
     );
   }
 
@@ -1471,18 +1478,35 @@
   }
   function devCells(d) {
     const health = devHealth(d);
-    const lampV = d.lamp;
-    let lamp = '';
-    if (lampV !== undefined && lampV !== null && lampV !== '') {
-      const n = typeof lampV === 'number' ? lampV : LAMP_NAME.indexOf(String(lampV));
-      lamp = n >= 0 && n <= 3 ? '<i class="dot" style="background:' + LAMP_FILL[n] + '"></i>' + LAMP_NAME[n] : esc(lampV);
-    }
+    const lamp = devLampCell(d);
     const detail = str(d.detail);
     return (
       '<td class="mono" title="' + esc([d.kind, d.backend, d.host].filter(Boolean).join(' · ')) + '">' + esc(d.id) +
       '</td><td><span class="health h-' + esc(health) + '">' + esc(health) + '</span></td><td>' + esc(d.mode) +
       '</td><td>' + lamp + '</td><td class="det" title="' + esc(detail) + '">' + esc(detail) + '</td><td class="age mono"></td>'
     );
+  }
+  // A light's lamp column: what its head shows now (its signal_<i>/state, live), else the aspect
+  // its last status reported (0..5: a fail-safe flash is 4), by name.
+  const ASPECT_NAME = ['off', 'red', 'yellow', 'green', 'flashing red', 'flashing yellow'];
+  const ASPECT_FILL = [LAMP_FILL[0], LAMP_FILL[1], LAMP_FILL[2], LAMP_FILL[3], LAMP_FILL[1], LAMP_FILL[2]];
+  function devLampCell(d) {
+    const head = /^signal_(\d+)$/.exec(str(d.id));
+    let n = head && lamps.has(head[1]) ? lamps.get(head[1]) : undefined;
+    if (n === undefined) {
+      const v = d.lamp;
+      if (v === undefined || v === null || v === '') return '';
+      n = typeof v === 'number' ? v : ASPECT_NAME.indexOf(String(v));
+    }
+    if (!(n >= 0 && n < ASPECT_NAME.length)) return esc(String(n));
+    return '<i class="dot" style="background:' + ASPECT_FILL[n] + '"></i>' + ASPECT_NAME[n];
+  }
+  // A lamp changed: its row's lamp cell, when the row is in the table.
+  function devLampChanged(head) {
+    if (!$('p-devices').open) return;
+    const row = devBody.querySelector('tr[data-id="signal_' + head + '"]');
+    const rec = devices.get('signal_' + head);
+    if (row && rec && row.cells.length > 3) row.cells[3].innerHTML = devLampCell(rec.d);
   }
   function devProblem(d) {
     return devHealth(d) !== 'ok';

@@ -348,7 +348,7 @@ void AssignHeads(const IntersectionConfig& cfg, const MapSite& site, Groups& gro
     head_group[head] = GroupById(groups.groups, cfg.heads[k].group, hw);
   }
   for (SignalHeadId head : site.x.signal_heads) {
-    const auto& h = site.map.signal_heads.at(head.value() - 1);
+    const auto& h = site.map.signal_head(head);
     maps::Side side = maps::Side::kEast;
     for (const auto& a : site.x.approaches) {
       if (a.id == h.approach) side = a.side;
