@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <mutex>
@@ -92,10 +93,11 @@ CLI::App* AddWatchCommand(CLI::App& app, std::string& watch_what, int& count, do
   auto* watch = app.add_subcommand(
       "watch",
       "print SPaT, fleet, events or lamps as they come (lamps: every head of the SCM's MAP, "
-      "each report of signal_<i>/state with the wall time it arrived)");
-  watch->add_option("what", watch_what, "spat|fleet|events|lamps")
+      "each report of signal_<i>/state with the wall time it arrived; ground_truth: the "
+      "simulator's pose of each car of the fleet, from nigel_<n>/ground_truth)");
+  watch->add_option("what", watch_what, "spat|fleet|events|lamps|ground_truth")
       ->required()
-      ->check(CLI::IsMember({"spat", "fleet", "events", "lamps"}));
+      ->check(CLI::IsMember({"spat", "fleet", "events", "lamps", "ground_truth"}));
   watch->add_option("--count", count, "stop after this many messages (0: until interrupted)");
   watch->add_option("--duration", duration_s, "stop after this many seconds (0: no limit)");
   watch->add_flag("--json", json, "one JSON object per line");
@@ -178,6 +180,46 @@ bool WatchLamps(dds::Participant& participant, bool json, std::atomic<int>& seen
   return true;
 }
 
+/// `watch ground_truth`: the simulator's pose of every car the fleet names (its first message
+/// names them), one JSON line per message: {"type": "ground_truth", "stamp", "vehicle", "x",
+/// "y", "yaw"}; the simulator is the only publisher of these topics.
+void WatchGroundTruth(dds::Participant& participant, std::atomic<int>& seen,
+                      const std::function<bool()>& done) {
+  std::vector<std::string> names;
+  {
+    dds::Reader<msg::FleetState> fleet(participant, dds::topics::Fleet());
+    while (names.empty() && !done()) {
+      fleet.WaitForData(std::chrono::milliseconds(100));
+      for (auto& f : fleet.TakeAll()) {
+        for (const auto& v : dds::Elements(f->vehicles))
+          names.emplace_back(dds::View(v.vehicle_id));
+      }
+    }
+  }
+  std::vector<std::unique_ptr<dds::Reader<msg::TrackedVehicle>>> readers;
+  for (const auto& n : names) {
+    readers.push_back(std::make_unique<dds::Reader<msg::TrackedVehicle>>(
+        participant, dds::topics::GroundTruth(ParseVehicleName(n))));
+  }
+  while (!done()) {
+    bool any = false;
+    for (auto& r : readers) {
+      for (auto& m : r->TakeAll()) {
+        any = true;
+        const nlohmann::json j{{"type", "ground_truth"},
+                               {"stamp", ToSeconds(dds::FromMsg(m->observed).time_since_epoch())},
+                               {"vehicle", std::string(dds::View(m->vehicle_id))},
+                               {"x", m->pose.pose.position.x},
+                               {"y", m->pose.pose.position.y},
+                               {"yaw", dds::YawOf(m->pose.pose.orientation)}};
+        std::cout << j.dump() << std::endl;
+        ++seen;
+      }
+    }
+    if (!any) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
 /// `watch WHAT`: SPaT, fleet, events or lamps as they come, until `count` messages, `duration_s`
 /// seconds or a signal.
 int Watch(const dds::ParticipantOptions& dds_options, const std::string& watch_what, int count,
@@ -221,6 +263,8 @@ int Watch(const dds::ParticipantOptions& dds_options, const std::string& watch_w
   } else if (watch_what == "fleet") {
     dds::Reader<msg::FleetState> r(participant, dds::topics::Fleet());
     loop(r, [](const msg::FleetState& f) { return ToJson(f).dump(); });
+  } else if (watch_what == "ground_truth") {
+    WatchGroundTruth(participant, seen, done);
   } else {
     dds::Reader<msg::Event> r(participant, dds::topics::Events());
     loop(r, [](const msg::Event& e) {

@@ -11,7 +11,9 @@ fleet`, `scmctl --json intersections`):
      seen over a minute, at least 8 of them): the time `scmctl` received the report against the
      time the page changed the head (a MutationObserver), on the same host clock;
   3. the lab cars move on the page as the SCM's fleet (the Eye's poses) moves them: the page's
-     position against the fleet message of the nearest stamp;
+     position against the fleet message of the nearest stamp; each car's body as drawn (its
+     rectangle's corners, from the SVG) within 1 cm of the simulator's ground truth footprint at
+     the time of the observation drawn (`scmctl watch ground_truth`), over 100 samples or more;
   4. an action without the token is refused (by the server: HTTP 401, nothing reaches the SCM);
      with the token, clicking "flash" on the centre intersection puts it into flash (scmctl
      --json intersections) and the page shows the change;
@@ -21,6 +23,7 @@ Run by CTest (tests/CMakeLists.txt) with AUTODRIVE_SOURCE_DIR, AUTODRIVE_BINARY_
 CYCLONEDDS_URI set. Exit 0 when every check holds.
 """
 import json
+import math
 import os
 import pathlib
 import signal
@@ -115,6 +118,59 @@ def post(url, body, token=None):
         return e.code, json.loads(e.read() or b"{}")
 
 
+NIGEL_LENGTH, NIGEL_WIDTH = 0.318, 0.175
+NIGEL_CENTRE_AHEAD = 0.07077  # the body's centre ahead of the rear axle's middle (the pose)
+
+
+def truth_at(track, stamp):
+    """The ground truth pose (x, y, yaw) of a car at `stamp`, interpolated between the two
+    messages around it (None when they are more than 0.1 s apart or missing)."""
+    before = [m for m in track if m["stamp"] <= stamp]
+    after = [m for m in track if m["stamp"] >= stamp]
+    if not before or not after:
+        return None
+    a = max(before, key=lambda m: m["stamp"])
+    b = min(after, key=lambda m: m["stamp"])
+    if b["stamp"] - a["stamp"] > 0.1:
+        return None
+    f = 0.0 if b["stamp"] == a["stamp"] else (stamp - a["stamp"]) / (b["stamp"] - a["stamp"])
+    dyaw = math.atan2(math.sin(b["yaw"] - a["yaw"]), math.cos(b["yaw"] - a["yaw"]))
+    return (a["x"] + f * (b["x"] - a["x"]), a["y"] + f * (b["y"] - a["y"]), a["yaw"] + f * dyaw)
+
+
+def footprint(x, y, yaw):
+    """A Nigel's body corners for a pose of its rear axle's middle."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    cx, cy = x + NIGEL_CENTRE_AHEAD * c, y + NIGEL_CENTRE_AHEAD * s
+    return [(cx + u * c - v * s, cy + u * s + v * c)
+            for u in (-NIGEL_LENGTH / 2, NIGEL_LENGTH / 2)
+            for v in (-NIGEL_WIDTH / 2, NIGEL_WIDTH / 2)]
+
+
+def footprints_match(bodies, truth, tolerance=0.01, wanted=100):
+    """Each drawn body's corners within `tolerance` m of the ground truth footprint's at the
+    stamp of the observation drawn, for at least `wanted` (car, time) samples."""
+    tracks = {}
+    for m in truth:
+        tracks.setdefault(m["vehicle"], []).append(m)
+    errors = []
+    for b in bodies:
+        pose = truth_at(tracks.get(b["id"], []), b["stamp"])
+        if pose is None:
+            continue
+        gt = footprint(*pose)
+        errors.append(max(min(math.dist(p, q) for q in gt) for p in b["corners"]))
+    errors.sort()
+    if not errors:
+        print(f"no drawn body matched a ground truth message ({len(bodies)} drawn, "
+              f"{len(truth)} ground truth messages)", flush=True)
+        return False
+    print(f"{len(errors)} drawn bodies against ground truth: median "
+          f"{errors[len(errors) // 2] * 1000:.1f} mm, worst {errors[-1] * 1000:.1f} mm "
+          f"(corner to corner)", flush=True)
+    return len(errors) >= wanted and errors[-1] <= tolerance
+
+
 def main():
     work = pathlib.Path(tempfile.mkdtemp(prefix="dashboard_browser_"))
     partition = f"dashboard_{os.getpid()}"
@@ -150,7 +206,8 @@ def main():
 
         lamps = Lines(scmctl + ["watch", "lamps", "--json"], env)
         fleet = Lines(scmctl + ["watch", "fleet", "--json"], env)
-        watchers += [lamps, fleet]
+        truth = Lines(scmctl + ["watch", "ground_truth", "--json"], env)
+        watchers += [lamps, fleet, truth]
 
         options = Options()
         options.binary_location = "/usr/bin/chromium"
@@ -193,6 +250,17 @@ def main():
         check(all(cells.get(d) == "live" for d in wanted),
               f"every light is live in the devices table "
               f"({sorted({cells.get(d, '?') for d in wanted})})")
+        # The lamp column names each light's colour, with a dot of it.
+        def lamp_cells():
+            return driver.execute_script(
+                "return Array.from(document.querySelectorAll('#devices tbody tr[data-id^=\"signal_\"]'))"
+                ".map((tr) => [tr.getAttribute('data-id'), tr.cells[3].textContent.trim(),"
+                " !!tr.cells[3].querySelector('i.dot')]);")
+        colours = {"off", "red", "yellow", "green", "flashing red", "flashing yellow"}
+        cells = lamp_cells()
+        check(len(cells) == len(wanted) and all(t in colours and dot for _, t, dot in cells),
+              f"the devices table's lamp column shows each light's colour "
+              f"({sorted({t for _, t, _ in cells})})")
         # The page's lamp changes, as they happen, by the host's clock.
         driver.execute_script("""
           window.__lampLog = [];
@@ -241,6 +309,26 @@ def main():
         check(compared >= 20 and worst < 0.15,
               f"the page's cars are where the SCM's fleet puts them ({compared} positions, "
               f"worst {worst * 1000:.0f} mm from the fleet message nearest in time)")
+
+        # 3b. Each lab car's drawn body against the simulator's ground truth at the time of the
+        # observation drawn: the rectangle's corners, taken from the SVG as drawn, in map metres.
+        bodies = []
+        for _ in range(60):
+            bodies += driver.execute_script("""
+              const layer = document.getElementById('cars');
+              const back = layer.getCTM().inverse();
+              return Array.from(document.querySelectorAll('g[id^="car-"]'))
+                .filter((g) => g.style.display !== 'none' && g.hasAttribute('data-stamp'))
+                .map((g) => {
+                  const m = back.multiply(g.querySelector('.body rect').getCTM());
+                  const corners = [[-0.5, -0.275], [0.5, -0.275], [0.5, 0.275], [-0.5, 0.275]]
+                    .map(([x, y]) => { const p = new DOMPoint(x, y).matrixTransform(m);
+                                       return window.dashboard.mapOfPx(p.x, p.y); });
+                  return {id: g.id.slice(4), stamp: +g.getAttribute('data-stamp'), corners};
+                });""")
+            time.sleep(0.25)
+        check(footprints_match(bodies, truth.json()),
+              "each lab car's drawn body lies on its ground truth footprint")
 
         # 2. Lamps: every change over a minute (from the 20 s above on).
         wait_for(lambda: time.time() - observe_from > 60, 90, "a minute of lamp changes", 1.0)

@@ -240,11 +240,12 @@ TEST_F(ScmGuard, AFloorBelowItsHardMinimumIsRefused) {
   StartScm();
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   std::string text = CityText("driving_school");
-  const std::string floors =
-      "safety: {min_yellow_s: 3.0, min_red_clearance_s: 1.0, min_green_s: 4.0}";
+  const std::string floors = "min_yellow_s: 3.0\n  min_red_clearance_s: 1.0\n  min_green_s: 4.0";
+  ASSERT_NE(text.find(floors), std::string::npos);
   text.replace(text.find(floors), floors.size(),
-               "safety: {min_yellow_s: 0.1, min_red_clearance_s: 0.1, min_green_s: 0.1}");
-  const std::string timing = "yellow_s: 3.0, red_clearance_s: 2.0";
+               "min_yellow_s: 0.1\n  min_red_clearance_s: 0.1\n  min_green_s: 0.1");
+  const std::string timing = "yellow_s: 3.0, red_clearance_s: 7.0";
+  ASSERT_NE(text.find(timing), std::string::npos);
   text.replace(text.find(timing), timing.size(), "yellow_s: 0.5, red_clearance_s: 0.5");
   const auto path = Write("low_floors.yaml", text);
   auto r = Scmctl({"config", "validate", path});

@@ -24,9 +24,6 @@ std::string Text(const char* s) { return std::string(dds::View(s)); }
 double SourceMs(const dds::SampleInfo& info) {
   return static_cast<double>(info.source_timestamp_ns) / 1e6;
 }
-double Yaw(const msg::Quaternion& q) {
-  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
-}
 /// Map metres to the millimetre, radians to the milliradian: the page needs no more, and the
 /// traffic message of 1,000 cars stays small.
 double Mm(double v) { return std::round(v * 1000.0) / 1000.0; }
@@ -178,8 +175,9 @@ json VehicleJson(const msg::TrackedVehicle& v) {
           {"source", scm::PoseSourceName(v.source)},
           {"x", Mm(v.pose.pose.position.x)},
           {"y", Mm(v.pose.pose.position.y)},
-          {"yaw", Mm(Yaw(v.pose.pose.orientation))},
+          {"yaw", Mm(dds::YawOf(v.pose.pose.orientation))},
           {"speed", Mm(v.twist.twist.linear.x)},
+          {"observed", Seconds(v.observed)},
           {"lane", Text(v.map_lane_id)},
           {"intersection", v.intersection_id},
           {"approach", v.approach_id},
@@ -188,7 +186,7 @@ json VehicleJson(const msg::TrackedVehicle& v) {
 
 json TrafficObjectJson(const msg::TrafficObject& o) {
   return json::array({Text(o.object_id), o.object_class, Mm(o.pose.position.x),
-                      Mm(o.pose.position.y), Mm(Yaw(o.pose.orientation)), Mm(o.size.x),
+                      Mm(o.pose.position.y), Mm(dds::YawOf(o.pose.orientation)), Mm(o.size.x),
                       Mm(o.size.y), Mm(o.speed_mps)});
 }
 

@@ -144,7 +144,7 @@ TEST_F(Plan, ALightsFileThatDoesNotHostEveryHeadIsRefusedNamingTheHeads) {
   std::ofstream(dir_ / "maps" / "small_town.yaml") << map;
   const std::string west_t =
       "  - name: west_t\n"
-      "    timing: {min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 2.0}\n"
+      "    timing: {min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 7.0}\n"
       "    groups:\n"
       "      - {id: 1, name: east, approaches: [east]}\n"
       "      - {id: 2, name: north, approaches: [north]}\n"

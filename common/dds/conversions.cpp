@@ -1,5 +1,6 @@
 #include "common/dds/conversions.h"
 
+#include <cmath>
 #include <limits>
 
 #include "common/error.h"
@@ -53,6 +54,10 @@ RigidTransform3 FromMsg(const msg::Pose& pose) {
   const auto& o = pose.orientation;
   return RigidTransform3({pose.position.x, pose.position.y, pose.position.z},
                          Eigen::Quaterniond(o.w, o.x, o.y, o.z));
+}
+
+double YawOf(const msg::Quaternion& q) {
+  return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
 }
 
 }  // namespace autodrive::dds

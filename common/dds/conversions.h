@@ -23,5 +23,8 @@ namespace autodrive::dds {
 /// The transform a geometry_msgs/Pose describes. Throws `InputError` for non-finite values or
 /// a (near-)zero quaternion; other quaternions are normalised.
 [[nodiscard]] RigidTransform3 FromMsg(const msg::Pose& pose);
+/// The heading (rad, from the map's x, counter-clockwise) of a geometry_msgs/Quaternion: the
+/// rotated x axis projected on the plane. Never throws (a zero quaternion gives 0).
+[[nodiscard]] double YawOf(const msg::Quaternion& q);
 
 }  // namespace autodrive::dds

@@ -381,11 +381,14 @@ void LampLatencyBenchmark(int samples, const std::string& partition, const fs::p
     text.replace(at, from.size(), to);
   };
   replace(city, "map: ../maps/driving_school.yaml", "map: " + map_path);
-  replace(city, "{min_yellow_s: 3.0, min_red_clearance_s: 1.0, min_green_s: 4.0}",
-          "{min_yellow_s: 1.0, min_red_clearance_s: 0.5, min_green_s: 1.0}");
-  replace(city, "{min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 2.0}",
+  replace(city, "min_yellow_s: 3.0\n  min_red_clearance_s: 1.0\n  min_green_s: 4.0",
+          "min_yellow_s: 1.0\n  min_red_clearance_s: 0.5\n  min_green_s: 1.0");
+  // A 0.5 s red clearance clears the box only for a car at 3 m/s: fine for a loop benchmark.
+  replace(city, "{name: nigel, length_m: 0.318, speed_mps: 0.2}",
+          "{name: fast, length_m: 0.318, speed_mps: 3.0}");
+  replace(city, "{min_green_s: 5.0, max_green_s: 15.0, yellow_s: 3.0, red_clearance_s: 7.0}",
           "{min_green_s: 1.0, max_green_s: 15.0, yellow_s: 1.0, red_clearance_s: 0.5}");
-  replace(city, "start_up: {flash_s: 3.0, all_red_s: 2.0}",
+  replace(city, "start_up: {flash_s: 3.0, all_red_s: 7.0}",
           "start_up: {flash_s: 1.0, all_red_s: 1.0}");
   { std::ofstream(dir / "fast_school.yaml") << city; }
   std::string infra = config::ReadFile(src / "config/infra/driving_school.yaml");

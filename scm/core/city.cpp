@@ -94,13 +94,12 @@ std::string Seconds(Duration d) { return fmt::format("{:g} s", ToSeconds(d)); }
 /// Builds one intersection; `map_x` is the map's intersection of that name.
 IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionConfig& cfg,
                                     const maps::Map& map, const maps::Intersection& map_x,
-                                    const GroupTiming& floors, const Where& where) {
+                                    const internal::GroupFloors& floors, const Where& where) {
   IntersectionModel x;
   x.id = map_x.id;
   x.name = map_x.name;
   const double scale = city.time_scale;
   x.startup_flash = Scaled(city.start_up.flash_s, scale);
-  x.startup_all_red = Scaled(city.start_up.all_red_s, scale);
   x.priority = {cfg.priority.enabled, Scaled(cfg.priority.max_extension_s, scale),
                 Scaled(cfg.priority.max_preemption_s, scale)};
   const MapSite site{map, map_x};
@@ -108,6 +107,12 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
   x.conflicts = internal::BuildConflicts(cfg, site, groups, where);
   internal::AssignHeads(cfg, site, groups, where);
   x.groups = std::move(groups.groups);
+  if (city.start_up.all_red_s) {
+    x.startup_all_red = Scaled(*city.start_up.all_red_s, scale);
+  } else {
+    for (const auto& g : x.groups)
+      x.startup_all_red = std::max(x.startup_all_red, g.timing.red_clearance);
+  }
   for (const auto& g : x.groups) {
     if (x.startup_all_red < g.timing.red_clearance) {
       where.Fail(fmt::format(
@@ -151,6 +156,10 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
     check("min_red_clearance_s", config.safety.min_red_clearance_s, city.floors.red_clearance,
           kHardMinimums.red_clearance);
     check("min_green_s", config.safety.min_green_s, city.floors.min_green, kHardMinimums.min_green);
+    if (config.safety.clearing_vehicles.empty()) {
+      safety.Then("clearing_vehicles")
+          .Fail("is empty; name at least the slowest vehicle that crosses the intersections");
+    }
   }
   city.device_timeout = config.devices.timeout_s;
   city.device_mismatch = config.devices.mismatch_s;
@@ -172,7 +181,9 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
     for (std::size_t k = 0; k < i; ++k) {
       if (config.intersections[k].name == xc.name) where.Fail("configured twice");
     }
-    city.intersections.push_back(BuildIntersection(config, xc, map, *it, city.floors, where));
+    city.intersections.push_back(BuildIntersection(
+        config, xc, map, *it, internal::GroupFloors{city.floors, config.safety.clearing_vehicles},
+        where));
   }
   for (const auto& x : map.intersections) {
     if (x.control == maps::Control::kSignal && city.Find(x.id) == nullptr) {

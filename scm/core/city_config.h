@@ -23,7 +23,9 @@ struct TimingConfig {
   nanoseconds min_green_s = std::chrono::seconds(5);
   nanoseconds max_green_s = std::chrono::seconds(20);
   nanoseconds yellow_s = std::chrono::seconds(3);
-  nanoseconds red_clearance_s = std::chrono::seconds(2);
+  /// Absent: the ITE red clearance (W + L) / V of each group, from the map's movement lengths and
+  /// the city's `safety.clearing_vehicles`. Present: at least that (refused below it).
+  std::optional<nanoseconds> red_clearance_s;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -215,11 +217,30 @@ struct IntersectionConfig {
   bool operator==(const IntersectionConfig&) const = default;
 };
 
+/// A vehicle that must be able to clear an intersection it entered on the last instant of
+/// yellow before any conflicting green (the ITE red clearance (W + L) / V, lab units).
+struct ClearingVehicleConfig {
+  std::string name;
+  double length_m = 0.318;  ///< L: its length (Nigel's)
+  double speed_mps = 0.2;   ///< V: its speed through the box (Nigel's typical; 0.26 at the most)
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("name", name);
+    a.Required("length_m", length_m, config::Range<double>{0.01, 20.0});
+    a.Required("speed_mps", speed_mps, config::Range<double>{0.01, 50.0});
+  }
+  bool operator==(const ClearingVehicleConfig&) const = default;
+};
+
 /// The safety floors every timing must respect (configured seconds, scaled like the rest).
 struct SafetyConfig {
   nanoseconds min_yellow_s = std::chrono::seconds(3);
   nanoseconds min_red_clearance_s = std::chrono::seconds(1);
   nanoseconds min_green_s = std::chrono::seconds(4);
+  /// The slowest, longest vehicles that cross the city's intersections: every group's red
+  /// clearance covers each of them (docs/scm.md, "Clearances"). Default: a Nigel at 0.2 m/s.
+  std::vector<ClearingVehicleConfig> clearing_vehicles{{"nigel", 0.318, 0.2}};
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -227,6 +248,7 @@ struct SafetyConfig {
     a.Optional("min_yellow_s", min_yellow_s, range);
     a.Optional("min_red_clearance_s", min_red_clearance_s, range);
     a.Optional("min_green_s", min_green_s, range);
+    a.Optional("clearing_vehicles", clearing_vehicles);
   }
   bool operator==(const SafetyConfig&) const = default;
 };
@@ -234,7 +256,8 @@ struct SafetyConfig {
 /// The start-up sequence: flash, then all red, then the plan (configured seconds).
 struct StartUpConfig {
   nanoseconds flash_s = std::chrono::seconds(3);
-  nanoseconds all_red_s = std::chrono::seconds(2);
+  /// Absent: each intersection's longest red clearance. Present: at least that.
+  std::optional<nanoseconds> all_red_s;
 
   template <typename Archive>
   void Serialize(Archive& a) {

@@ -39,7 +39,7 @@ TEST(City, DrivingSchoolHasFourSplitPhasedGroups) {
     for (std::size_t b = 0; b < 4; ++b) EXPECT_EQ(x.conflicts[a][b], a != b) << a << "," << b;
   }
   const auto& day = x.plans[*x.PlanIndex("day")];
-  EXPECT_EQ(day.cycle, std::chrono::seconds(4 * (8 + 3 + 2)));
+  EXPECT_EQ(day.cycle, std::chrono::seconds(4 * (8 + 3 + 7)));
   EXPECT_EQ(x.ScheduledPlan(5 * 60), *x.PlanIndex("evening"));
   EXPECT_EQ(x.ScheduledPlan(12 * 60), *x.PlanIndex("day"));
   EXPECT_EQ(x.ScheduledPlan(21 * 60), *x.PlanIndex("evening"));
@@ -54,15 +54,21 @@ TEST(City, ConfigRoundTrips) {
   }
 }
 
-/// Loads the Driving School config with `edit` applied to its text.
-std::string LoadError(const std::string& from, const std::string& to) {
+/// Loads the Driving School config with `edits` (from, to) applied to its text.
+std::string LoadError(const std::vector<std::pair<std::string, std::string>>& edits) {
   std::string text = config::ReadFile(CitiesDir() / "driving_school.yaml");
-  const auto pos = text.find(from);
-  EXPECT_NE(pos, std::string::npos) << from;
-  if (pos == std::string::npos) return "";
-  text.replace(pos, from.size(), to);
+  for (const auto& [from, to] : edits) {
+    const auto pos = text.find(from);
+    EXPECT_NE(pos, std::string::npos) << from;
+    if (pos == std::string::npos) return "";
+    text.replace(pos, from.size(), to);
+  }
   return test::ErrorMessage<ConfigError>(
       [&] { (void)LoadCityString(text, "city.yaml", CitiesDir()); });
+}
+
+std::string LoadError(const std::string& from, const std::string& to) {
+  return LoadError({{from, to}});
 }
 
 TEST(City, RefusesTwoPublishersOfTheIpsTopics) {
@@ -79,6 +85,38 @@ TEST(City, RefusesTwoPublishersOfTheIpsTopics) {
   EXPECT_NO_THROW((void)LoadCityString(eye_only, "city.yaml", CitiesDir()));
 }
 
+TEST(City, RefusesARedClearanceBelowTheIteFigureForItsClearingVehicles) {
+  // The Driving School's left turn is 1.021 m through the box: a Nigel (0.318 m) at 0.2 m/s
+  // needs (1.021 + 0.318) / 0.2 = 6.69 s to clear it.
+  EXPECT_THAT(LoadError("red_clearance_s: 7.0}", "red_clearance_s: 6.5}"),
+              HasSubstr("groups[0] (east): group 1 (east): red clearance 6.5 s is below the ITE "
+                        "figure (1.021 m through the box on r2c2:E>S:0>0 + nigel 0.318 m) / "
+                        "0.20 m/s = 6.69 s"));
+  // A slower vehicle raises the figure; it is the vehicles' worst that counts.
+  EXPECT_THAT(LoadError("    - {name: nigel, length_m: 0.318, speed_mps: 0.2}",
+                        "    - {name: nigel, length_m: 0.318, speed_mps: 0.2}\n"
+                        "    - {name: bus, length_m: 0.857, speed_mps: 0.2}"),
+              HasSubstr("red clearance 7 s is below the ITE figure (1.021 m through the box on "
+                        "r2c2:E>S:0>0 + bus 0.857 m) / 0.20 m/s = 9.39 s"));
+  // A group's own red clearance is checked too, and naming none means the figure.
+  EXPECT_THAT(LoadError("{id: 2, name: north, approaches: [north]}",
+                        "{id: 2, name: north, approaches: [north], timing: {red_clearance_s: 3}}"),
+              HasSubstr("group 2 (north): red clearance 3 s is below the ITE figure"));
+  std::string text = config::ReadFile(CitiesDir() / "driving_school.yaml");
+  text.replace(text.find(", red_clearance_s: 7.0}"), 23, "}");
+  text.replace(text.find("all_red_s: 7.0"), 14, "flash_s: 3.0");
+  text.replace(text.find("{flash_s: 3.0, "), 15, "{");
+  const City city = LoadCityString(text, "city.yaml", CitiesDir());
+  for (const auto& g : city.intersections[0].groups) {
+    EXPECT_EQ(g.timing.red_clearance, std::chrono::milliseconds(6700)) << g.name;
+  }
+  EXPECT_EQ(city.intersections[0].startup_all_red, std::chrono::milliseconds(6700));
+  EXPECT_THAT(
+      LoadError("  clearing_vehicles:\n    - {name: nigel, length_m: 0.318, speed_mps: 0.2}",
+                "  clearing_vehicles: []"),
+      HasSubstr("safety.clearing_vehicles: is empty"));
+}
+
 TEST(City, RefusesConflictingGroupsInOnePhase) {
   EXPECT_EQ(LoadError("- {groups: [1], green_s: 8.0}", "- {groups: [1, 2], green_s: 8.0}"),
             "city.yaml: intersections[0] (driving_school_crossing).plans[0] (day).phases[0]: "
@@ -90,13 +128,15 @@ TEST(City, RefusesShortYellowAllRedAndGreen) {
   EXPECT_THAT(LoadError("yellow_s: 3.0, red", "yellow_s: 2.5, red"),
               HasSubstr("groups[0] (east): group 1 (east): yellow 2.5 s is below the minimum 3 "
                         "s; rule: minimum yellow"));
-  EXPECT_THAT(LoadError("red_clearance_s: 2.0}", "red_clearance_s: 0.5}"),
+  // Below the floor (with a clearing vehicle fast enough for the ITE figure to allow it).
+  EXPECT_THAT(LoadError({{"red_clearance_s: 7.0}", "red_clearance_s: 0.5}"},
+                         {"length_m: 0.318, speed_mps: 0.2", "length_m: 0.1, speed_mps: 10"}}),
               HasSubstr("red clearance 0.5 s is below the minimum 1 s; rule: minimum all-red"));
   EXPECT_THAT(LoadError("min_green_s: 5.0", "min_green_s: 2.0"),
               HasSubstr("min green 2 s is below the minimum 4 s; rule: minimum green"));
-  EXPECT_THAT(LoadError("all_red_s: 2.0", "all_red_s: 1.0"),
+  EXPECT_THAT(LoadError("all_red_s: 7.0", "all_red_s: 1.0"),
               HasSubstr("start_up.all_red_s 1 s is shorter than group 1 (east)'s red clearance "
-                        "2 s; rule: minimum all-red"));
+                        "7 s; rule: minimum all-red"));
   EXPECT_THAT(LoadError("- {groups: [2], green_s: 8.0}", "- {groups: [2], green_s: 4.5}"),
               HasSubstr("plans[0] (day).phases[1]: green 4.5 s is below its groups' min green "
                         "5 s; rule: minimum green"));

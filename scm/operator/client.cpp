@@ -199,6 +199,7 @@ nlohmann::json ToJson(const msg::FleetState& fleet) {
                                {"source", PoseSourceName(v.source)},
                                {"x", v.pose.pose.position.x},
                                {"y", v.pose.pose.position.y},
+                               {"yaw", dds::YawOf(v.pose.pose.orientation)},
                                {"lane", Text(v.map_lane_id)},
                                {"intersection", v.intersection_id},
                                {"approach", v.approach_id},

@@ -458,6 +458,10 @@
     viewChanged();
   }
 
+  // For tests: the map point (metres) of a point in the map's own pixels (what toPx gives and
+  // the cars' layer is drawn in).
+  dash.mapOfPx = (u, v) => [(u - M.margin) / M.ppm, M.hm - (v - M.margin) / M.ppm];
+
   function screenToMap(sx, sy) {
     const qx = (sx - M.ox) / M.fit;
     const qy = (sy - M.oy) / M.fit;
@@ -501,7 +505,7 @@
     );
   }
 
-  function applyFleet(vehicles) {
+  function applyFleet(vehicles, stamp) {
     fleet = vehicles;
     const seen = new Set();
     for (const v of vehicles) {
@@ -513,6 +517,9 @@
       const y = num(v.y, NaN);
       c.g.setAttribute('data-x', str(v.x));
       c.g.setAttribute('data-y', str(v.y));
+      // The time of the observation drawn (the fleet message's when the vehicle has none).
+      const observed = v.observed !== undefined ? v.observed : stamp;
+      if (observed !== undefined) c.g.setAttribute('data-stamp', str(observed));
       if (Number.isFinite(x) && Number.isFinite(y)) {
         const [u, w] = toPx(x, y);
         c.g.setAttribute('transform', 'translate(' + u.toFixed(2) + ' ' + w.toFixed(2) + ')');
@@ -1715,6 +1722,7 @@
   const BLANK = 'data:image/gif;base64,R0lGODlhAQABAIAAAAAAAP///yH5BAEAAAAALAAAAAABAAEAAAIBRAA7';
   let cameraList = [];
   const camOpen = new Set();
+  let camFirstShown = false; // the first camera streams from the start, until the user hides it
   function renderCameras() {
     const box = $('cameras');
     // stop every stream first
@@ -1727,6 +1735,10 @@
     if (!cameraList.length) {
       box.innerHTML = '<div class="empty">no camera in this city</div>';
       return;
+    }
+    if (!camFirstShown) {
+      camFirstShown = true;
+      camOpen.add(str(cameraList[0].name));
     }
     for (const c of cameraList) {
       const name = str(c.name);
@@ -1753,6 +1765,8 @@
           if (img.src !== BLANK) img.classList.add('broken');
         });
         img.src = '/camera/' + encodeURIComponent(name) + '.mjpg';
+        img.title = 'click: larger / smaller';
+        img.addEventListener('click', () => img.classList.toggle('big'));
         div.appendChild(img);
       }
       btn.textContent = 'hide';
@@ -2129,7 +2143,7 @@
     },
     fleet(m) {
       noteNow(m.now);
-      applyFleet(arr(m.vehicles));
+      applyFleet(arr(m.vehicles), m.now);
     },
     traffic(m) {
       objects = arr(m.objects);

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -70,9 +71,28 @@ void CheckNoConflictInside(const SignalGroup& g, const maps::Map& map, const Whe
 }
 
 /// The group's timing: its own where given, else the intersection's; checked against `floors`.
+/// The ITE red clearance of group `g`: the longest (W + L) / V over its movements (W: the
+/// movement's path through the box, stop line to exit) and the clearing vehicles, rounded up to
+/// 0.1 s; `why` says which movement and vehicle set it.
+Duration IteRedClearance(const SignalGroup& g, const MapSite& site,
+                         const std::vector<ClearingVehicleConfig>& vehicles, std::string& why) {
+  double worst = 0.0;
+  for (MovementId m : g.movements) {
+    const maps::Movement& mv = site.map.movement(m);
+    for (const auto& v : vehicles) {
+      const double t = (mv.length_m + v.length_m) / v.speed_mps;
+      if (t <= worst) continue;
+      worst = t;
+      why = fmt::format("({:.3f} m through the box on {} + {} {:.3f} m) / {:.2f} m/s = {:.2f} s",
+                        mv.length_m, mv.name, v.name, v.length_m, v.speed_mps, t);
+    }
+  }
+  return FromSeconds(std::ceil(worst * 10.0 - 1e-9) / 10.0);
+}
+
 GroupTiming TimingOf(const SignalGroup& g, const GroupTimingConfig& own,
-                     const TimingConfig& intersection, const GroupTiming& floors, double time_scale,
-                     const Where& gw) {
+                     const TimingConfig& intersection, const GroupFloors& floors,
+                     const MapSite& site, double time_scale, const Where& gw) {
   const auto pick = [&](const std::optional<nanoseconds>& o, nanoseconds d) {
     return Scaled(o.value_or(d), time_scale);
   };
@@ -80,19 +100,31 @@ GroupTiming TimingOf(const SignalGroup& g, const GroupTimingConfig& own,
   t.min_green = pick(own.min_green_s, intersection.min_green_s);
   t.max_green = pick(own.max_green_s, intersection.max_green_s);
   t.yellow = pick(own.yellow_s, intersection.yellow_s);
-  t.red_clearance = pick(own.red_clearance_s, intersection.red_clearance_s);
+  std::string why;
+  const Duration ite = IteRedClearance(g, site, floors.clearing_vehicles, why);
+  const auto& configured = own.red_clearance_s ? own.red_clearance_s : intersection.red_clearance_s;
+  t.red_clearance =
+      configured ? Scaled(*configured, time_scale) : std::max(ite, floors.timing.red_clearance);
   const std::string label = "group " + GroupLabel(g);
-  if (t.yellow < floors.yellow) {
+  if (t.red_clearance < ite) {
+    gw.Fail(fmt::format(
+        "{}: red clearance {} is below the ITE figure {}: a car that enters on the last instant "
+        "of yellow is still in the box when a conflicting green starts; give red_clearance_s "
+        "at least {} lab s (or drop it to use the figure); rule: red clearance (W + L) / V "
+        "for safety.clearing_vehicles",
+        label, Seconds(t.red_clearance), why, ToSeconds(ite)));
+  }
+  if (t.yellow < floors.timing.yellow) {
     gw.Fail(fmt::format("{}: yellow {} is below the minimum {}; rule: minimum yellow", label,
-                        Seconds(t.yellow), Seconds(floors.yellow)));
+                        Seconds(t.yellow), Seconds(floors.timing.yellow)));
   }
-  if (t.red_clearance < floors.red_clearance) {
+  if (t.red_clearance < floors.timing.red_clearance) {
     gw.Fail(fmt::format("{}: red clearance {} is below the minimum {}; rule: minimum all-red",
-                        label, Seconds(t.red_clearance), Seconds(floors.red_clearance)));
+                        label, Seconds(t.red_clearance), Seconds(floors.timing.red_clearance)));
   }
-  if (t.min_green < floors.min_green) {
+  if (t.min_green < floors.timing.min_green) {
     gw.Fail(fmt::format("{}: min green {} is below the minimum {}; rule: minimum green", label,
-                        Seconds(t.min_green), Seconds(floors.min_green)));
+                        Seconds(t.min_green), Seconds(floors.timing.min_green)));
   }
   if (t.max_green < t.min_green) {
     gw.Fail(fmt::format("{}: max green {} is below its min green {}", label, Seconds(t.max_green),
@@ -240,7 +272,7 @@ std::size_t GroupById(const std::vector<SignalGroup>& groups, std::uint32_t id,
   where.Fail(fmt::format("unknown signal group {}", id));
 }
 
-Groups BuildGroups(const IntersectionConfig& cfg, const MapSite& site, const GroupTiming& floors,
+Groups BuildGroups(const IntersectionConfig& cfg, const MapSite& site, const GroupFloors& floors,
                    double time_scale, const Where& where) {
   if (cfg.groups.empty()) where.Fail("no signal groups");
   Groups out;
@@ -266,7 +298,7 @@ Groups BuildGroups(const IntersectionConfig& cfg, const MapSite& site, const Gro
       out.group_of[m] = gi;
     }
     CheckNoConflictInside(g, site.map, gw);
-    g.timing = TimingOf(g, gc.timing, cfg.timing, floors, time_scale, gw);
+    g.timing = TimingOf(g, gc.timing, cfg.timing, floors, site, time_scale, gw);
     g.flash_aspect = gc.flash == "yellow" ? Aspect::kFlashingYellow : Aspect::kFlashingRed;
     out.groups.push_back(std::move(g));
   }

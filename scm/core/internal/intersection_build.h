@@ -54,6 +54,13 @@ struct MapSite {
 [[nodiscard]] std::size_t GroupById(const std::vector<SignalGroup>& groups, std::uint32_t id,
                                     const Where& where);
 
+/// What every group's timing must reach: the safety floors (lab time) and the vehicles its red
+/// clearance must let through.
+struct GroupFloors {
+  GroupTiming timing;
+  std::vector<ClearingVehicleConfig> clearing_vehicles;
+};
+
 /// An intersection's signal groups, and which of them controls each of its movements.
 struct Groups {
   std::vector<SignalGroup> groups;  ///< without heads (`AssignHeads` adds them)
@@ -63,9 +70,10 @@ struct Groups {
 /// Builds the groups of `cfg` at `site`, in lab time at `time_scale`. Rules: ids and names are
 /// unique, a group controls at least one movement, a movement belongs to one group and every
 /// movement to some group, conflicting movements are never in one group, and each group's
-/// timing is at or above the safety `floors`.
+/// timing is at or above the safety `floors`, its red clearance at or above the ITE figure
+/// (W + L) / V for the floors' clearing vehicles (the figure where none is configured).
 [[nodiscard]] Groups BuildGroups(const IntersectionConfig& cfg, const MapSite& site,
-                                 const GroupTiming& floors, double time_scale, const Where& where);
+                                 const GroupFloors& floors, double time_scale, const Where& where);
 
 /// conflicts[a][b]: groups a and b (indices) may never show green or yellow together.
 using ConflictMatrix = std::vector<std::vector<bool>>;

@@ -30,10 +30,13 @@ class IntersectionBuild : public ::testing::Test {
     return *it;
   }
 
+  /// The shipped city's floors and clearing vehicles.
+  GroupFloors Floors() const { return {city_.floors, city_.config.safety.clearing_vehicles}; }
+
   /// The model of `cfg` up to its plans (groups, conflicts, heads).
   IntersectionModel ModelOf(const IntersectionConfig& cfg) const {
     IntersectionModel x;
-    Groups groups = BuildGroups(cfg, site_, city_.floors, 1.0, where_);
+    Groups groups = BuildGroups(cfg, site_, Floors(), 1.0, where_);
     x.conflicts = BuildConflicts(cfg, site_, groups, where_);
     AssignHeads(cfg, site_, groups, where_);
     x.groups = std::move(groups.groups);
@@ -53,7 +56,7 @@ TEST(Where, NamesTheKeyPathInMessages) {
 }
 
 TEST_F(IntersectionBuild, GroupsTakeTheMovementsOfTheirApproachAndTheIntersectionsTiming) {
-  const Groups g = BuildGroups(cfg_, site_, city_.floors, 1.0, where_);
+  const Groups g = BuildGroups(cfg_, site_, Floors(), 1.0, where_);
   ASSERT_EQ(g.groups.size(), 4u);
   EXPECT_EQ(g.group_of.size(), site_.x.movements.size());
   for (std::size_t i = 0; i < 4; ++i) {
@@ -65,20 +68,20 @@ TEST_F(IntersectionBuild, GroupsTakeTheMovementsOfTheirApproachAndTheIntersectio
     EXPECT_TRUE(g.groups[i].heads.empty());
   }
   // Time scale 2: every duration doubles.
-  const Groups slow = BuildGroups(cfg_, site_, city_.floors, 2.0, where_);
+  const Groups slow = BuildGroups(cfg_, site_, Floors(), 2.0, where_);
   EXPECT_EQ(slow.groups[0].timing.yellow, seconds(6));
 }
 
 TEST_F(IntersectionBuild, AGroupOverrideBelowTheFloorIsRefused) {
   cfg_.groups[2].timing.yellow_s = std::chrono::milliseconds(2500);
   EXPECT_EQ(test::ErrorMessage<ConfigError>(
-                [&] { (void)BuildGroups(cfg_, site_, city_.floors, 1.0, where_); }),
+                [&] { (void)BuildGroups(cfg_, site_, Floors(), 1.0, where_); }),
             "city.yaml: groups[2] (west): group 3 (west): yellow 2.5 s is below the minimum 3 s; "
             "rule: minimum yellow");
   cfg_.groups[2].timing = {};
   cfg_.groups[2].timing.max_green_s = seconds(4);
   EXPECT_THAT(test::ErrorMessage<ConfigError>(
-                  [&] { (void)BuildGroups(cfg_, site_, city_.floors, 1.0, where_); }),
+                  [&] { (void)BuildGroups(cfg_, site_, Floors(), 1.0, where_); }),
               HasSubstr("max green 4 s is below its min green 5 s"));
 }
 
@@ -86,21 +89,21 @@ TEST_F(IntersectionBuild, GroupsRefuseDuplicatesAndUncontrolledMovements) {
   IntersectionConfig twice = cfg_;
   twice.groups[1].id = 1;
   EXPECT_THAT(test::ErrorMessage<ConfigError>(
-                  [&] { (void)BuildGroups(twice, site_, city_.floors, 1.0, where_); }),
+                  [&] { (void)BuildGroups(twice, site_, Floors(), 1.0, where_); }),
               HasSubstr("groups[1] (north): group id 1 is used twice"));
   cfg_.groups.pop_back();
   EXPECT_THAT(test::ErrorMessage<ConfigError>(
-                  [&] { (void)BuildGroups(cfg_, site_, city_.floors, 1.0, where_); }),
+                  [&] { (void)BuildGroups(cfg_, site_, Floors(), 1.0, where_); }),
               HasSubstr("is in no signal group; rule: every movement of a signalised "
                         "intersection is controlled"));
   cfg_.groups.clear();
   EXPECT_EQ(test::ErrorMessage<ConfigError>(
-                [&] { (void)BuildGroups(cfg_, site_, city_.floors, 1.0, where_); }),
+                [&] { (void)BuildGroups(cfg_, site_, Floors(), 1.0, where_); }),
             "city.yaml: no signal groups");
 }
 
 TEST_F(IntersectionBuild, ConflictsFollowTheGeometryAndMayOnlyGrow) {
-  const Groups g = BuildGroups(cfg_, site_, city_.floors, 1.0, where_);
+  const Groups g = BuildGroups(cfg_, site_, Floors(), 1.0, where_);
   const ConflictMatrix geometric = BuildConflicts(cfg_, site_, g, where_);
   for (std::size_t a = 0; a < 4; ++a) {
     for (std::size_t b = 0; b < 4; ++b) EXPECT_EQ(geometric[a][b], a != b) << a << "," << b;
@@ -124,7 +127,7 @@ TEST_F(IntersectionBuild, ConflictsFollowTheGeometryAndMayOnlyGrow) {
 }
 
 TEST_F(IntersectionBuild, EachHeadShowsTheGroupOfItsApproach) {
-  Groups g = BuildGroups(cfg_, site_, city_.floors, 1.0, where_);
+  Groups g = BuildGroups(cfg_, site_, Floors(), 1.0, where_);
   AssignHeads(cfg_, site_, g, where_);
   std::size_t heads = 0;
   for (const auto& group : g.groups) {
@@ -137,7 +140,7 @@ TEST_F(IntersectionBuild, EachHeadShowsTheGroupOfItsApproach) {
     }
   }
   EXPECT_EQ(heads, site_.x.signal_heads.size());
-  Groups again = BuildGroups(cfg_, site_, city_.floors, 1.0, where_);
+  Groups again = BuildGroups(cfg_, site_, Floors(), 1.0, where_);
   cfg_.heads = {{g.groups[0].heads[0].value(), 3}};
   EXPECT_THAT(test::ErrorMessage<ConfigError>([&] { AssignHeads(cfg_, site_, again, where_); }),
               HasSubstr("shows group 3 (west), which controls no movement from there; rule: a "
@@ -149,7 +152,7 @@ TEST_F(IntersectionBuild, AFixedPlansCycleIsItsGreensAndClearances) {
   cfg_.plans[0].offset_s = seconds(60);
   const Plan day = BuildPlan(cfg_.plans[0], x, site_, 1.0, where_);
   EXPECT_EQ(day.type, PlanType::kFixed);
-  EXPECT_EQ(day.cycle, seconds(4 * (8 + 3 + 2)));
+  EXPECT_EQ(day.cycle, seconds(4 * (8 + 3 + 7)));
   ASSERT_EQ(day.phase_starts.size(), 4u);
   EXPECT_EQ(day.phase_starts[1], seconds(13));
   EXPECT_EQ(day.phase_starts[3], seconds(39));
