@@ -155,7 +155,7 @@ std::map<std::string, std::string> ConfigArgs(const std::string& yaml, std::stri
 }
 
 TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
-  RunFor(seconds(8));  // through the start-up sequence, into the plan
+  RunFor(seconds(13));  // through the start-up sequence (flash 3 s, all red 7 s), into the plan
   for (int i = 0; i < 7; ++i) {
     persistence_->AppendEvent(EventRecord{0, now_.wire, Severity::kInfo, "scm", "test_event",
                                           "event " + std::to_string(i), IntersectionId(0), "",

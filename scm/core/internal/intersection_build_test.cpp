@@ -154,9 +154,11 @@ TEST_F(IntersectionBuild, AFixedPlansCycleIsItsGreensAndClearances) {
   EXPECT_EQ(day.type, PlanType::kFixed);
   EXPECT_EQ(day.cycle, seconds(4 * (8 + 3 + 7)));
   ASSERT_EQ(day.phase_starts.size(), 4u);
-  EXPECT_EQ(day.phase_starts[1], seconds(13));
-  EXPECT_EQ(day.phase_starts[3], seconds(39));
-  EXPECT_EQ(day.offset, seconds(60 - 52));  // modulo the cycle
+  EXPECT_EQ(day.phase_starts[1], seconds(8 + 3 + 7));
+  EXPECT_EQ(day.phase_starts[3], seconds(3 * (8 + 3 + 7)));
+  cfg_.plans[0].offset_s = seconds(80);
+  EXPECT_EQ(BuildPlan(cfg_.plans[0], x, site_, 1.0, where_).offset,
+            seconds(80 - 72));  // modulo the cycle
   // Two phases that share a group: no clearance for it between them.
   PlanConfig overlap = cfg_.plans[0];
   overlap.phases = {{{1}, seconds(8)},
@@ -165,8 +167,8 @@ TEST_F(IntersectionBuild, AFixedPlansCycleIsItsGreensAndClearances) {
                     {{4}, seconds(8)},
                     {{4}, seconds(6)}};
   const Plan o = BuildPlan(overlap, x, site_, 1.0, where_);
-  EXPECT_EQ(o.phase_starts[4], seconds(8 * 4 + 3 * 5));
-  EXPECT_EQ(o.cycle, seconds(8 * 4 + 6 + 5 * 4));
+  EXPECT_EQ(o.phase_starts[4], seconds(8 * 4 + 3 * (3 + 7)));
+  EXPECT_EQ(o.cycle, seconds(8 * 4 + 6 + (3 + 7) * 4));
 }
 
 TEST_F(IntersectionBuild, AnActuatedPlanRunsToMaxGreenAndPlacesDetectorsOnIngressLanes) {
