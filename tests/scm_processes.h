@@ -92,6 +92,7 @@ inline const msg::IntersectionState* FindIntersection(const msg::Spat& s, std::s
 struct DeviceSeen {
   std::uint8_t health = 255;
   std::uint8_t mode = 255;
+  std::uint8_t backend = 0;  ///< DeviceStatus_Constants: 1 simulated, 2 physical
   std::int32_t displayed = -1;
   std::string city;
   std::uint64_t last_command_id = 0;
@@ -220,9 +221,13 @@ class ScmProcesses : public ::testing::Test {
   void CollectDevices() {
     for (auto& m : devices_->TakeAll()) {
       devices_seen_[std::string(dds::View(m->device_id))] =
-          DeviceSeen{m->health,          m->mode,
-                     m->displayed_state, std::string(dds::View(m->city)),
-                     m->last_command_id, dds::FromMsg(m->header.stamp)};
+          DeviceSeen{m->health,
+                     m->mode,
+                     m->backend,
+                     m->displayed_state,
+                     std::string(dds::View(m->city)),
+                     m->last_command_id,
+                     dds::FromMsg(m->header.stamp)};
     }
   }
   /// Waits up to `timeout` until `pred(devices_seen_)` holds.
