@@ -29,9 +29,10 @@ class TutorialIntersection : public ScmProcesses {
   /// Runs a tutorial's shell block from the source folder with HOME in the test's folder, its
   /// `build/bin/` the programs under test.
   Output Shell(std::string script) const {
+    const std::string bin = Bin("");
     for (auto at = script.find("build/bin/"); at != std::string::npos;
-         at = script.find("build/bin/", at)) {
-      script.replace(at, 10, Bin(""));
+         at = script.find("build/bin/", at + bin.size())) {
+      script.replace(at, 10, bin);
     }
     return RunCaptured({"env", "HOME=" + dir_.string(), "XDG_STATE_HOME=" + State(), "/bin/sh",
                         "-c", "cd '" + SourceDir().string() + "' && " + script});
