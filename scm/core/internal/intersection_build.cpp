@@ -110,9 +110,12 @@ GroupTiming TimingOf(const SignalGroup& g, const GroupTimingConfig& own,
     gw.Fail(fmt::format(
         "{}: red clearance {} is below the ITE figure {}: a car that enters on the last instant "
         "of yellow is still in the box when a conflicting green starts; give red_clearance_s "
-        "at least {} lab s (or drop it to use the figure); rule: red clearance (W + L) / V "
+        "at least {} lab s{} (or drop it to use the figure); rule: red clearance (W + L) / V "
         "for safety.clearing_vehicles",
-        label, Seconds(t.red_clearance), why, ToSeconds(ite)));
+        label, Seconds(t.red_clearance), why, ToSeconds(ite),
+        time_scale == 1.0 ? std::string()
+                          : fmt::format(", {:.2f} configured s at time_scale {}",
+                                        ToSeconds(ite) / time_scale, time_scale)));
   }
   if (t.yellow < floors.timing.yellow) {
     gw.Fail(fmt::format("{}: yellow {} is below the minimum {}; rule: minimum yellow", label,
