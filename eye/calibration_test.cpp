@@ -28,14 +28,15 @@
 #include "common/camera/camera_model.h"
 #include "common/error.h"
 #include "common/geometry.h"
-#include "common/process.h"
 #include "common/test_support.h"
+#include "eye/testing/programs.h"
 
 namespace autodrive::eye {
 namespace {
 
 namespace fs = std::filesystem;
 using test::ErrorMessage;
+using testing::RunProgram;
 
 // OpenCV's sample photos of a 9x6 chessboard (Debian package opencv-doc), 640x480. The
 // package ships left01..left09 and left11..left14: there is no left10.jpg.
@@ -670,19 +671,8 @@ TEST(UtcTimeText, IsIso8601InUtc) {
 
 // --- The program ---
 
-// Runs `argv` with stderr folded into stdout; its exit code and output.
-std::pair<int, std::string> RunCaptured(const std::vector<std::string>& argv) {
-  std::vector<std::string> sh{"/bin/sh", "-c", "exec \"$@\" 2>&1", "sh"};
-  sh.insert(sh.end(), argv.begin(), argv.end());
-  ChildProcess p(sh, {});
-  std::string text;
-  while (auto line = p.ReadLine(std::chrono::minutes(5))) text += *line + "\n";
-  const auto code = p.Wait(std::chrono::minutes(1));
-  return {code.value_or(-1), text};
-}
-
 TEST(CalibrateProgram, CalibratesFromADirectoryAndExitsWithStatus1OnBadInput) {
-  const std::string program = ExecutableDir() + "/autodrive-eye";
+  const std::string program = testing::ProgramPath("autodrive-eye");
   ASSERT_TRUE(fs::exists(program)) << program << " is not built (ninja autodrive-eye)";
   const TempDir dir;
   fs::create_directories(dir / "photos");
@@ -691,9 +681,8 @@ TEST(CalibrateProgram, CalibratesFromADirectoryAndExitsWithStatus1OnBadInput) {
   ASSERT_TRUE(cv::imwrite((dir / "photos" / "zz_blank.png").string(),
                           cv::Mat(480, 640, CV_8U, cv::Scalar(128))));
   const fs::path out = dir / "camera.yaml";
-  const auto [code, text] =
-      RunCaptured({program, "calibrate", "--images", (dir / "photos").string(), "--board",
-                   "chessboard:9x6:0.025", "--out", out.string()});
+  const auto [code, text] = RunProgram({program, "calibrate", "--images", (dir / "photos").string(),
+                                        "--board", "chessboard:9x6:0.025", "--out", out.string()});
   EXPECT_EQ(code, 0) << text;
   for (const std::string& expected : std::vector<std::string>{
            "calibrate: [1/14] left01.jpg: board found", "left01.jpg    found     RMS 0.",
@@ -709,15 +698,15 @@ TEST(CalibrateProgram, CalibratesFromADirectoryAndExitsWithStatus1OnBadInput) {
   EXPECT_NEAR(written.cx_px, SampleCalibration().intrinsics.cx_px, 1e-9);
 
   const auto [bad_board_code, bad_board] =
-      RunCaptured({program, "calibrate", "--images", (dir / "photos").string(), "--board",
-                   "chessboard:9x6", "--out", (dir / "b.yaml").string()});
+      RunProgram({program, "calibrate", "--images", (dir / "photos").string(), "--board",
+                  "chessboard:9x6", "--out", (dir / "b.yaml").string()});
   EXPECT_EQ(bad_board_code, 1) << bad_board;
   EXPECT_NE(bad_board.find("autodrive-eye calibrate: bad board \"chessboard:9x6\""),
             std::string::npos)
       << bad_board;
   const auto [no_images_code, no_images] =
-      RunCaptured({program, "calibrate", "--images", dir.path().string(), "--board",
-                   "chessboard:9x6:0.025", "--out", (dir / "c.yaml").string()});
+      RunProgram({program, "calibrate", "--images", dir.path().string(), "--board",
+                  "chessboard:9x6:0.025", "--out", (dir / "c.yaml").string()});
   EXPECT_EQ(no_images_code, 1) << no_images;
   EXPECT_NE(no_images.find("autodrive-eye calibrate: " + dir.path().string() + ": no images"),
             std::string::npos)
@@ -725,7 +714,7 @@ TEST(CalibrateProgram, CalibratesFromADirectoryAndExitsWithStatus1OnBadInput) {
   EXPECT_FALSE(fs::exists(dir / "b.yaml"));
   EXPECT_FALSE(fs::exists(dir / "c.yaml"));
 
-  const auto [help_code, help] = RunCaptured({program, "calibrate", "--help"});
+  const auto [help_code, help] = RunProgram({program, "calibrate", "--help"});
   EXPECT_EQ(help_code, 0) << help;
   for (const std::string& expected :
        std::vector<std::string>{"--images", "--board", "chessboard:COLSxROWS:SQUARE_M", "--out",

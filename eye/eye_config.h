@@ -7,14 +7,16 @@
 /// Frames: the map frame M (x east, y north, z up, metres); a car's frame V (origin at the
 /// middle of its rear axle, x forward, y left, z up); a tag's frame T (origin at the centre of
 /// its black square, x towards the bitmap's right edge, y towards its top edge, z up out of the
-/// tag). A car's tag lies flat at `tag_height_m`, its top towards the car's front: T's y is V's
-/// x, so the car's yaw is the tag's yaw + 90°.
+/// tag). A car's tag lies flat at `tag_height_m`, turned on the roof as its `mount` says
+/// (by default its top towards the car's front: T's y is V's x, so the car's yaw is the tag's
+/// yaw + 90°).
 
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "common/camera/roof_tag.h"
 #include "common/config.h"
 #include "common/ids.h"
 #include "common/time.h"
@@ -55,15 +57,18 @@ struct DetectorConfig {
   bool operator==(const DetectorConfig&) const = default;
 };
 
-/// A car and its roof tag.
+/// A car and its roof tag: which tag, its size and height, and how it is mounted on the car
+/// (`mount`: its yaw on the roof and its centre's place, keys `tag_yaw_deg`, `tag_ahead_m` and
+/// `tag_left_m` in the car's entry; common/camera/roof_tag.h). In a city file these entries
+/// are also where the simulator takes each car's mounting from (one declaration for both).
 struct VehicleTagConfig {
   std::string name;             ///< `nigel_<n>`
   int tag_id = 0;               ///< in the detector's family
   double tag_size_m = 0.0762;   ///< side of the black square
   double tag_height_m = 0.257;  ///< the tag's plane above the ground (the car's top)
-  /// The tag's centre ahead of the car's origin (the middle of its rear axle), along V's x: the
-  /// middle of Nigel's body.
-  double tag_ahead_m = 0.07077;
+  /// The tag's yaw on the roof (0: its top towards the car's front) and its centre's place
+  /// from the middle of the rear axle (default: 0.07077 m ahead, the middle of Nigel's body).
+  camera::RoofTagMount mount;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -71,7 +76,7 @@ struct VehicleTagConfig {
     a.Required("tag_id", tag_id, config::Range{0, 100000});
     a.Optional("tag_size_m", tag_size_m, config::Range{0.005, 5.0});
     a.Optional("tag_height_m", tag_height_m, config::Range{0.0, 10.0});
-    a.Optional("tag_ahead_m", tag_ahead_m, config::Range{-5.0, 5.0});
+    mount.Serialize(a);  // tag_yaw_deg, tag_ahead_m, tag_left_m
   }
   /// @throws InputError if `name` is not `nigel_<n>`.
   void Validate() const;

@@ -78,6 +78,30 @@ TEST_F(EyeConfigErrors, BadFilesAreRefusedNamingWhatIsWrong) {
   EXPECT_NE(Error("vehicles: []\n").find("cameras"), std::string::npos);
 }
 
+TEST_F(EyeConfigErrors, ATagsMountingIsReadRoundTripsAndIsCheckedLikeEveryKey) {
+  std::ofstream(path_)
+      << kCamera
+      << "vehicles:\n  - {name: nigel_1, tag_id: 1, tag_yaw_deg: 90, "
+         "tag_ahead_m: 0.05, tag_left_m: -0.012}\n  - {name: nigel_2, tag_id: 2}\n";
+  const EyeConfig config = LoadEyeConfig(path_);
+  EXPECT_EQ(config.vehicles[0].mount, (camera::RoofTagMount{90.0, 0.05, -0.012}));
+  // Absent keys: today's meaning (top to the front, over the middle of Nigel's body).
+  EXPECT_EQ(config.vehicles[1].mount, (camera::RoofTagMount{0.0, 0.07077, 0.0}));
+  EXPECT_EQ(config::LoadString<EyeConfig>(config::SaveString(config)), config);
+  EXPECT_EQ(
+      Error(std::string(kCamera) + "vehicles:\n  - {name: nigel_1, tag_id: 1, tag_yaw_deg: 400}\n"),
+      path_.string() +
+          ":3:45: vehicles[0].tag_yaw_deg: out of range (got 400; expected a "
+          "value in [-360.0, 360.0])");
+  EXPECT_NE(Error(std::string(kCamera) + "vehicles: [{name: nigel_1, tag_id: 1, tag_lef_m: 0.1}]\n")
+                .find("vehicles[0].tag_lef_m: unknown key (did you mean tag_left_m?"),
+            std::string::npos);
+  EXPECT_NE(Error(std::string(kCamera) + "vehicles: [{name: nigel_1, tag_id: 1, tag_ahead_m: 6}]\n")
+                .find("vehicles[0].tag_ahead_m: out of range (got 6; expected a value in [-5.0, "
+                      "5.0])"),
+            std::string::npos);
+}
+
 TEST_F(EyeConfigErrors, FilesAreResolvedNextToTheConfiguration) {
   std::ofstream(path_) << kCamera << "vehicles: []\n";
   const EyeConfig config = LoadEyeConfig(path_);

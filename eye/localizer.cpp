@@ -1,5 +1,7 @@
 #include "eye/localizer.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -21,6 +23,10 @@ const char* ToString(EyeEvent::Kind kind) {
       return "vehicle_found";
     case EyeEvent::Kind::kVehicleLost:
       return "vehicle_lost";
+    case EyeEvent::Kind::kTagMounting:
+      return "tag_mounting";
+    case EyeEvent::Kind::kDuplicateTag:
+      return "duplicate_tag";
   }
   return "?";
 }
@@ -50,6 +56,73 @@ struct Localizer::CameraState {
       : config(c), camera(std::move(cam)), move(eye.registration), detector(eye.detector) {}
 };
 
+// One configured car: its filter, its checks, and its last measurement (which another camera's
+// frame of the same instant is compared with).
+struct Localizer::Car {
+  struct Measured {
+    Time stamp{};
+    std::size_t camera = 0;
+    Eigen::Vector2d p_M = Eigen::Vector2d::Zero();
+    bool applied = false;    // it changed the track
+    bool withdrawn = false;  // taken back (another camera saw the id elsewhere)
+  };
+  VehicleTrack track;
+  MountingCheck mounting;
+  DuplicateCheck duplicates;
+  std::optional<Measured> last;
+
+  Car(const VehicleTagConfig& v, const TrackingConfig& t) : track(v, t), mounting(v.mount) {}
+};
+
+namespace {
+
+std::string Metres(const Eigen::Vector2d& p) {
+  return fmt::format("({:.2f}, {:.2f})", p.x(), p.y());
+}
+
+// The tag_mounting event's text: what was refused, the turn measured and what to check.
+std::string MountingText(const VehicleTagConfig& v, const MountingFinding& f) {
+  std::string text = fmt::format("{} of the last {} measurements refused", f.refused, f.of);
+  if (!f.turn_rad) {
+    return text + fmt::format(
+                      " for {:.1f} s, and it has not moved far enough to compare its tag's "
+                      "heading with its motion: check tag_yaw_deg, tag_ahead_m and tag_left_m",
+                      f.refusing_for_s);
+  }
+  const double turn_deg = *f.turn_rad * 180.0 / kPi;
+  if (std::abs(*f.turn_rad) < MountingCheck::kTurnToleranceRad) {
+    return text + fmt::format(
+                      ", but its tag's heading agrees with the car's motion ({:.1f}°): check "
+                      "tag_ahead_m and tag_left_m (the tag's place on the roof), or whether the "
+                      "car was carried",
+                      turn_deg);
+  }
+  // To the nearest 5°: tags are glued square to the car, and a measured turn is good to a
+  // degree or two.
+  const long rounded = 5 * std::lround(std::abs(turn_deg) / 5.0);
+  const std::string way = rounded == 180 ? "" : turn_deg > 0 ? " counter-clockwise" : " clockwise";
+  const double fits = std::fmod(
+      std::fmod(v.mount.yaw_deg + (turn_deg > 0 ? 1.0 : -1.0) * static_cast<double>(rounded),
+                360.0) +
+          360.0,
+      360.0);
+  if (f.only_backwards) {
+    return fmt::format(
+        "it has moved only against its measured heading ({} of the last {} measurements "
+        "refused): its tag looks turned {}° from the configured mounting (the tag's heading "
+        "differs from the car's motion by {:.1f}°), or the car has only reversed since it was "
+        "first seen: check tag_yaw_deg (about {:.0f} would fit)",
+        f.refused, f.of, rounded, turn_deg, fits);
+  }
+  return text + fmt::format(
+                    "; its tag looks turned {}°{} from the configured mounting (the tag's heading "
+                    "differs from the car's motion by {:.1f}°): check tag_yaw_deg (about {:.0f} "
+                    "would fit)",
+                    rounded, way, turn_deg, fits);
+}
+
+}  // namespace
+
 Localizer::Localizer(EyeConfig config) : config_(std::move(config)) {
   config_.Validate();
   for (const CameraConfig& c : config_.cameras) {
@@ -63,7 +136,13 @@ Localizer::Localizer(EyeConfig config) : config_(std::move(config)) {
     }
     cameras_.push_back(std::move(state));
   }
-  for (const VehicleTagConfig& v : config_.vehicles) tracks_.emplace_back(v, config_.tracking);
+  cars_.reserve(config_.vehicles.size());
+  for (const VehicleTagConfig& v : config_.vehicles) {
+    cars_.emplace_back(v, config_.tracking);
+    // Two cameras' frames of one instant come one after the other: the first one's update is
+    // taken back when the second shows the car's id elsewhere.
+    cars_.back().track.set_undoable(cameras_.size() > 1);
+  }
 }
 
 Localizer::~Localizer() = default;
@@ -105,7 +184,8 @@ std::vector<cv::Rect> Localizer::PredictedRegions(const CameraState& cam, Time s
   std::vector<cv::Rect> rects;
   const cv::Rect image(0, 0, cam.camera.model.intrinsics().width_px,
                        cam.camera.model.intrinsics().height_px);
-  for (const VehicleTrack& track : tracks_) {
+  for (const Car& car : cars_) {
+    const VehicleTrack& track = car.track;
     if (!track.active(stamp)) continue;
     const VehicleEstimate e = track.Predict(stamp);
     const VehicleTagConfig& v = track.vehicle();
@@ -163,7 +243,7 @@ FrameDetections Localizer::Detect(std::size_t camera, Time stamp, const cv::Mat&
     placed = cam.camera;
     if (registered) regions = PredictedRegions(cam, stamp);
     tracked = static_cast<std::size_t>(std::count_if(
-        tracks_.begin(), tracks_.end(), [&](const VehicleTrack& t) { return t.active(stamp); }));
+        cars_.begin(), cars_.end(), [&](const Car& c) { return c.track.active(stamp); }));
   }
   // A full scan: periodically, more often while a configured car is not tracked, and on the
   // first frame after the camera was registered.
@@ -180,18 +260,25 @@ FrameDetections Localizer::Detect(std::size_t camera, Time stamp, const cv::Mat&
   } else {
     out.tags = cam.detector.Detect(grey, regions, &out.stats);
   }
-  // A tag seen in two merged-apart regions would come twice: keep the first of each id.
-  std::sort(out.tags.begin(), out.tags.end(),
-            [](const TagDetection& a, const TagDetection& b) { return a.id < b.id; });
-  out.tags.erase(
-      std::unique(out.tags.begin(), out.tags.end(),
-                  [](const TagDetection& a, const TagDetection& b) { return a.id == b.id; }),
-      out.tags.end());
-  for (const TagDetection& d : out.tags) {
-    std::optional<std::size_t> vehicle;
+  const auto vehicle_of = [&](int id) -> std::optional<std::size_t> {
     for (std::size_t i = 0; i < config_.vehicles.size(); ++i) {
-      if (config_.vehicles[i].tag_id == d.id) vehicle = i;
+      if (config_.vehicles[i].tag_id == id) return i;
     }
+    return std::nullopt;
+  };
+  // One tag found twice (by two regions) is kept once. A car's id at two places is two tags:
+  // both stay, and neither measures the car (FindDuplicates); another id is kept once.
+  std::sort(out.tags.begin(), out.tags.end(), [](const TagDetection& a, const TagDetection& b) {
+    return a.id < b.id || (a.id == b.id && a.centre_px.x() < b.centre_px.x());
+  });
+  out.tags.erase(std::unique(out.tags.begin(), out.tags.end(),
+                             [&](const TagDetection& a, const TagDetection& b) {
+                               return a.id == b.id && (!vehicle_of(a.id) ||
+                                                       (a.centre_px - b.centre_px).norm() < 2.0);
+                             }),
+                 out.tags.end());
+  for (const TagDetection& d : out.tags) {
+    const std::optional<std::size_t> vehicle = vehicle_of(d.id);
     if (!vehicle) {
       const bool reference =
           std::any_of(config_.reference_tags.begin(), config_.reference_tags.end(),
@@ -213,11 +300,41 @@ FrameDetections Localizer::Detect(std::size_t camera, Time stamp, const cv::Mat&
     }
     out.vehicles.push_back({*vehicle, *pose, d.decision_margin});
   }
+  FindDuplicates(out);
   return out;
 }
 
+void Localizer::FindDuplicates(FrameDetections& out) const {
+  // The measurements are in id order, so one car's are next to each other.
+  std::vector<VehicleMeasurement> kept;
+  kept.reserve(out.vehicles.size());
+  for (std::size_t i = 0; i < out.vehicles.size();) {
+    std::size_t j = i + 1;
+    while (j < out.vehicles.size() && out.vehicles[j].vehicle == out.vehicles[i].vehicle) ++j;
+    if (j == i + 1) {
+      kept.push_back(out.vehicles[i]);
+    } else {
+      DuplicateTags d{out.vehicles[i].vehicle, {}};
+      const double size = config_.vehicles[d.vehicle].tag_size_m;
+      bool apart = false;
+      for (std::size_t k = i; k < j; ++k) {
+        d.p_M.push_back(out.vehicles[k].tag.p_M);
+        apart = apart || (out.vehicles[k].tag.p_M - out.vehicles[i].tag.p_M).norm() > size;
+      }
+      if (apart) {
+        out.duplicates.push_back(std::move(d));
+      } else {
+        kept.push_back(out.vehicles[i]);  // one tag, found twice
+      }
+    }
+    i = j;
+  }
+  out.vehicles = std::move(kept);
+}
+
 std::vector<LocalizedVehicle> Localizer::Fuse(const FrameDetections& frame,
-                                              std::vector<EyeEvent>* events) {
+                                              std::vector<EyeEvent>* events,
+                                              std::vector<std::size_t>* withdrawn) {
   CameraState& cam = *cameras_.at(frame.camera);
   const auto emit = [&](EyeEvent::Kind kind, const std::string& subject, const std::string& text) {
     if (events != nullptr) events->push_back({kind, frame.stamp, subject, text});
@@ -268,45 +385,133 @@ std::vector<LocalizedVehicle> Localizer::Fuse(const FrameDetections& frame,
   std::vector<LocalizedVehicle> out;
   const std::lock_guard lock(mutex_);
   // Cars not seen for lost_after_s are lost (before this frame's measurements restart them).
-  for (VehicleTrack& track : tracks_) {
+  for (Car& car : cars_) {
+    VehicleTrack& track = car.track;
     if (track.started() && !track.active(frame.stamp) && frame.stamp > track.last_update()) {
       track.Stop();
       emit(EyeEvent::Kind::kVehicleLost, track.vehicle().name,
            "not seen for " + std::to_string(config_.tracking.lost_after_s) + " s");
     }
   }
-  for (const VehicleMeasurement& m : frame.vehicles) {
-    VehicleTrack& track = tracks_.at(m.vehicle);
-    const TrackUpdate result = track.Update(frame.stamp, m.tag);
-    ++counters_.measurements;
-    if (result == TrackUpdate::kOutlier) ++counters_.outliers;
-    if (result == TrackUpdate::kStarted) {
-      emit(EyeEvent::Kind::kVehicleFound, track.vehicle().name,
-           "tracked from camera " + cam.config.name);
-    }
-    if (result == TrackUpdate::kOutlier || result == TrackUpdate::kTooOld) continue;
-    const auto it = std::find_if(out.begin(), out.end(),
-                                 [&](const LocalizedVehicle& l) { return l.vehicle == m.vehicle; });
-    if (it == out.end()) {
-      out.push_back({m.vehicle, track.Predict(frame.stamp), {frame.camera}});
-    } else {
-      it->estimate = track.Predict(frame.stamp);
+  for (const DuplicateTags& d : frame.duplicates) {
+    const VehicleTagConfig& v = config_.vehicles.at(d.vehicle);
+    std::string where;
+    for (const Eigen::Vector2d& p : d.p_M) where += (where.empty() ? "" : " and ") + Metres(p);
+    counters_.duplicate_refusals += static_cast<long long>(d.p_M.size());
+    Duplicated(cars_.at(d.vehicle), frame.stamp,
+               fmt::format("{} tags with id {} in one frame of camera {}, at {} m", d.p_M.size(),
+                           v.tag_id, cam.config.name, where),
+               events);
+  }
+  for (const VehicleMeasurement& m : frame.vehicles) FuseVehicle(frame, m, events, withdrawn, out);
+  for (std::size_t i = 0; i < cars_.size(); ++i) {
+    if (cars_[i].duplicates.Clears(frame.stamp)) {
+      const VehicleTagConfig& v = config_.vehicles[i];
+      if (events != nullptr) {
+        events->push_back({EyeEvent::Kind::kDuplicateTag, frame.stamp, v.name,
+                           fmt::format("no second tag with id {} for {:.0f} s", v.tag_id,
+                                       ToSeconds(DuplicateCheck::kClearAfter)),
+                           true});
+      }
     }
   }
   return out;
 }
 
+void Localizer::Duplicated(Car& car, Time stamp, const std::string& text,
+                           std::vector<EyeEvent>* events) {
+  if (car.duplicates.Seen(stamp) && events != nullptr) {
+    events->push_back(
+        {EyeEvent::Kind::kDuplicateTag, stamp, car.track.vehicle().name,
+         text + ": all refused, and the car's track is neither started nor restarted while its "
+                "id is in doubt; remove or cover the other tag"});
+  }
+}
+
+void Localizer::FuseVehicle(const FrameDetections& frame, const VehicleMeasurement& m,
+                            std::vector<EyeEvent>* events, std::vector<std::size_t>* withdrawn,
+                            std::vector<LocalizedVehicle>& out) {
+  Car& car = cars_.at(m.vehicle);
+  const VehicleTagConfig& v = config_.vehicles.at(m.vehicle);
+  const std::string& camera_name = cameras_.at(frame.camera)->config.name;
+  // Another camera's frame of the same instant saw the id at a place this tag cannot be (its
+  // size apart, and more than the car could drive in between): two tags, both refused.
+  if (car.last && car.last->camera != frame.camera) {
+    const Duration dt = frame.stamp > car.last->stamp ? frame.stamp - car.last->stamp
+                                                      : car.last->stamp - frame.stamp;
+    const double apart = (m.tag.p_M - car.last->p_M).norm();
+    constexpr double kMaxSpeedMps = 1.0;
+    if (dt <= kSameInstant && apart > v.tag_size_m + kMaxSpeedMps * ToSeconds(dt)) {
+      if (car.last->applied && !car.last->withdrawn) {
+        car.track.UndoLastUpdate();
+        if (withdrawn != nullptr) withdrawn->push_back(m.vehicle);
+      }
+      counters_.duplicate_refusals += car.last->withdrawn ? 1 : 2;
+      car.last->withdrawn = true;
+      Duplicated(
+          car, frame.stamp,
+          fmt::format("tags with id {} at {} m in camera {} and at {} m in camera {} at "
+                      "the same time",
+                      v.tag_id, Metres(car.last->p_M), cameras_.at(car.last->camera)->config.name,
+                      Metres(m.tag.p_M), camera_name),
+          events);
+      return;
+    }
+  }
+  const TrackUpdate result = car.track.Update(frame.stamp, m.tag, !car.duplicates.active());
+  car.last = Car::Measured{frame.stamp, frame.camera, m.tag.p_M,
+                           result == TrackUpdate::kStarted || result == TrackUpdate::kUpdated ||
+                               result == TrackUpdate::kRestarted,
+                           false};
+  ++counters_.measurements;
+  if (result == TrackUpdate::kOutlier) ++counters_.outliers;
+  if (result == TrackUpdate::kStarted && events != nullptr) {
+    events->push_back(
+        {EyeEvent::Kind::kVehicleFound, frame.stamp, v.name, "tracked from camera " + camera_name});
+  }
+  CheckMounting(car, frame.stamp, m.tag, result, events);
+  if (result == TrackUpdate::kOutlier || result == TrackUpdate::kTooOld ||
+      result == TrackUpdate::kHeld) {
+    return;
+  }
+  const auto it = std::find_if(out.begin(), out.end(),
+                               [&](const LocalizedVehicle& l) { return l.vehicle == m.vehicle; });
+  if (it == out.end()) {
+    out.push_back({m.vehicle, car.track.Predict(frame.stamp), {frame.camera}});
+  } else {
+    it->estimate = car.track.Predict(frame.stamp);
+  }
+}
+
+void Localizer::CheckMounting(Car& car, Time stamp, const PlanarTagPose& tag, TrackUpdate result,
+                              std::vector<EyeEvent>* events) {
+  if (result == TrackUpdate::kTooOld || result == TrackUpdate::kHeld) return;
+  const bool refused = result == TrackUpdate::kOutlier || result == TrackUpdate::kRestarted;
+  const MountingCheck::Report report =
+      car.mounting.Add(stamp, tag.p_M, car.track.VehicleYawOfTag(tag.yaw_rad), refused);
+  if (report == MountingCheck::Report::kNothing || events == nullptr) return;
+  const VehicleTagConfig& v = car.track.vehicle();
+  if (report == MountingCheck::Report::kRaised) {
+    events->push_back(
+        {EyeEvent::Kind::kTagMounting, stamp, v.name, MountingText(v, car.mounting.finding())});
+  } else {
+    events->push_back({EyeEvent::Kind::kTagMounting, stamp, v.name,
+                       "its measurements agree with its tag's mounting again", true});
+  }
+}
+
 std::vector<LocalizedVehicle> Localizer::LocalizeFrame(std::size_t camera, Time stamp,
                                                        const cv::Mat& image,
-                                                       std::vector<EyeEvent>* events) {
-  return Fuse(Detect(camera, stamp, image), events);
+                                                       std::vector<EyeEvent>* events,
+                                                       std::vector<std::size_t>* withdrawn) {
+  return Fuse(Detect(camera, stamp, image), events, withdrawn);
 }
 
 std::vector<LocalizedVehicle> Localizer::Estimates(Time stamp) const {
   const std::lock_guard lock(mutex_);
   std::vector<LocalizedVehicle> out;
-  for (std::size_t i = 0; i < tracks_.size(); ++i) {
-    if (tracks_[i].active(stamp)) out.push_back({i, tracks_[i].Predict(stamp), {}});
+  for (std::size_t i = 0; i < cars_.size(); ++i) {
+    if (cars_[i].track.active(stamp)) out.push_back({i, cars_[i].track.Predict(stamp), {}});
   }
   return out;
 }

@@ -24,6 +24,7 @@
 #include "eye/eye_config.h"
 #include "eye/registration.h"
 #include "eye/tag_pose.h"
+#include "eye/track_checks.h"
 #include "eye/tracker.h"
 
 namespace autodrive::eye {
@@ -36,11 +37,21 @@ struct EyeEvent {
     kCameraLost,        ///< a camera's frames stopped coming (the online service)
     kVehicleFound,      ///< a car's track started
     kVehicleLost,       ///< a car was not seen for `lost_after_s`
+    /// A car's measurements disagree with its tag's configured mounting (`MountingCheck`):
+    /// most of them refused, or its motion against its measured heading; the text gives the
+    /// turn measured and the key to check.
+    kTagMounting,
+    /// Two tags with a car's id at once (one camera's frame, or two cameras' frames of one
+    /// instant at places that cannot be one tag): both refused.
+    kDuplicateTag,
   };
   Kind kind = Kind::kCameraRegistered;
   Time stamp{};
   std::string subject;  ///< the camera's or the car's name
   std::string text;     ///< what happened, for a person
+  /// The end of an episode that an event of the same kind and subject raised
+  /// (`tag_mounting`, `duplicate_tag`): an information, no longer a warning.
+  bool cleared = false;
 };
 [[nodiscard]] const char* ToString(EyeEvent::Kind kind);
 
@@ -51,6 +62,13 @@ struct VehicleMeasurement {
   double decision_margin = 0.0;
 };
 
+/// Two or more tags with a car's id in one frame of one camera, at different places: none of
+/// them is a measurement of the car.
+struct DuplicateTags {
+  std::size_t vehicle = 0;           ///< index into the configuration's vehicles
+  std::vector<Eigen::Vector2d> p_M;  ///< each tag's centre at the roof's height, m
+};
+
 /// What `Detect` found in one frame of one camera.
 struct FrameDetections {
   std::size_t camera = 0;
@@ -58,6 +76,7 @@ struct FrameDetections {
   bool full_scan = false;
   std::vector<TagDetection> tags;  ///< every tag accepted, cars' and reference tags
   std::vector<VehicleMeasurement> vehicles;
+  std::vector<DuplicateTags> duplicates;  ///< cars whose id was seen more than once
   DetectionStats stats;
   int unknown_tags = 0;   ///< ids neither a car's nor a reference tag's
   int refused_poses = 0;  ///< cars' tags whose corners do not fit a tag at the roof's height
@@ -79,6 +98,7 @@ struct LocalizerCounters {
   long long outliers = 0;
   long long unknown_tags = 0;
   long long refused_poses = 0;
+  long long duplicate_refusals = 0;  ///< measurements refused because their id was seen twice
 };
 
 /// The localiser of one configuration. Thread-safety: `Detect` may run for different cameras
@@ -123,11 +143,25 @@ class Localizer {
   /// tags on full scans, and ends the tracks of cars not seen for `lost_after_s`. Returns the
   /// cars measured in this frame (their estimates at its stamp); events are appended to
   /// `events`.
-  std::vector<LocalizedVehicle> Fuse(const FrameDetections& frame, std::vector<EyeEvent>* events);
+  ///
+  /// A car whose id this frame shows twice is not measured in it, nor is one that another
+  /// camera's frame of the same instant (within `kSameInstant`) saw at a place that cannot be
+  /// the same tag: that frame's measurement is taken back from the filter too, and the car is
+  /// appended to `withdrawn` (when given) so that a caller collecting one instant's frames
+  /// drops what it took from that frame. While a car's id is in doubt (`DuplicateCheck`) its
+  /// track is neither started nor restarted. Each car's measurements go through its
+  /// `MountingCheck`; both checks raise their events once per episode.
+  std::vector<LocalizedVehicle> Fuse(const FrameDetections& frame, std::vector<EyeEvent>* events,
+                                     std::vector<std::size_t>* withdrawn = nullptr);
+
+  /// Two cameras' frames this close in time show one instant (unsynchronised 30 Hz cameras'
+  /// frames are at most 17 ms apart).
+  static constexpr Duration kSameInstant = std::chrono::milliseconds(25);
 
   /// Detect, then Fuse.
   std::vector<LocalizedVehicle> LocalizeFrame(std::size_t camera, Time stamp, const cv::Mat& image,
-                                              std::vector<EyeEvent>* events);
+                                              std::vector<EyeEvent>* events,
+                                              std::vector<std::size_t>* withdrawn = nullptr);
 
   /// Every car with an active track, predicted to `stamp`.
   [[nodiscard]] std::vector<LocalizedVehicle> Estimates(Time stamp) const;
@@ -136,12 +170,21 @@ class Localizer {
 
  private:
   struct CameraState;
+  struct Car;
   [[nodiscard]] std::vector<cv::Rect> PredictedRegions(const CameraState& cam, Time stamp) const;
+  void FindDuplicates(FrameDetections& out) const;
+  // Fuse's parts (the caller holds mutex_).
+  void FuseVehicle(const FrameDetections& frame, const VehicleMeasurement& m,
+                   std::vector<EyeEvent>* events, std::vector<std::size_t>* withdrawn,
+                   std::vector<LocalizedVehicle>& out);
+  void Duplicated(Car& car, Time stamp, const std::string& text, std::vector<EyeEvent>* events);
+  void CheckMounting(Car& car, Time stamp, const PlanarTagPose& tag, TrackUpdate result,
+                     std::vector<EyeEvent>* events);
 
   EyeConfig config_;
   std::vector<std::unique_ptr<CameraState>> cameras_;
-  mutable std::mutex mutex_;  // guards tracks_, counters_ and the cameras' registration
-  std::vector<VehicleTrack> tracks_;
+  mutable std::mutex mutex_;  // guards cars_, counters_ and the cameras' registration
+  std::vector<Car> cars_;     // per configured vehicle
   LocalizerCounters counters_;
 };
 

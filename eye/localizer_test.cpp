@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 
 #include <opencv2/imgcodecs.hpp>
@@ -203,6 +205,223 @@ TEST_F(LocalizerTest, ACameraTurnedByOneDegreeRaisesTheCameraMovedEvent) {
   turned.X_PC = camera_.X_PC * Eigen::AngleAxisd(kPi / 180, Eigen::Vector3d::UnitX());
   for (int i = 0; i < config_.registration.moved_after_checks; ++i) step(turned);
   EXPECT_TRUE(has_moved());
+}
+
+// Cameras whose poses are configured (no reference tags needed in their frames): 960 x 540,
+// f 700 px, 3 m up, straight down; a roof tag is about 19 px wide.
+class RegisteredCamerasTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("eye_registered_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  // A camera over (x, 2.5) named `name`, added to the configuration.
+  camera::Camera AddCamera(const std::string& name, double x) {
+    camera::Camera cam = OverheadCamera(x, 2.5, 3.0, 700.0, 960, 540);
+    const auto calibration = dir_ / (name + ".yaml");
+    const auto pose = dir_ / (name + "_pose.yaml");
+    camera::SaveOpenCvCalibration(calibration, cam.model.intrinsics());
+    Registration r;
+    r.X_MC = cam.X_PC;
+    SavePose(pose, name, name, r);
+    config_.cameras.push_back(
+        {name, "images:" + dir_.string(), calibration.string(), pose.string(), 30.0, 0.0});
+    return cam;
+  }
+  void AddCar(double tag_yaw_deg = 0.0) {
+    VehicleTagConfig v;
+    v.name = "nigel_1";
+    v.tag_id = 1;
+    v.mount.yaw_deg = tag_yaw_deg;
+    config_.vehicles.push_back(v);
+  }
+
+  std::filesystem::path dir_;
+  EyeConfig config_;
+};
+
+// nigel_1 drives east along y = 2 at 0.2 m/s from x = 1, its tag mounted as configured
+// (default). Its tag's centre at time t.
+Eigen::Vector2d CarTag(double t) { return {1.0 + 0.07077 + 0.2 * t, 2.0}; }
+PlacedTag CarTagAt(double t) {
+  return {"tag36h11", 1, 0.0762, FlatTagPose(CarTag(t).x(), CarTag(t).y(), 0.257, -kPi / 2)};
+}
+
+// Runs the frames of one camera for `seconds`, with a second tag with id 1 at `impostor` while
+// `shown(t)`; the largest position error of nigel_1's rows and the events.
+struct DuplicateRun {
+  int rows = 0;
+  double max_error_m = 0.0;
+  std::optional<double> first_row_s;
+  std::vector<EyeEvent> events;
+};
+DuplicateRun RunWithImpostor(const EyeConfig& config, const camera::Camera& cam, double seconds,
+                             const Eigen::Vector2d& impostor,
+                             const std::function<bool(double)>& shown) {
+  Localizer localizer(config);
+  DuplicateRun run;
+  for (int i = 0; i < static_cast<int>(seconds * 30); ++i) {
+    const double t = i / 30.0;
+    std::vector<PlacedTag> tags{CarTagAt(t)};
+    if (shown(t)) {
+      tags.push_back({"tag36h11", 1, 0.0762, FlatTagPose(impostor.x(), impostor.y(), 0.257, 0.3)});
+    }
+    for (const LocalizedVehicle& car :
+         localizer.LocalizeFrame(0, TimeFromSeconds(t), DrawScene(cam, tags), &run.events)) {
+      ++run.rows;
+      if (!run.first_row_s) run.first_row_s = t;
+      run.max_error_m = std::max(run.max_error_m, (car.estimate.tag_centre_M - CarTag(t)).norm());
+    }
+  }
+  return run;
+}
+
+int Count(const std::vector<EyeEvent>& events, EyeEvent::Kind kind, bool cleared) {
+  return static_cast<int>(std::count_if(events.begin(), events.end(), [&](const EyeEvent& e) {
+    return e.kind == kind && e.cleared == cleared;
+  }));
+}
+
+TEST_F(RegisteredCamerasTest, ASecondTagWithACarsIdNeverStartsOrMovesItsTrackAndIsReported) {
+  const camera::Camera cam = AddCamera("overhead", 2.5);
+  AddCar();
+  const Eigen::Vector2d impostor(3.8, 3.0);  // at the roof's height, 2.9 m from the car
+  // Without the other tag: the reference.
+  const DuplicateRun plain =
+      RunWithImpostor(config_, cam, 8.0, impostor, [](double) { return false; });
+  // With it at the start of the track (the first half second) and mid-track (4.5 s to 6.5 s).
+  const DuplicateRun doubled = RunWithImpostor(
+      config_, cam, 8.0, impostor, [](double t) { return t < 0.5 || (t >= 4.5 && t < 6.5); });
+  std::cout << "[ measured ] without the other tag: " << plain.rows << " rows, largest error "
+            << plain.max_error_m * 1e3 << " mm; with it: " << doubled.rows
+            << " rows, largest error " << doubled.max_error_m * 1e3 << " mm\n";
+  for (const EyeEvent& e : doubled.events) {
+    std::cout << "  " << ToSeconds(e.stamp) << " s " << ToString(e.kind)
+              << (e.cleared ? " (cleared) " : " ") << e.subject << ": " << e.text << "\n";
+  }
+  EXPECT_EQ(plain.rows, 240);
+  EXPECT_LT(plain.max_error_m, 0.002);
+  // Never at the other tag: every row is as close to the car as without it.
+  EXPECT_LT(doubled.max_error_m, plain.max_error_m + 0.0005);
+  // The track did not start while both were seen, nor before the episode ended
+  // (DuplicateCheck::kClearAfter after the last time both were seen).
+  const auto cleared = std::find_if(
+      doubled.events.begin(), doubled.events.end(),
+      [](const EyeEvent& e) { return e.kind == EyeEvent::Kind::kDuplicateTag && e.cleared; });
+  ASSERT_NE(cleared, doubled.events.end());
+  EXPECT_GE(ToSeconds(cleared->stamp), ToSeconds(DuplicateCheck::kClearAfter));
+  ASSERT_TRUE(doubled.first_row_s.has_value());
+  EXPECT_GT(*doubled.first_row_s, ToSeconds(cleared->stamp));
+  // Mid-track the full scans that see both lose the car for that frame only.
+  EXPECT_GT(doubled.rows, 240 - 120 - 10);
+  // Once per episode: raised at the start and mid-track, cleared after the first.
+  EXPECT_EQ(Count(doubled.events, EyeEvent::Kind::kDuplicateTag, false), 2);
+  EXPECT_GE(Count(doubled.events, EyeEvent::Kind::kDuplicateTag, true), 1);
+  EXPECT_EQ(Count(plain.events, EyeEvent::Kind::kDuplicateTag, false), 0);
+  const auto raised =
+      std::find_if(doubled.events.begin(), doubled.events.end(),
+                   [](const EyeEvent& e) { return e.kind == EyeEvent::Kind::kDuplicateTag; });
+  ASSERT_NE(raised, doubled.events.end());
+  EXPECT_EQ(raised->subject, "nigel_1");
+  EXPECT_NE(raised->text.find("2 tags with id 1 in one frame of camera overhead, at ("),
+            std::string::npos)
+      << raised->text;
+  EXPECT_NE(raised->text.find("(3.80, 3.00)"), std::string::npos) << raised->text;
+  EXPECT_NE(raised->text.find("remove or cover the other tag"), std::string::npos);
+  EXPECT_EQ(Count(doubled.events, EyeEvent::Kind::kTagMounting, false), 0);
+}
+
+TEST_F(RegisteredCamerasTest, TwoCamerasSeeingTheIdAtTwoPlacesAtOnceRefuseBothAndTakeBackTheFirst) {
+  // West sees x < 3.4, east x > 1.6: the car (x about 1.1) only in the west, the other tag
+  // (x 4.8) only in the east.
+  const camera::Camera west = AddCamera("west", 1.5);
+  const camera::Camera east = AddCamera("east", 3.5);
+  AddCar();
+  Localizer localizer(config_);
+  std::vector<EyeEvent> events;
+  int conflicts = 0, rows = 0;
+  for (int i = 0; i < 60; ++i) {
+    const double t = i / 30.0;
+    const Time stamp = TimeFromSeconds(t);
+    std::vector<PlacedTag> east_tags;
+    if (i >= 30) east_tags.push_back({"tag36h11", 1, 0.0762, FlatTagPose(4.8, 2.2, 0.257, 0.0)});
+    std::vector<std::size_t> withdrawn;
+    const auto from_west =
+        localizer.LocalizeFrame(0, stamp, DrawScene(west, {CarTagAt(t)}), &events, &withdrawn);
+    EXPECT_TRUE(withdrawn.empty());
+    const auto from_east =
+        localizer.LocalizeFrame(1, stamp, DrawScene(east, east_tags), &events, &withdrawn);
+    EXPECT_TRUE(from_east.empty());  // the other tag is never a pose of the car
+    if (!withdrawn.empty()) {
+      ++conflicts;
+      EXPECT_EQ(withdrawn, std::vector<std::size_t>{0});
+      ASSERT_EQ(from_west.size(), 1u);  // the west's pose of this instant is taken back
+      // The track is where it was before the west's frame: its last update is older.
+      const auto estimates = localizer.Estimates(stamp);
+      ASSERT_EQ(estimates.size(), 1u);
+      EXPECT_GT(estimates[0].estimate.covariance(0, 0), from_west[0].estimate.covariance(0, 0));
+    } else {
+      rows += static_cast<int>(from_west.size());
+    }
+    for (const LocalizedVehicle& car : from_west) {
+      EXPECT_LT((car.estimate.tag_centre_M - CarTag(t)).norm(), 0.003) << t;
+    }
+  }
+  EXPECT_GE(conflicts, 1);  // the east's full scans see the other tag
+  EXPECT_GT(rows, 50);
+  EXPECT_EQ(Count(events, EyeEvent::Kind::kDuplicateTag, false), 1);
+  const auto raised = std::find_if(events.begin(), events.end(), [](const EyeEvent& e) {
+    return e.kind == EyeEvent::Kind::kDuplicateTag;
+  });
+  ASSERT_NE(raised, events.end());
+  EXPECT_NE(raised->text.find("in camera west and at (4.80, 2.20) m in camera east"),
+            std::string::npos)
+      << raised->text;
+  EXPECT_EQ(localizer.counters().duplicate_refusals, 2 * conflicts);
+}
+
+TEST_F(RegisteredCamerasTest, ATagTurnedFromItsConfiguredMountingRaisesTheEventWithTheTurn) {
+  const camera::Camera cam = AddCamera("overhead", 2.5);
+  for (const double configured : {0.0, 90.0}) {
+    config_.vehicles.clear();
+    AddCar(configured);
+    Localizer localizer(config_);
+    std::vector<EyeEvent> events;
+    int rows = 0;
+    for (int i = 0; i < 75; ++i) {
+      const double t = i / 30.0;
+      // Turned 90° on the roof: its top to the car's left, the car drives along its +x.
+      const PlacedTag tag{"tag36h11", 1, 0.0762,
+                          FlatTagPose(CarTag(t).x(), CarTag(t).y(), 0.257, 0.0)};
+      rows += static_cast<int>(
+          localizer.LocalizeFrame(0, TimeFromSeconds(t), DrawScene(cam, {tag}), &events).size());
+    }
+    const auto raised = std::find_if(events.begin(), events.end(), [](const EyeEvent& e) {
+      return e.kind == EyeEvent::Kind::kTagMounting;
+    });
+    if (configured == 90.0) {
+      EXPECT_EQ(raised, events.end()) << raised->text;
+      EXPECT_EQ(rows, 75);
+      continue;
+    }
+    std::cout << "[ measured ] not configured: " << rows << " of 75 frames localised\n";
+    ASSERT_NE(raised, events.end());
+    std::cout << "  " << ToSeconds(raised->stamp) << " s: " << raised->text << "\n";
+    EXPECT_LE(ToSeconds(raised->stamp), 2.0);
+    EXPECT_EQ(raised->subject, "nigel_1");
+    EXPECT_NE(raised->text.find("measurements refused; its tag looks turned 9"), std::string::npos)
+        << raised->text;
+    EXPECT_NE(raised->text.find("° counter-clockwise from the configured mounting (the tag's "
+                                "heading differs from the car's motion by 8"),
+              std::string::npos)
+        << raised->text;
+    EXPECT_NE(raised->text.find("check tag_yaw_deg (about 9"), std::string::npos) << raised->text;
+    EXPECT_EQ(Count(events, EyeEvent::Kind::kTagMounting, false), 1);
+  }
 }
 
 }  // namespace

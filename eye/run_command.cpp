@@ -71,17 +71,19 @@ void AddRun(CLI::App& app) {
         last_report = now;
         const ServiceCounters c = service.counters();
         spdlog::info(
-            "{} frames, {} fleet messages, {} dropped, latency p50 {:.1f} ms p99 {:.1f} ms",
-            c.frames, c.fleet_messages, c.dropped_frames, c.latency_p50_ms, c.latency_p99_ms);
+            "{} frames, {} fleet messages, {} dropped, {} unreadable, latency p50 {:.1f} ms p99 "
+            "{:.1f} ms",
+            c.frames, c.fleet_messages, c.dropped_frames, c.unreadable_frames, c.latency_p50_ms,
+            c.latency_p99_ms);
       }
     }
     service.Stop();
     const ServiceCounters c = service.counters();
     spdlog::info(
-        "stopped: {} frames, {} fleet messages, {} dropped, {} refused; latency p50 "
-        "{:.1f} ms p99 {:.1f} ms",
-        c.frames, c.fleet_messages, c.dropped_frames, c.bad_frames, c.latency_p50_ms,
-        c.latency_p99_ms);
+        "stopped: {} frames, {} fleet messages, {} dropped, {} refused, {} unreadable; latency "
+        "p50 {:.1f} ms p99 {:.1f} ms",
+        c.frames, c.fleet_messages, c.dropped_frames, c.bad_frames, c.unreadable_frames,
+        c.latency_p50_ms, c.latency_p99_ms);
   });
 }
 

@@ -108,9 +108,11 @@ struct EyeService::Impl {
     m.header.stamp = dds::ToMsg(e.stamp);
     dds::BorrowString(m.header.frame_id, "map");
     m.event_id = ++event_id;
-    const bool warning = e.kind == EyeEvent::Kind::kCameraMoved ||
-                         e.kind == EyeEvent::Kind::kCameraLost ||
-                         e.kind == EyeEvent::Kind::kVehicleLost;
+    const bool warning =
+        !e.cleared &&
+        (e.kind == EyeEvent::Kind::kCameraMoved || e.kind == EyeEvent::Kind::kCameraLost ||
+         e.kind == EyeEvent::Kind::kVehicleLost || e.kind == EyeEvent::Kind::kTagMounting ||
+         e.kind == EyeEvent::Kind::kDuplicateTag);
     m.severity = warning ? 2 : 1;  // Event_Constants WARNING, INFO
     dds::BorrowString(m.source, "eye");
     dds::BorrowString(m.code, ToString(e.kind));
@@ -261,6 +263,16 @@ struct EyeService::Impl {
                 due - SteadyClock::now(), std::chrono::milliseconds(50)));
           }
           frame->stamp = start_wall + FromSeconds(static_cast<double>(frame->index) / rate);
+        }
+        if (!frame->unreadable.empty()) {
+          // Counted and skipped; the camera goes on with its next frame.
+          const std::lock_guard lock(counters_mutex);
+          if (counters.unreadable_frames++ % 100 == 0) {
+            spdlog::warn("camera {}: {} skipped: {} ({} unreadable so far)",
+                         localizer.config().cameras[camera].name, frame->name, frame->unreadable,
+                         counters.unreadable_frames);
+          }
+          continue;
         }
         Detect(camera, frame->stamp, frame->image);
       }

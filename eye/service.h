@@ -16,11 +16,12 @@ namespace autodrive::eye {
 
 /// Counters of a running service.
 struct ServiceCounters {
-  std::uint64_t frames = 0;          ///< frames searched, all cameras
-  std::uint64_t fleet_messages = 0;  ///< fleet messages published
-  std::uint64_t dropped_frames = 0;  ///< frames skipped because the camera's last was busy
-  std::uint64_t bad_frames = 0;      ///< frames refused (wrong size or encoding)
-  double latency_p50_ms = 0.0;       ///< exposure stamp to fleet message written, wall clock
+  std::uint64_t frames = 0;             ///< frames searched, all cameras
+  std::uint64_t fleet_messages = 0;     ///< fleet messages published
+  std::uint64_t dropped_frames = 0;     ///< frames skipped because the camera's last was busy
+  std::uint64_t bad_frames = 0;         ///< frames refused (wrong size or encoding)
+  std::uint64_t unreadable_frames = 0;  ///< frames of files or devices that did not decode
+  double latency_p50_ms = 0.0;          ///< exposure stamp to fleet message written, wall clock
   double latency_p99_ms = 0.0;
 };
 

@@ -45,12 +45,24 @@ class ImageFolder final : public FrameSource {
     Frame frame;
     frame.index = static_cast<long long>(next_);
     frame.stamp = TimeFromSeconds(static_cast<double>(next_) / rate_hz_);
-    frame.image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
     frame.name = file.filename().string();
     ++next_;
-    if (frame.image.empty()) throw InputError(file.string() + ": not an image OpenCV can read");
-    if (frame.image.depth() != CV_8U) {
-      throw InputError(file.string() + ": not an 8-bit image");
+    try {
+      frame.image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    } catch (const cv::Exception& e) {
+      frame.unreadable = std::string("OpenCV cannot read it (") + e.what() + ")";
+      return frame;
+    }
+    if (frame.image.empty()) {
+      frame.unreadable = "not an image OpenCV can read (a corrupt or truncated file?)";
+      return frame;
+    }
+    if (frame.image.depth() != CV_8U ||
+        (frame.image.channels() != 1 && frame.image.channels() != 3 &&
+         frame.image.channels() != 4)) {
+      frame.unreadable = "not an 8-bit grey, BGR or BGRA image";
+      frame.image = cv::Mat();
+      return frame;
     }
     if (frame.image.channels() == 4) {
       cv::Mat bgr;
@@ -96,9 +108,40 @@ class Capture final : public FrameSource {
     }
   }
   std::optional<Frame> Next() override {
+    if (pending_) {
+      Frame frame = std::move(*pending_);
+      pending_.reset();
+      return frame;
+    }
     Frame frame;
-    if (!capture_.read(frame.image) || frame.image.empty()) return std::nullopt;
+    if (Read(frame)) return frame;
+    if (live_) return std::nullopt;  // a device or stream that stopped
+    // A file's frame that does not decode, or its end: a frame that decodes after it tells
+    // them apart (it is kept for the next call).
+    Frame bad;
+    bad.index = index_++;
+    bad.stamp = TimeFromSeconds(static_cast<double>(bad.index) / camera_.rate_hz);
+    bad.name = "frame " + std::to_string(bad.index);
+    bad.unreadable = "does not decode";
+    for (int k = 0; k < kMaxFailuresInARow; ++k) {
+      Frame next;
+      if (Read(next)) {
+        pending_ = std::move(next);
+        return bad;
+      }
+    }
+    return std::nullopt;
+  }
+  [[nodiscard]] std::string description() const override { return source_; }
+
+ private:
+  std::string source_;
+  CameraConfig camera_;
+  // Reads the next frame into `frame` (its index, stamp and name too); false when none decodes.
+  bool Read(Frame& frame) {
+    if (!capture_.read(frame.image) || frame.image.empty()) return false;
     frame.index = index_++;
+    frame.name = "frame " + std::to_string(frame.index);
     if (live_) {
       frame.stamp = SystemNow() - FromSeconds(camera_.latency_s);
     } else {
@@ -107,16 +150,14 @@ class Capture final : public FrameSource {
                         ? TimeFromSeconds(ms / 1e3)
                         : TimeFromSeconds(static_cast<double>(frame.index) / camera_.rate_hz);
     }
-    return frame;
+    return true;
   }
-  [[nodiscard]] std::string description() const override { return source_; }
 
- private:
-  std::string source_;
-  CameraConfig camera_;
+  static constexpr int kMaxFailuresInARow = 30;
   cv::VideoCapture capture_;
   bool live_ = false;
   long long index_ = 0;
+  std::optional<Frame> pending_;  // a frame read past an unreadable one
 };
 
 }  // namespace

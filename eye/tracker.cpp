@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 
 #include "common/geometry.h"
 
@@ -12,13 +13,17 @@ namespace {
 
 constexpr double kMaxBackwards_s = 0.2;
 
-// The car's yaw measured by its tag: the tag's top points to the car's front.
-double CarYawOfTag(double tag_yaw_rad) { return std::remainder(tag_yaw_rad + kPi / 2, 2 * kPi); }
-
 }  // namespace
 
 VehicleTrack::VehicleTrack(const VehicleTagConfig& vehicle, const TrackingConfig& config)
-    : vehicle_(vehicle), config_(config) {}
+    : vehicle_(vehicle),
+      config_(config),
+      p_VT_(vehicle.mount.p_VT()),
+      yaw_VT_rad_(vehicle.mount.yaw_VT_rad()) {}
+
+double VehicleTrack::VehicleYawOfTag(double tag_yaw_rad) const {
+  return std::remainder(tag_yaw_rad - yaw_VT_rad_, 2 * kPi);
+}
 
 void VehicleTrack::PredictInPlace(double dt, State& x, Cov& P) const {
   const double th = x(2), v = x(3), w = x(4);
@@ -61,9 +66,10 @@ void VehicleTrack::PredictInPlace(double dt, State& x, Cov& P) const {
 }
 
 void VehicleTrack::Start(Time stamp, const PlanarTagPose& tag) {
-  const double yaw = CarYawOfTag(tag.yaw_rad);
-  const double d = vehicle_.tag_ahead_m;
-  x_ << tag.p_M.x() - d * std::cos(yaw), tag.p_M.y() - d * std::sin(yaw), yaw, 0.0, 0.0;
+  const double yaw = VehicleYawOfTag(tag.yaw_rad);
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  const double a = p_VT_.x(), l = p_VT_.y();
+  x_ << tag.p_M.x() - (c * a - s * l), tag.p_M.y() - (s * a + c * l), yaw, 0.0, 0.0;
   P_.setZero();
   P_.topLeftCorner<3, 3>() = tag.covariance;
   P_(3, 3) = 0.3 * 0.3;  // a Nigel drives at up to 0.26 m/s
@@ -73,8 +79,31 @@ void VehicleTrack::Start(Time stamp, const PlanarTagPose& tag) {
   outliers_in_a_row_ = 0;
 }
 
-TrackUpdate VehicleTrack::Update(Time stamp, const PlanarTagPose& tag) {
+void VehicleTrack::Remember() {
+  before_.started = started_;
+  before_.stamp = stamp_;
+  before_.x = x_;
+  before_.P = P_;
+  before_.outliers_in_a_row = outliers_in_a_row_;
+  before_.outliers_total = outliers_total_;
+  can_undo_ = true;
+}
+
+void VehicleTrack::UndoLastUpdate() {
+  if (!can_undo_) return;
+  started_ = before_.started;
+  stamp_ = before_.stamp;
+  x_ = before_.x;
+  P_ = before_.P;
+  outliers_in_a_row_ = before_.outliers_in_a_row;
+  outliers_total_ = before_.outliers_total;
+  can_undo_ = false;
+}
+
+TrackUpdate VehicleTrack::Update(Time stamp, const PlanarTagPose& tag, bool may_restart) {
+  if (remember_) Remember();
   if (!started_) {
+    if (!may_restart) return TrackUpdate::kHeld;
     Start(stamp, tag);
     return TrackUpdate::kStarted;
   }
@@ -84,23 +113,23 @@ TrackUpdate VehicleTrack::Update(Time stamp, const PlanarTagPose& tag) {
   Cov P = P_;
   PredictInPlace(dt, x, P);
   // Measurement: the tag's centre and the car's yaw.
-  const double d = vehicle_.tag_ahead_m;
+  const double a = p_VT_.x(), l = p_VT_.y();
   const double c = std::cos(x(2)), s = std::sin(x(2));
-  const Eigen::Vector3d h(x(0) + d * c, x(1) + d * s, x(2));
+  const Eigen::Vector3d h(x(0) + c * a - s * l, x(1) + s * a + c * l, x(2));
   Eigen::Matrix<double, 3, 5> H = Eigen::Matrix<double, 3, 5>::Zero();
   H(0, 0) = 1;
-  H(0, 2) = -d * s;
+  H(0, 2) = -s * a - c * l;
   H(1, 1) = 1;
-  H(1, 2) = d * c;
+  H(1, 2) = c * a - s * l;
   H(2, 2) = 1;
   Eigen::Vector3d innovation(tag.p_M.x() - h(0), tag.p_M.y() - h(1),
-                             std::remainder(CarYawOfTag(tag.yaw_rad) - h(2), 2 * kPi));
+                             std::remainder(VehicleYawOfTag(tag.yaw_rad) - h(2), 2 * kPi));
   const Eigen::Matrix3d S = H * P * H.transpose() + tag.covariance;
   const Eigen::LDLT<Eigen::Matrix3d> S_ldlt(S);
   const double d2 = innovation.dot(S_ldlt.solve(innovation));
   if (!(d2 <= config_.gate_chi2)) {
     ++outliers_total_;
-    if (++outliers_in_a_row_ >= config_.restart_after_outliers) {
+    if (++outliers_in_a_row_ >= config_.restart_after_outliers && may_restart) {
       Start(stamp, tag);
       return TrackUpdate::kRestarted;
     }
@@ -141,8 +170,7 @@ VehicleEstimate VehicleTrack::Predict(Time stamp) const {
   e.speed_mps = x(3);
   e.yaw_rate_radps = x(4);
   e.covariance = P;
-  e.tag_centre_M =
-      x.head<2>() + vehicle_.tag_ahead_m * Eigen::Vector2d(std::cos(x(2)), std::sin(x(2)));
+  e.tag_centre_M = x.head<2>() + Eigen::Rotation2Dd(x(2)) * p_VT_;
   return e;
 }
 

@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <random>
+
+#include <Eigen/Geometry>
 
 namespace autodrive::eye {
 namespace {
@@ -25,7 +28,8 @@ TEST(VehicleTrack, FilteringBeatsTheRawMeasurementsOnACurve) {
     // The rear axle on the circle; the heading is its tangent.
     const Eigen::Vector2d p(0.8 * std::sin(th), 0.8 * (1 - std::cos(th)));
     const double yaw = th;
-    const Eigen::Vector2d tag = p + car.tag_ahead_m * Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
+    const Eigen::Vector2d tag =
+        p + car.mount.ahead_m * Eigen::Vector2d(std::cos(yaw), std::sin(yaw));
     PlanarTagPose m;
     m.p_M = tag + Eigen::Vector2d(np(rng), np(rng));
     m.yaw_rad = yaw - kPi / 2 + ny(rng);
@@ -100,6 +104,70 @@ TEST(VehicleTrack, APredictionCarriesThroughMissedFramesAndTheTrackIsLostAfterIt
   EXPECT_EQ(track.Update(TimeFromSeconds(3.0 - 0.05), At(0.5 + 0.2 * 2.95, 1.0, 0.0)),
             TrackUpdate::kUpdated);
   EXPECT_EQ(track.Update(TimeFromSeconds(2.0), At(0.9, 1.0, 0.0)), TrackUpdate::kTooOld);
+}
+
+// A tag turned and moved on the roof, configured so: the filter follows the rear axle on a
+// curve as with the default mounting, without outliers; configured the default way instead, it
+// refuses most measurements.
+TEST(VehicleTrack, ATagTurnedAndMovedOnTheRoofIsFollowedThroughItsMounting) {
+  VehicleTagConfig car;
+  car.name = "nigel_1";
+  car.mount = {90.0, 0.05, 0.02};
+  VehicleTagConfig unconfigured = car;
+  unconfigured.mount = {};
+  VehicleTrack track(car, TrackingConfig{});
+  VehicleTrack wrong(unconfigured, TrackingConfig{});
+  int outliers = 0, wrong_refused = 0;
+  double max_error = 0, max_yaw_error = 0;
+  for (int i = 0; i < 300; ++i) {
+    const double t = i / 30.0, w = 0.2 / 0.8, th = w * t;
+    const Eigen::Vector2d p(0.8 * std::sin(th), 0.8 * (1 - std::cos(th)));
+    PlanarTagPose m;
+    m.p_M = p + Eigen::Rotation2Dd(th) * car.mount.p_VT();
+    m.yaw_rad = car.mount.TagYaw(th);
+    m.covariance = Eigen::Vector3d(4e-6, 4e-6, 1e-4).asDiagonal();
+    outliers += track.Update(TimeFromSeconds(t), m) == TrackUpdate::kOutlier ? 1 : 0;
+    const TrackUpdate w_result = wrong.Update(TimeFromSeconds(t), m);
+    wrong_refused +=
+        w_result == TrackUpdate::kOutlier || w_result == TrackUpdate::kRestarted ? 1 : 0;
+    if (i < 30) continue;
+    const VehicleEstimate e = track.Last();
+    max_error = std::max(max_error, (e.pose.head<2>() - p).norm());
+    max_error = std::max(max_error, (e.tag_centre_M - m.p_M).norm());
+    max_yaw_error = std::max(max_yaw_error, std::abs(std::remainder(e.pose.z() - th, 2 * kPi)));
+  }
+  EXPECT_EQ(outliers, 0);
+  EXPECT_LT(max_error, 0.002);
+  EXPECT_LT(max_yaw_error, 0.5 * kPi / 180);
+  EXPECT_GT(wrong_refused, 200);
+}
+
+TEST(VehicleTrack, AnUpdateCanBeTakenBackOnce) {
+  VehicleTagConfig car;
+  car.name = "nigel_1";
+  VehicleTrack track(car, TrackingConfig{});
+  track.set_undoable(true);
+  for (int i = 0; i < 10; ++i)
+    track.Update(TimeFromSeconds(i / 30.0), At(1.0 + 0.2 * i / 30.0, 1.0, 0.0));
+  const VehicleEstimate before = track.Last();
+  EXPECT_EQ(track.Update(TimeFromSeconds(10 / 30.0), At(1.0 + 0.2 * 10 / 30.0, 1.0, 0.0)),
+            TrackUpdate::kUpdated);
+  EXPECT_NE(track.last_update(), before.stamp);
+  track.UndoLastUpdate();
+  EXPECT_EQ(track.last_update(), before.stamp);
+  EXPECT_EQ(track.Last().pose, before.pose);
+  EXPECT_EQ(track.Last().covariance, before.covariance);
+  track.UndoLastUpdate();  // once only
+  EXPECT_EQ(track.last_update(), before.stamp);
+  // The first measurement, taken back: the track has not started.
+  VehicleTrack fresh(car, TrackingConfig{});
+  fresh.set_undoable(true);
+  EXPECT_EQ(fresh.Update(TimeFromSeconds(0), At(1.0, 1.0, 0.0)), TrackUpdate::kStarted);
+  fresh.UndoLastUpdate();
+  EXPECT_FALSE(fresh.started());
+  // Held: a track not allowed to start does not.
+  EXPECT_EQ(fresh.Update(TimeFromSeconds(0.1), At(1.0, 1.0, 0.0), false), TrackUpdate::kHeld);
+  EXPECT_FALSE(fresh.started());
 }
 
 }  // namespace

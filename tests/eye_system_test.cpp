@@ -19,6 +19,7 @@
 #include "common/camera/camera_model.h"
 #include "common/geometry.h"
 #include "common/test_support.h"
+#include "eye/testing/data_set.h"
 #include "tests/scm_processes.h"
 
 namespace autodrive::test {
@@ -37,60 +38,9 @@ struct Sequence {
   double duration_s = 10.0;
 };
 
-// The ground truth of one car in one frame.
-struct Truth {
-  double x = 0, y = 0, yaw = 0;
-};
-
-using Key = std::pair<int, std::string>;  // frame, vehicle
-
-std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& path,
-                                              const std::string& header) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  EXPECT_EQ(line, header) << path;
-  std::vector<std::vector<std::string>> rows;
-  while (std::getline(in, line)) {
-    std::vector<std::string> f;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
-    rows.push_back(f);
-  }
-  return rows;
-}
-
-camera::Camera LoadCamera(const std::filesystem::path& set) {
-  const camera::Intrinsics k = camera::LoadOpenCvCalibration(set / "camera.yaml");
-  const YAML::Node pose = YAML::LoadFile((set / "camera_pose.yaml").string());
-  Eigen::Matrix4d X = Eigen::Matrix4d::Zero();
-  for (std::size_t r = 0; r < 4; ++r) {
-    for (std::size_t c = 0; c < 4; ++c) {
-      X(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) =
-          pose["X_parent_optical"][r][c].as<double>();
-    }
-  }
-  return {"c", "c", "map", camera::CameraModel(k), Eigen::Isometry3d(X)};
-}
-
-// Fully visible: the corners of the car's tag plate (its white border included), at the roof,
-// at least 5 px inside the image.
-bool FullyVisible(const camera::Camera& cam, const Truth& t) {
-  const double half = 0.0762 * 10 / 8 / 2;  // tag36h11: 10 bits across, 8 inside the border
-  const double tag_yaw = t.yaw - kPi / 2;
-  for (int k = 0; k < 4; ++k) {
-    const double sx = (k & 1) ? half : -half, sy = (k & 2) ? half : -half;
-    const Eigen::Vector3d p(t.x + std::cos(tag_yaw) * sx - std::sin(tag_yaw) * sy,
-                            t.y + std::sin(tag_yaw) * sx + std::cos(tag_yaw) * sy, 0.257);
-    const auto px = cam.ProjectFromParent(p);
-    const auto& in = cam.model.intrinsics();
-    if (!px || px->x() < 5 || px->y() < 5 || px->x() > in.width_px - 6 ||
-        px->y() > in.height_px - 6) {
-      return false;
-    }
-  }
-  return true;
-}
+using eye::testing::LoadDataSetCamera;
+using eye::testing::RowKey;
+using eye::testing::RowPose;
 
 class EyeEndToEnd : public ::testing::Test {
  protected:
@@ -162,7 +112,7 @@ class EyeEndToEnd : public ::testing::Test {
         {Bin("autodrive-eye"), "register", "--config", city, "--out-dir", dir_.string()});
     ASSERT_EQ(reg.code, 0) << reg.text;
     for (const SequenceCamera& c : s.cameras) {
-      const camera::Camera truth = LoadCamera(dir_ / c.name);
+      const camera::Camera truth = LoadDataSetCamera(dir_ / c.name);
       const YAML::Node pose = YAML::LoadFile((dir_ / (c.name + "_pose.yaml")).string());
       Eigen::Matrix4d X = Eigen::Matrix4d::Zero();
       for (std::size_t r = 0; r < 4; ++r) {
@@ -188,52 +138,28 @@ class EyeEndToEnd : public ::testing::Test {
     std::cout << eye.text;
 
     // The truth (the same in every camera's set: one simulation, the same seed).
-    std::map<Key, Truth> truth;
-    for (const auto& f : ReadCsv(dir_ / s.cameras[0].name / "ground_truth.csv",
-                                 "frame,stamp_s,vehicle,tag_id,x_m,y_m,yaw_rad")) {
-      ASSERT_EQ(f.size(), 7u);
-      truth[{std::stoi(f[0]), f[2]}] = {std::stod(f[4]), std::stod(f[5]), std::stod(f[6])};
-    }
+    const std::map<RowKey, RowPose> truth = eye::testing::ReadGroundTruth(dir_ / s.cameras[0].name);
+    ASSERT_FALSE(truth.empty());
     std::vector<camera::Camera> cams;
-    for (const SequenceCamera& c : s.cameras) cams.push_back(LoadCamera(dir_ / c.name));
-    std::map<Key, Truth> estimate;
-    int shared = 0;  // rows from two cameras at once
-    for (const auto& f : ReadCsv(poses, "frame,stamp_s,vehicle,tag_id,x_m,y_m,yaw_rad,camera")) {
+    for (const SequenceCamera& c : s.cameras) cams.push_back(LoadDataSetCamera(dir_ / c.name));
+    std::map<RowKey, std::string> seen_by;
+    const std::map<RowKey, RowPose> estimate = eye::testing::ReadLocalizedPoses(poses, &seen_by);
+    for (const auto& f :
+         eye::testing::ReadCsv(poses, "frame,stamp_s,vehicle,tag_id,x_m,y_m,yaw_rad,camera")) {
       ASSERT_EQ(f.size(), 8u);
       EXPECT_EQ(f[2], "nigel_" + f[3]);
-      estimate[{std::stoi(f[0]), f[2]}] = {std::stod(f[4]), std::stod(f[5]), std::stod(f[6])};
-      if (f[7].find('+') != std::string::npos) ++shared;
     }
-    double sum_p2 = 0, sum_y2 = 0, max_p = 0, max_y = 0;
-    int compared = 0, false_rows = 0;
-    std::map<std::string, std::pair<int, int>> visible;  // localised, fully visible
-    for (const auto& [key, t] : truth) {
-      bool full = false;
-      for (const auto& cam : cams) full = full || FullyVisible(cam, t);
-      const auto it = estimate.find(key);
-      if (full) {
-        auto& [found, total] = visible[key.second];
-        ++total;
-        if (it != estimate.end()) ++found;
-      }
-      if (it == estimate.end()) continue;
-      const double dp = std::hypot(it->second.x - t.x, it->second.y - t.y);
-      const double dy = std::abs(std::remainder(it->second.yaw - t.yaw, 2 * kPi));
-      sum_p2 += dp * dp;
-      sum_y2 += dy * dy;
-      max_p = std::max(max_p, dp);
-      max_y = std::max(max_y, dy);
-      ++compared;
-    }
-    for (const auto& [key, e] : estimate) false_rows += truth.contains(key) ? 0 : 1;
-    ASSERT_GT(compared, 0);
-    const double rms_p = std::sqrt(sum_p2 / compared), rms_y = std::sqrt(sum_y2 / compared);
+    int shared = 0;  // rows from two cameras at once
+    for (const auto& [key, cameras] : seen_by) shared += cameras.find('+') != std::string::npos;
+    const eye::testing::Comparison c = eye::testing::CompareWithTruth(truth, estimate, cams);
+    ASSERT_GT(c.compared, 0);
     std::cout << fmt::format(
         "[ measured ] {}: {} poses; position RMS {:.2f} mm (max {:.2f}), heading RMS {:.3f} deg "
         "(max {:.3f})\n",
-        s.name, compared, rms_p * 1e3, max_p * 1e3, rms_y * 180 / kPi, max_y * 180 / kPi);
+        s.name, c.compared, c.rms_position_m * 1e3, c.max_position_m * 1e3,
+        c.rms_heading_rad * 180 / kPi, c.max_heading_rad * 180 / kPi);
     int cars = 0;
-    for (const auto& [car, counts] : visible) {
+    for (const auto& [car, counts] : c.localised_of_visible) {
       const auto [found, total] = counts;
       const double share = static_cast<double>(found) / total;
       std::cout << fmt::format(
@@ -249,9 +175,9 @@ class EyeEndToEnd : public ::testing::Test {
       EXPECT_GT(shared, 0) << "no car crossed the cameras' overlap";
     }
     EXPECT_GE(cars, 3) << "the sequence should show at least three cars fully";
-    EXPECT_EQ(false_rows, 0);
-    EXPECT_LE(rms_p, 0.002);
-    EXPECT_LE(rms_y, 0.3 * kPi / 180);
+    EXPECT_EQ(c.false_rows, 0);
+    EXPECT_LE(c.rms_position_m, 0.002);
+    EXPECT_LE(c.rms_heading_rad, 0.3 * kPi / 180);
   }
 
   std::filesystem::path dir_;

@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 
 #include "common/camera/camera_model.h"
+#include "common/camera/roof_tag.h"
 #include "common/config.h"
 #include "common/geometry.h"
 
@@ -71,14 +72,15 @@ struct GroundTag {
 };
 
 /// How a vehicle looks: its colour and its roof tag. The tag lies flat on the roof plate at
-/// `tag_height_m` above the ground (the top of the car), centred over the vehicle's body,
-/// upright seen from above with its top towards the vehicle's front: the tag frame's y is the
-/// vehicle's x (forward) and its x the vehicle's -y (right), so the vehicle's yaw is the tag's
-/// yaw plus 90°.
+/// `tag_height_m` above the ground (the top of the car), placed and turned on the roof as
+/// `tag_mount` says (common/camera/roof_tag.h): by default centred over the vehicle's body,
+/// upright seen from above with its top towards the vehicle's front (the tag frame's y is the
+/// vehicle's x and its x the vehicle's -y, so the vehicle's yaw is the tag's yaw plus 90°).
 struct VehicleLook {
   Rgb colour{200, 30, 30};
   std::optional<TagSpec> tag;
   double tag_height_m = 0.257;
+  camera::RoofTagMount tag_mount;
 
   bool operator==(const VehicleLook&) const = default;
 };
@@ -225,12 +227,19 @@ struct OverheadCameraConfig {
 
 /// How a car looks to the cameras: its body colour (by default a colour per car, in order:
 /// red, blue, yellow, green, ...) and its roof tag (by default tag36h11, 76.2 mm, id n for
-/// `nigel_<n>`; `roof_tag: false` for none) at `tag_height_m` (default: the body's height).
+/// `nigel_<n>`; `roof_tag: false` for none) at `tag_height_m` (default: the body's height),
+/// mounted as `tag_yaw_deg`, `tag_ahead_m` and `tag_left_m` say (common/camera/roof_tag.h;
+/// defaults: upright, its top to the front, over the middle of the body). In a city file whose
+/// `eye` section lists the car, the mounting is the Eye's entry's (`LoadSimCity`) and these
+/// three keys are refused here: one declaration serves the simulator and the Eye.
 struct VehicleLookConfig {
   std::optional<Rgb> colour;
   bool roof_tag = true;
   std::optional<TagSpec> tag;
   std::optional<double> tag_height_m;
+  std::optional<double> tag_yaw_deg;
+  std::optional<double> tag_ahead_m;  ///< default: `body_centre_ahead_of_rear_axle_m`
+  std::optional<double> tag_left_m;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -238,6 +247,13 @@ struct VehicleLookConfig {
     a.Optional("roof_tag", roof_tag);
     a.Optional("tag", tag);
     a.Optional("tag_height_m", tag_height_m, config::Range{0.0, 10.0});
+    a.Optional("tag_yaw_deg", tag_yaw_deg, camera::RoofTagMount::kYawRangeDeg);
+    a.Optional("tag_ahead_m", tag_ahead_m, camera::RoofTagMount::kOffsetRangeM);
+    a.Optional("tag_left_m", tag_left_m, camera::RoofTagMount::kOffsetRangeM);
+  }
+  /// Whether any of the mounting's keys is given.
+  [[nodiscard]] bool mounts_tag() const {
+    return tag_yaw_deg.has_value() || tag_ahead_m.has_value() || tag_left_m.has_value();
   }
   bool operator==(const VehicleLookConfig&) const = default;
 };

@@ -9,12 +9,14 @@
 /// - `frame_000000.png`, ...: the frames, rgb, in order (frame j at the first physics step at or
 ///   after j / rate);
 /// - `ground_truth.csv`: `frame,stamp_s,vehicle,tag_id,x_m,y_m,yaw_rad`, one row per car per
-///   frame. (x_m, y_m) is the centre of the car's roof tag in the map frame (over the middle of
-///   its body, `body_centre_ahead_of_rear_axle_m` ahead of the rear axle's middle; the tag lies
-///   at `tag_height_m`); yaw_rad is the car's heading, the angle from the map's x axis to the
-///   car's forward axis, counter-clockwise, in (-pi, pi]. The tag's own x axis (the bitmap's
-///   right edge) points to the car's right, so the tag's yaw is yaw_rad - pi/2. tag_id is
-///   empty for a car without a tag. stamp_s is simulated seconds since the start;
+///   frame. (x_m, y_m) is the centre of the car's roof tag in the map frame (where its mounting
+///   puts it: by default over the middle of its body, `body_centre_ahead_of_rear_axle_m` ahead
+///   of the rear axle's middle; the tag lies at `tag_height_m`); yaw_rad is the car's heading,
+///   the angle from the map's x axis to the car's forward axis, counter-clockwise, in
+///   (-pi, pi], however the tag is turned on the roof. With the default mounting the tag's own
+///   x axis (the bitmap's right edge) points to the car's right, so the tag's yaw is
+///   yaw_rad - pi/2 (in general `RoofTagMount::TagYaw(yaw_rad)`). tag_id is empty for a car
+///   without a tag. stamp_s is simulated seconds since the start;
 /// - `camera.yaml`: the camera's intrinsics in OpenCV's FileStorage layout
 ///   (`camera::SaveOpenCvCalibration`);
 /// - `camera_pose.yaml`: where the camera is: `parent_frame` (`map`, or the car's name for an

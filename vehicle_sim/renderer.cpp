@@ -46,12 +46,12 @@ std::array<Eigen::Vector3d, 4> TagCorners(double size_m) {
 }
 
 Eigen::Isometry3d VehicleTagPose(const RenderVehicle& vehicle) {
-  const VehicleParams& p = *vehicle.params;
+  // The mounting's planar pose of the tag in the car, at the tag's height.
+  const RigidTransform2 X_VT2 = vehicle.look.tag_mount.X_VT();
   Eigen::Isometry3d X_VT = Eigen::Isometry3d::Identity();
   X_VT.translation() =
-      Eigen::Vector3d(p.body_centre_ahead_of_rear_axle_m, 0.0, vehicle.look.tag_height_m);
-  // The tag's y (its top) along the vehicle's x.
-  X_VT.linear() = Eigen::AngleAxisd(-kPi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      Eigen::Vector3d(X_VT2.translation().x(), X_VT2.translation().y(), vehicle.look.tag_height_m);
+  X_VT.linear() = Eigen::AngleAxisd(X_VT2.yaw(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   return vehicle.X_MV * X_VT;
 }
 

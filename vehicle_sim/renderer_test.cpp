@@ -186,8 +186,7 @@ struct GeometryResult {
 };
 
 GeometryResult CheckTags(const camera::Camera& cam, const FilmOptions& film,
-                         const std::string& name) {
-  const auto cars = Cars();
+                         const std::string& name, const std::vector<RenderVehicle>& cars = Cars()) {
   CameraRenderer renderer(SchoolWorld(), cam.model.intrinsics(), film);
   Image image;
   FrameState frame;
@@ -241,6 +240,32 @@ TEST(Renderer, OverheadTilted20DegreesTagsAreDetectedWithinHalfAPixel) {
   EXPECT_LT(r.rms_px, 0.5) << "max " << r.max_px;
   std::cout << "tilted: " << r.found << "/" << r.expected << " tags, corner RMS " << r.rms_px
             << " px, max " << r.max_px << " px\n";
+}
+
+// Roof tags turned and moved on the roof (docs/eye.md, "The roof tag's mounting"): AprilTag
+// reports each tag's corners in the order of the tag's own frame, so a tag drawn turned the
+// wrong way round would put every corner a quarter turn or more from where VehicleTagPose
+// says.
+TEST(Renderer, RoofTagsAreDrawnTurnedAndPlacedAsTheirMountingSays) {
+  auto cars = Cars();
+  const std::array<camera::RoofTagMount, 4> mounts{
+      camera::RoofTagMount{90.0, 0.07077, 0.0}, camera::RoofTagMount{180.0, 0.05, 0.02},
+      camera::RoofTagMount{270.0, 0.09, -0.015}, camera::RoofTagMount{30.0, 0.07077, 0.0}};
+  for (std::size_t i = 0; i < cars.size(); ++i) cars[i].look.tag_mount = mounts[i];
+  // The mounting as the car's yaw would have it: the tag's yaw is the car's + tag_yaw_deg - 90°.
+  for (std::size_t i = 0; i < cars.size(); ++i) {
+    const Eigen::Isometry3d X_MT = VehicleTagPose(cars[i]);
+    const double car_yaw = std::atan2(cars[i].X_MV.linear()(1, 0), cars[i].X_MV.linear()(0, 0));
+    const double tag_yaw = std::atan2(X_MT.linear()(1, 0), X_MT.linear()(0, 0));
+    EXPECT_NEAR(WrapAngle(tag_yaw - mounts[i].TagYaw(car_yaw)), 0.0, 1e-9) << i;
+    const Eigen::Vector3d p_VT = cars[i].X_MV.inverse() * X_MT.translation();
+    EXPECT_TRUE(p_VT.isApprox(Eigen::Vector3d(mounts[i].ahead_m, mounts[i].left_m, 0.257), 1e-9))
+        << p_VT.transpose();
+  }
+  const GeometryResult r = CheckTags(Overhead(0.0), {}, "overhead_turned_tags.png", cars);
+  EXPECT_EQ(r.expected, 8);
+  EXPECT_EQ(r.found, r.expected);
+  EXPECT_LT(r.rms_px, 0.5) << "max " << r.max_px;
 }
 
 TEST(Renderer, WithNoiseBlurExposureAndMotionBlurEveryVisibleTagIsStillDetected) {

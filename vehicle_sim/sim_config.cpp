@@ -7,6 +7,7 @@
 #include <set>
 #include <utility>
 
+#include "common/camera/roof_tag.h"
 #include "common/error.h"
 #include "common/ids.h"
 #include "maps/map.h"
@@ -101,8 +102,41 @@ VehicleLook EffectiveLook(const SimConfig& sim, std::size_t i) {
     look.tag = v.look.tag.value_or(tag);
   }
   look.tag_height_m = v.look.tag_height_m.value_or(v.params.body_height_m);
+  look.tag_mount.yaw_deg = v.look.tag_yaw_deg.value_or(0.0);
+  look.tag_mount.ahead_m = v.look.tag_ahead_m.value_or(v.params.body_centre_ahead_of_rear_axle_m);
+  look.tag_mount.left_m = v.look.tag_left_m.value_or(0.0);
   return look;
 }
+
+namespace {
+
+// The cars' roof tag mountings from the city's `eye` section (one declaration for the Eye and
+// the simulator): each car the Eye lists gets its entry's mounting; a car that also gives one
+// in its `look` is refused.
+void TakeEyeMountings(const std::string& path, const YAML::Node& root, SimConfig& sim) {
+  const std::vector<camera::DeclaredRoofTagMount> declared = camera::LoadCityRoofTagMounts(path);
+  for (std::size_t i = 0; i < sim.vehicles.size(); ++i) {
+    VehicleLookConfig& look = sim.vehicles[i].look;
+    for (const camera::DeclaredRoofTagMount& d : declared) {
+      if (d.vehicle != sim.vehicles[i].name) continue;
+      if (look.mounts_tag()) {
+        const YAML::Node node = root["sim"]["vehicles"][i]["look"];
+        throw ConfigError(path + ":" + std::to_string(node.Mark().line + 1) + ": sim.vehicles[" +
+                          std::to_string(i) + "].look: " + d.vehicle +
+                          "'s roof tag mounting (tag_yaw_deg, tag_ahead_m, tag_left_m) is "
+                          "declared by the Eye's entry too (" +
+                          d.where +
+                          "); declare it once, there: the simulator draws the tag where the Eye "
+                          "expects it");
+      }
+      look.tag_yaw_deg = d.mount.yaw_deg;
+      look.tag_ahead_m = d.mount.ahead_m;
+      look.tag_left_m = d.mount.left_m;
+    }
+  }
+}
+
+}  // namespace
 
 SimCity LoadSimCity(const std::string& path) {
   YAML::Node root;
@@ -128,6 +162,7 @@ SimCity LoadSimCity(const std::string& path) {
   if (map.is_relative()) map = std::filesystem::path(path).parent_path() / map;
   city.map_path = map.lexically_normal().string();
   if (root["sim"]) city.sim = config::LoadFile<SimConfig>(path, "sim");
+  TakeEyeMountings(path, root, city.sim);
   const auto resolve = [&](LensConfig& lens) {
     if (!lens.calibration) return;
     std::filesystem::path file = *lens.calibration;

@@ -234,9 +234,12 @@ struct SimCity {
   std::string map_path;  ///< resolved against the city file's folder
   SimConfig sim;
 };
-/// Reads `name`, `map` and `sim` of the city file at `path`; other sections belong to other
-/// programs and are not read. Relative paths (the map, lens calibration files) are resolved
-/// against the city file's folder. @throws ConfigError naming the file, line and key.
+/// Reads `name`, `map` and `sim` of the city file at `path`, and of its `eye` section the cars'
+/// roof tag mountings (`camera::LoadCityRoofTagMounts`): a car the Eye lists gets the Eye's
+/// mounting in its `look` (its own `look` may not give one: one declaration for both); other
+/// sections belong to other programs and are not read. Relative paths (the map, lens
+/// calibration files) are resolved against the city file's folder.
+/// @throws ConfigError naming the file, line and key.
 [[nodiscard]] SimCity LoadSimCity(const std::string& path);
 
 /// Every car's starting pose on `map`: its spawn, or when it has none, the middle of a lane no
