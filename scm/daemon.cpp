@@ -141,6 +141,7 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   const MapResolution resolution{std::filesystem::absolute(options.config_path).parent_path(),
                                  root};
   persistence = std::make_unique<Persistence>(Store(options.db_path), [this] { waitset.Wake(); });
+  event_seq = static_cast<std::uint64_t>(persistence->store().LastEventId());
   signal_writers = std::make_unique<SignalCommandWriters>(participant);
   loader = std::make_unique<ConfigLoader>(participant, *signal_writers, persistence->store(),
                                           resolution, [this] { waitset.Wake(); });
@@ -232,6 +233,8 @@ void Scm::Impl::Install(std::unique_ptr<CityBundle> next, const ClockReading& no
 
 void Scm::Impl::Emit(Event e) {
   const Time now = current.wire;
+  // Its id is its row in the event log: the same live and in the log, and never used twice,
+  // also across restarts (the count goes on from the log's last id).
   const std::uint64_t id = ++event_seq;
   ++counters.events;
   const auto level = e.severity >= Severity::kAlarm     ? spdlog::level::err
@@ -241,6 +244,7 @@ void Scm::Impl::Emit(Event e) {
               e.actor == "scm" ? "" : fmt::format(" (by {})", e.actor));
   publishers->PublishEvent(e, now, id);
   EventRecord record;
+  record.id = static_cast<std::int64_t>(id);
   record.time = now;
   record.severity = e.severity;
   record.source = "scm";

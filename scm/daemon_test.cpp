@@ -18,6 +18,7 @@
 #include <new>
 #include <set>
 
+#include "autodrive_msgs/msg/Event.h"
 #include "autodrive_msgs/msg/SignalGroupState.h"
 #include "autodrive_msgs/msg/TrafficObject.h"
 
@@ -28,6 +29,7 @@
 #include "common/dds/writer.h"
 #include "common/test_support.h"
 #include "scm/benchmarks/bench_support.h"
+#include "scm/store/store.h"
 
 // Counts the C++ allocations of this process while `g_count_allocations` is set.
 namespace {
@@ -451,6 +453,34 @@ TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {
   EXPECT_EQ(v.source, autodrive_msgs_msg_TrackedVehicle_Constants_IPS);
   EXPECT_EQ(dds::View(v.map_lane_id), lane.name) << "a car that never moved has its lane";
   EXPECT_EQ(v.intersection_id, map.intersections[0].id.value());
+}
+
+TEST_F(DaemonTest, AnEventsIdIsItsRowInTheLogAndTheCountGoesOnAfterARestart) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  const std::filesystem::path city = DrivingSchoolWithoutLights();
+  dds::Reader<msg::Event> live(*participant_, dds::topics::Events().name,
+                               dds::Qos::LatchedState(100));
+  // The live ids of the events called `code`, in the order they came.
+  std::vector<std::uint64_t> started;
+  const auto take = [&] {
+    for (auto& m : live.TakeAll()) {
+      if (dds::View(m->code) == "scm_started") started.push_back(m->event_id);
+    }
+  };
+  for (int run = 0; run < 2; ++run) {
+    Scm scm(Options(city), clock, *participant_);  // the second one after the first has gone
+    scm.Pass();
+    scm.FlushPersistence();
+    take();
+  }
+  ASSERT_EQ(started.size(), 2u);
+  EXPECT_GT(started[1], started[0]) << "a restarted SCM does not number its events from 1 again";
+  std::vector<std::uint64_t> logged;
+  for (const EventRecord& e : Store(Options(city).db_path).Events({})) {
+    if (e.code == "scm_started") logged.push_back(static_cast<std::uint64_t>(e.id));
+  }
+  EXPECT_EQ(logged, started) << "the same ids live and in the log";
 }
 
 TEST_F(DaemonTest, RequestsWaitingWhenSpatIsDueAreAnsweredFirstButOnlyAFew) {

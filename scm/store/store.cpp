@@ -200,6 +200,7 @@ struct Store::Impl {
 
   Statement begin, commit;
   Statement insert_event, count_events, select_events_oldest, select_events_newest;
+  Statement last_event_id;
   Statement insert_config, latest_config, config_by_id, config_history;
   Statement prune_events_before, prune_events_keep, prune_configs, count_configs;
   Statement upsert_state, select_states;
@@ -321,9 +322,10 @@ struct Store::Impl {
     begin = Statement(db, "BEGIN IMMEDIATE");
     commit = Statement(db, "COMMIT");
     insert_event = Statement(db,
-                             "INSERT INTO events (time_ns, severity, source, code, message, "
+                             "INSERT INTO events (id, time_ns, severity, source, code, message, "
                              "intersection_id, device_id, actor, active) "
-                             "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+                             "VALUES (?10, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+    last_event_id = Statement(db, "SELECT seq FROM sqlite_sequence WHERE name = 'events'");
     count_events = Statement(db, "SELECT count(*) FROM events");
     const std::string select = std::string("SELECT ") + kEventColumns +
                                " FROM events WHERE time_ns >= ?1 AND id > ?2 ORDER BY id ";
@@ -422,6 +424,11 @@ std::int64_t Store::AppendEvents(const std::vector<EventRecord>& events) {
           .Bind(7, e.device_id)
           .Bind(8, e.actor)
           .Bind(9, std::int64_t{e.active ? 1 : 0});
+      if (e.id > 0) {
+        use.Bind(10, e.id);
+      } else {
+        use.BindNull(10);  // the next id
+      }
       use.Run();
     }
     return static_cast<std::int64_t>(sqlite3_last_insert_rowid(impl_->db));
@@ -474,6 +481,12 @@ std::vector<EventRecord> Store::Events(const EventQuery& query) const {
     out.push_back(std::move(e));
   }
   return out;
+}
+
+std::int64_t Store::LastEventId() const {
+  std::lock_guard lock(impl_->mutex);
+  Use use(impl_->db, impl_->last_event_id);
+  return use.Step() ? use.Int(0) : 0;
 }
 
 std::int64_t Store::EventCount() const {

@@ -134,9 +134,13 @@ class Store {
 
   // ---- Event log --------------------------------------------------------------------------
 
-  /// Appends `event` (its `id` is ignored) and returns its row id: 1 for the first event of
-  /// the database, then one more each time (ids are never reused).
-  /// @throws StoreError when the write fails; nothing is written then.
+  /// Appends `event` and returns its row id. With `event.id` 0 the id is the next one: 1 for
+  /// the first event of the database, then one more each time; with `event.id` set (the SCM
+  /// numbers its events as it raises them, from `LastEventId`, so that an event has the same
+  /// id live and in the log) that id, which must be above every id used so far. Ids are never
+  /// reused.
+  /// @throws StoreError when the write fails (an id already used included); nothing is written
+  ///   then.
   std::int64_t AppendEvent(const EventRecord& event);
 
   /// Appends `events` in one transaction (the writer thread's batches) and returns the row id
@@ -156,6 +160,10 @@ class Store {
 
   /// The number of events in the log.
   [[nodiscard]] std::int64_t EventCount() const;
+
+  /// The largest event id ever used (pruned events included), 0 for a new database: the SCM
+  /// numbers its events from the next one.
+  [[nodiscard]] std::int64_t LastEventId() const;
 
   // ---- Applied configuration --------------------------------------------------------------
 

@@ -90,14 +90,38 @@ TEST_F(StoreTest, AppendReturnsConsecutiveIdsAndRoundTripsEveryField) {
   std::vector<EventRecord> written;
   for (int i = 0; i < 10; ++i) {
     EventRecord e = MakeEvent(i);
-    e.id = 999;  // ignored
-    const std::int64_t id = store.AppendEvent(e);
+    const std::int64_t id = store.AppendEvent(e);  // id 0: the next one
     EXPECT_EQ(id, i + 1);
     e.id = id;
     written.push_back(e);
   }
   EXPECT_EQ(store.EventCount(), 10);
   EXPECT_EQ(store.Events({}), written);
+}
+
+TEST_F(StoreTest, AnEventNumberedByTheScmKeepsItsIdAndTheCountGoesOnAfterPruning) {
+  Store store(DbPath());
+  EXPECT_EQ(store.LastEventId(), 0);
+  // The SCM numbers its events as it raises them (from LastEventId); one it had to drop leaves
+  // a gap.
+  EventRecord e = MakeEvent(1);
+  e.id = 1;
+  EXPECT_EQ(store.AppendEvent(e), 1);
+  e.id = 3;
+  EXPECT_EQ(store.AppendEvent(e), 3);
+  EXPECT_EQ(store.LastEventId(), 3);
+  const auto got = store.Events({});
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[1].id, 3);
+  e.id = 3;
+  EXPECT_THROW(store.AppendEvent(e), StoreError) << "an id is used once";
+  // Pruned to nothing, then reopened (the SCM restarted): the count goes on, ids are not reused.
+  EXPECT_EQ(store.PruneEvents(std::nullopt, 0), 2);
+  Store reopened(DbPath());
+  EXPECT_EQ(reopened.EventCount(), 0);
+  EXPECT_EQ(reopened.LastEventId(), 3);
+  e.id = 0;
+  EXPECT_EQ(reopened.AppendEvent(e), 4);
 }
 
 TEST_F(StoreTest, TextWithQuotesNulsAndNonAsciiRoundTrips) {
