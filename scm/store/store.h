@@ -54,6 +54,14 @@ struct EventRecord {
   bool operator==(const EventRecord&) const = default;
 };
 
+/// The newest event of one code about one device (`Store::LatestProcessEvents`).
+struct LatestDeviceEvent {
+  std::string code;
+  std::string device_id;
+  Time time{};
+  bool operator==(const LatestDeviceEvent&) const = default;
+};
+
 /// Which events `Store::Events` returns, and in what order.
 struct EventQuery {
   /// Only events with `time >= since`.
@@ -164,6 +172,12 @@ class Store {
   /// The largest event id ever used (pruned events included), 0 for a new database: the SCM
   /// numbers its events from the next one.
   [[nodiscard]] std::int64_t LastEventId() const;
+
+  /// For each process event code (`process_exited`, `process_restarted`: scm/core/
+  /// process_watch.h) and device, the time of the newest such event: what the SCM's process
+  /// watch has already logged when it starts. Read through an index of those events alone, not
+  /// the whole log.
+  [[nodiscard]] std::vector<LatestDeviceEvent> LatestProcessEvents() const;
 
   // ---- Applied configuration --------------------------------------------------------------
 
