@@ -21,15 +21,26 @@ extern char** environ;
 namespace autodrive {
 namespace {
 
-int DecodeStatus(int status) {
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
-  return -1;
-}
-
 std::string_view NameOf(std::string_view entry) { return entry.substr(0, entry.find('=')); }
 
 }  // namespace
+
+ExitStatus ExitStatusOf(int wait_status) {
+  if (WIFSIGNALED(wait_status)) {
+    return ExitStatus{128 + WTERMSIG(wait_status), WTERMSIG(wait_status)};
+  }
+  return ExitStatus{WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1, 0};
+}
+
+std::string ToString(const ExitStatus& status) {
+  if (status.signal != 0) {
+    const char* abbrev = ::sigabbrev_np(status.signal);
+    return abbrev != nullptr
+               ? "killed by signal " + std::to_string(status.signal) + " (SIG" + abbrev + ")"
+               : "killed by signal " + std::to_string(status.signal);
+  }
+  return "exited with code " + std::to_string(status.code);
+}
 
 std::vector<std::string> ChildEnvironment(const char* const* inherited,
                                           const std::vector<std::string>& extra_env) {
@@ -142,6 +153,7 @@ ChildProcess& ChildProcess::operator=(ChildProcess&& other) noexcept {
     stdout_fd_ = std::exchange(other.stdout_fd_, -1);
     buffer_ = std::move(other.buffer_);
     exit_code_ = other.exit_code_;
+    exit_ = other.exit_;
   }
   return *this;
 }
@@ -209,7 +221,8 @@ std::optional<int> ChildProcess::Wait(std::chrono::milliseconds timeout) {
     const pid_t r = ::waitpid(pid_, &status, WNOHANG);
     if (r == pid_) {
       pid_ = -1;
-      exit_code_ = DecodeStatus(status);
+      exit_ = ExitStatusOf(status);
+      exit_code_ = exit_.code;
       return exit_code_;
     }
     AUTODRIVE_CHECK(r == 0 || errno == EINTR, "waitpid: " << std::strerror(errno));

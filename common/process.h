@@ -13,6 +13,19 @@
 
 namespace autodrive {
 
+/// How a child process ended: the code it exited with, or the signal that killed it.
+struct ExitStatus {
+  int code = 0;    ///< its exit code (0..255); 128 + the signal when a signal killed it
+  int signal = 0;  ///< the signal that killed it; 0 when it exited
+  bool operator==(const ExitStatus&) const = default;
+};
+
+/// The exit status of a `waitpid` status word (a normal exit or a signal).
+[[nodiscard]] ExitStatus ExitStatusOf(int wait_status);
+/// "exited with code 3" or "killed by signal 9 (SIGKILL)": the one way the launcher, its process
+/// table and the SCM's events say how a process ended.
+[[nodiscard]] std::string ToString(const ExitStatus& status);
+
 /// How a child starts, beyond its program and arguments.
 struct ChildOptions {
   /// Entries ("NAME=value") added to this process's environment (see `ChildEnvironment`).
@@ -61,6 +74,11 @@ class ChildProcess {
   std::optional<int> Wait(std::chrono::milliseconds timeout);
   /// Sends SIGTERM, waits up to `grace`, then SIGKILL. Returns the exit code.
   int Stop(std::chrono::milliseconds grace = std::chrono::milliseconds(2000));
+  /// How the child ended, once it has been reaped (`Wait` or `Stop` returned its code); nothing
+  /// while it runs.
+  [[nodiscard]] std::optional<ExitStatus> exit_status() const {
+    return running() || exit_code_ < 0 ? std::nullopt : std::optional<ExitStatus>(exit_);
+  }
   /// True while the child has not been reaped.
   [[nodiscard]] bool running() const { return pid_ > 0; }
   [[nodiscard]] pid_t pid() const { return pid_; }
@@ -74,6 +92,7 @@ class ChildProcess {
   int stdout_fd_ = -1;
   std::string buffer_;
   int exit_code_ = -1;
+  ExitStatus exit_;
 };
 
 /// The environment a child gets: the `inherited` entries (a null-terminated array such as

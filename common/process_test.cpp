@@ -102,6 +102,24 @@ TEST(ChildProcess, ExtraEnvironmentOverridesAnInheritedVariable) {
   ::unsetenv("TZ");
 }
 
+TEST(ChildProcess, TellsAKillBySignalFromAnExitWithTheSameCode) {
+  // Both end with code 137 (as a shell reports them); only one was killed.
+  ChildProcess killed({"/bin/sh", "-c", "exec sleep 600"});
+  EXPECT_FALSE(killed.exit_status().has_value()) << "it runs";
+  ASSERT_EQ(::kill(killed.pid(), SIGKILL), 0);
+  EXPECT_EQ(killed.Wait(30s), 137);
+  ASSERT_TRUE(killed.exit_status().has_value());
+  EXPECT_EQ(*killed.exit_status(), (ExitStatus{137, SIGKILL}));
+  EXPECT_EQ(ToString(*killed.exit_status()), "killed by signal 9 (SIGKILL)");
+
+  ChildProcess exited({"/bin/sh", "-c", "exit 137"});
+  EXPECT_EQ(exited.Wait(30s), 137);
+  ASSERT_TRUE(exited.exit_status().has_value());
+  EXPECT_EQ(*exited.exit_status(), (ExitStatus{137, 0}));
+  EXPECT_EQ(ToString(*exited.exit_status()), "exited with code 137");
+  EXPECT_EQ(ToString(ExitStatus{0, 0}), "exited with code 0");
+}
+
 TEST(ChildEnvironment, ExtraEntriesReplaceInheritedOnesAndLaterExtrasWin) {
   const char* inherited[] = {"A=1", "B=2", "AB=3", "C=", nullptr};
   EXPECT_EQ(ChildEnvironment(inherited, {"B=x", "D=4", "B=y", "C=z"}),

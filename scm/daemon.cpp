@@ -15,6 +15,7 @@
 #include "common/systemd.h"
 #include "scm/city_bundle.h"
 #include "scm/config_loader.h"
+#include "scm/core/process_watch.h"
 #include "scm/io/inbox.h"
 #include "scm/io/publishers.h"
 #include "scm/io/reply_outbox.h"
@@ -63,6 +64,7 @@ struct Scm::Impl final : EventSink, ConfigService {
 
   // EventSink: log, publish, queue for the database.
   void Emit(Event event) override;
+  void EmitAt(Event event, Time at) override;
   // ConfigService.
   void Validate(std::string yaml, std::string label, Responder respond) override;
   void Apply(std::string yaml, std::string label, std::string by, Responder respond) override;
@@ -77,6 +79,8 @@ struct Scm::Impl final : EventSink, ConfigService {
   void NewSession(const ClockReading& now);
   /// Gives supervision the reports the receiving thread took since the last pass.
   void TakeDeviceStatuses();
+  /// Gives the process watch the launchers' tables that came since the last pass.
+  void TakeProcessTables(const ClockReading& now);
   /// Notices a pass that starts late (a stall of the loop or the process): logs it and tells
   /// supervision, which then re-checks before it latches anything on the devices' silence.
   void NoteStall(const ClockReading& now);
@@ -122,7 +126,8 @@ struct Scm::Impl final : EventSink, ConfigService {
   std::uint32_t map_revision = 0;
   std::uint64_t event_seq = 0;
 
-  std::unique_ptr<ScmInbox> inbox;  // created after replies, destroyed after them
+  std::unique_ptr<ProcessWatch> processes;  // the launchers' processes: outlives every city
+  std::unique_ptr<ScmInbox> inbox;          // created after replies, destroyed after them
   std::unique_ptr<ReplyOutbox> replies;
   PassScheduler schedule;
   StallWatch stalls;
@@ -141,11 +146,19 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   const MapResolution resolution{std::filesystem::absolute(options.config_path).parent_path(),
                                  root};
   persistence = std::make_unique<Persistence>(Store(options.db_path), [this] { waitset.Wake(); });
+  event_seq = static_cast<std::uint64_t>(persistence->store().LastEventId());
   signal_writers = std::make_unique<SignalCommandWriters>(participant);
   loader = std::make_unique<ConfigLoader>(participant, *signal_writers, persistence->store(),
                                           resolution, [this] { waitset.Wake(); });
   auto city = LoadStartupCity(resolution);
   figures.clock = clock.kind();
+  ProcessWatchParams watch;
+  watch.city = city->config.name;
+  processes = std::make_unique<ProcessWatch>(std::move(watch));
+  // What the log holds already is not logged again (an SCM killed and back, say).
+  for (const LatestDeviceEvent& e : persistence->store().LatestProcessEvents()) {
+    processes->Logged(e.code, e.device_id, e.time);
+  }
   publishers = std::make_unique<ScmPublishers>(participant, city->config.name, session);
   control = std::make_unique<ControlPlane>(ControlParamsOf(*city, options.operators));
   replies = std::make_unique<ReplyOutbox>(participant);
@@ -230,8 +243,11 @@ void Scm::Impl::Install(std::unique_ptr<CityBundle> next, const ClockReading& no
   schedule.Start(now.mono);
 }
 
-void Scm::Impl::Emit(Event e) {
-  const Time now = current.wire;
+void Scm::Impl::Emit(Event e) { EmitAt(std::move(e), current.wire); }
+
+void Scm::Impl::EmitAt(Event e, Time now) {
+  // Its id is its row in the event log: the same live and in the log, and never used twice,
+  // also across restarts (the count goes on from the log's last id).
   const std::uint64_t id = ++event_seq;
   ++counters.events;
   const auto level = e.severity >= Severity::kAlarm     ? spdlog::level::err
@@ -241,6 +257,7 @@ void Scm::Impl::Emit(Event e) {
               e.actor == "scm" ? "" : fmt::format(" (by {})", e.actor));
   publishers->PublishEvent(e, now, id);
   EventRecord record;
+  record.id = static_cast<std::int64_t>(id);
   record.time = now;
   record.severity = e.severity;
   record.source = "scm";
@@ -343,6 +360,14 @@ void Scm::Impl::TakeDeviceStatuses() {
   figures.malformed_inputs += inbox->TakeDeviceRefusals();
 }
 
+void Scm::Impl::TakeProcessTables(const ClockReading& now) {
+  const std::uint64_t refused = inbox->process_table_refusals();
+  while (const std::optional<ProcessTableView> table = inbox->TakeProcessTable()) {
+    processes->Report(*table, now.mono, *this);
+  }
+  figures.malformed_inputs += inbox->process_table_refusals() - refused;
+}
+
 void Scm::Impl::NoteStall(const ClockReading& now) {
   // A pass that starts well after the deadline it waited for: the loop (or the whole process,
   // or the machine) stalled. The devices' reports of that time may still be on their way in:
@@ -353,6 +378,7 @@ void Scm::Impl::NoteStall(const ClockReading& now) {
   ++figures.stalls;
   figures.longest_stall = std::max(figures.longest_stall, stall);
   bundle->supervisor->OnStall(now.mono);
+  processes->OnStall(now.mono);
   if (figures.stalls <= 20 || figures.stalls % 100 == 0) {
     spdlog::warn(
         "the SCM's loop stalled: this pass began {:.0f} ms after its deadline ({} "
@@ -478,12 +504,14 @@ void Scm::Impl::Pass() {
     figures.malformed_inputs += source->malformed() - malformed;
   }
   TakeDeviceStatuses();
+  TakeProcessTables(now);
   HandleOperatorRequests(now, day);
   replies->Flush(now.mono);
   figures.replies = replies->counters();
   figures.reply_write_refusals = replies->write_failures();
   HandleSignalRequests(now, day);
   c.supervisor->Check(now.mono, c.lights->sent(), *c.runtime, *this);
+  processes->Check(now.mono, *this);
   const StepReport report = c.runtime->Step(now, day, c.fleet.get(), *this);
   counters.controller_steps += report.stepped;
   counters.monitor_violations += report.monitor_violations;
@@ -504,7 +532,8 @@ void Scm::Impl::Pass() {
 }
 
 OtherDeadlines Scm::Impl::Deadlines() const {
-  return {bundle->runtime->next_wake(), bundle->supervisor->next_deadline(),
+  return {bundle->runtime->next_wake(),
+          std::min(bundle->supervisor->next_deadline(), processes->next_deadline()),
           bundle->devices->next_deadline()};
 }
 

@@ -18,6 +18,9 @@
 #include <new>
 #include <set>
 
+#include "autodrive_msgs/msg/Event.h"
+#include "autodrive_msgs/msg/ProcessEntry.h"
+#include "autodrive_msgs/msg/ProcessTable.h"
 #include "autodrive_msgs/msg/SignalGroupState.h"
 #include "autodrive_msgs/msg/TrafficObject.h"
 
@@ -28,6 +31,7 @@
 #include "common/dds/writer.h"
 #include "common/test_support.h"
 #include "scm/benchmarks/bench_support.h"
+#include "scm/store/store.h"
 
 // Counts the C++ allocations of this process while `g_count_allocations` is set.
 namespace {
@@ -451,6 +455,154 @@ TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {
   EXPECT_EQ(v.source, autodrive_msgs_msg_TrackedVehicle_Constants_IPS);
   EXPECT_EQ(dds::View(v.map_lane_id), lane.name) << "a car that never moved has its lane";
   EXPECT_EQ(v.intersection_id, map.intersections[0].id.value());
+}
+
+TEST_F(DaemonTest, AnEventsIdIsItsRowInTheLogAndTheCountGoesOnAfterARestart) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  const std::filesystem::path city = DrivingSchoolWithoutLights();
+  dds::Reader<msg::Event> live(*participant_, dds::topics::Events().name,
+                               dds::Qos::LatchedState(100));
+  // The live ids of the events called `code`, in the order they came.
+  std::vector<std::uint64_t> started;
+  const auto take = [&] {
+    for (auto& m : live.TakeAll()) {
+      if (dds::View(m->code) == "scm_started") started.push_back(m->event_id);
+    }
+  };
+  for (int run = 0; run < 2; ++run) {
+    Scm scm(Options(city), clock, *participant_);  // the second one after the first has gone
+    scm.Pass();
+    scm.FlushPersistence();
+    take();
+  }
+  ASSERT_EQ(started.size(), 2u);
+  EXPECT_GT(started[1], started[0]) << "a restarted SCM does not number its events from 1 again";
+  std::vector<std::uint64_t> logged;
+  for (const EventRecord& e : Store(Options(city).db_path).Events({})) {
+    if (e.code == "scm_started") logged.push_back(static_cast<std::uint64_t>(e.id));
+  }
+  EXPECT_EQ(logged, started) << "the same ids live and in the log";
+}
+
+// A launcher's table as `autodrive-city` writes it: the lights running, the SCM (pid 900)
+// killed by SIGKILL at `died` and being started again.
+void FillTable(Time died, dds::Message<msg::ProcessTable>& m) {
+  m->header.stamp = dds::ToMsg(died + milliseconds(60));
+  dds::SetString(m->city, "driving_school");
+  dds::SetString(m->host, "lab-pc");
+  m->session_id = 42;
+  m->period_ms = 1000;
+  m->state = autodrive_msgs_msg_ProcessTable_Constants_RUNNING;
+  dds::ResizeSequence(m->processes, 2);
+  msg::ProcessEntry& lights = m->processes._buffer[0];
+  dds::SetString(lights.name, "lights");
+  lights.state = autodrive_msgs_msg_ProcessEntry_Constants_RUNNING;
+  lights.pid = 800;
+  lights.starts = 1;
+  lights.since = dds::ToMsg(died - seconds(60));
+  msg::ProcessEntry& scm = m->processes._buffer[1];
+  dds::SetString(scm.name, "scm");
+  scm.state = autodrive_msgs_msg_ProcessEntry_Constants_STARTING;
+  scm.pid = 901;
+  scm.starts = 2;
+  scm.since = dds::ToMsg(died + milliseconds(50));
+  scm.exits = 1;
+  scm.exit_code = 137;
+  scm.exit_signal = 9;
+  scm.exit_pid = 900;
+  scm.exited_at = dds::ToMsg(died);
+}
+
+TEST_F(DaemonTest, AKilledScmsDeathIsLoggedOnceByTheNextOneStampedWhenItDied) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  const std::filesystem::path city = DrivingSchoolWithoutLights();
+  dds::Reader<msg::Event> live(*participant_, dds::topics::Events().name,
+                               dds::Qos::LatchedState(100));
+  std::vector<dds::Message<msg::Event>> seen;
+  // The events with `code` this test saw live.
+  const auto live_with_code = [&](std::string_view code) {
+    for (auto& m : live.TakeAll()) seen.push_back(std::move(m));
+    std::vector<const msg::Event*> out;
+    for (const auto& m : seen) {
+      if (dds::View(m->code) == code) out.push_back(&*m);
+    }
+    return out;
+  };
+  std::int64_t last_id_before = 0;
+  {
+    // The SCM that runs first: its events are numbered from the log's start.
+    Scm first(Options(city), clock, *participant_);
+    first.Pass();
+    first.FlushPersistence();
+    last_id_before = Store(Options(city).db_path).LastEventId();
+    ASSERT_GT(last_id_before, 0);
+  }  // killed (its successor does not know how it ended)
+  const Time died = SystemNow() - seconds(5);
+  dds::Writer<msg::ProcessTable> launcher(*participant_, dds::topics::Processes());
+  dds::Message<msg::ProcessTable> table;
+  FillTable(died, table);
+  launcher.Write(table);  // before the next SCM runs: it finds the table (transient-local)
+
+  const auto run_until = [&](Scm& scm, const std::function<bool()>& done) {
+    const auto until = std::chrono::steady_clock::now() + seconds(30);
+    while (!done() && std::chrono::steady_clock::now() < until) {
+      time.AdvanceTo(time.mono() + milliseconds(20));
+      scm.Pass();
+      live.WaitForData(milliseconds(20));
+    }
+    return done();
+  };
+  {
+    Scm second(Options(city), clock, *participant_);
+    ASSERT_TRUE(run_until(second, [&] { return !live_with_code("process_exited").empty(); }))
+        << "the second SCM never logged the first one's death";
+    const msg::Event& exited = *live_with_code("process_exited").front();
+    EXPECT_EQ(exited.severity, autodrive_msgs_msg_Event_Constants_ALARM);
+    EXPECT_TRUE(exited.active);
+    EXPECT_EQ(dds::View(exited.device_id), "process/scm");
+    EXPECT_EQ(dds::FromMsg(exited.header.stamp), died) << "stamped when it died";
+    EXPECT_THAT(std::string(dds::View(exited.message)),
+                ::testing::HasSubstr("killed by signal 9 (SIGKILL)"));
+    // Numbered on from the log: the same id live and in the log, none used twice.
+    EXPECT_GT(static_cast<std::int64_t>(exited.event_id), last_id_before);
+    second.FlushPersistence();
+    bool in_log = false;
+    for (const EventRecord& e : Store(Options(city).db_path).Events({})) {
+      if (e.code != "process_exited") continue;
+      in_log = true;
+      EXPECT_EQ(static_cast<std::uint64_t>(e.id), exited.event_id);
+      EXPECT_EQ(e.time, died);
+    }
+    EXPECT_TRUE(in_log);
+    // Ready: the launcher says it runs again.
+    table->processes._buffer[1].state = autodrive_msgs_msg_ProcessEntry_Constants_RUNNING;
+    table->processes._buffer[1].since = dds::ToMsg(died + seconds(1));
+    launcher.Write(table);
+    ASSERT_TRUE(run_until(second, [&] { return !live_with_code("process_restarted").empty(); }));
+    EXPECT_EQ(dds::FromMsg(live_with_code("process_restarted").front()->header.stamp),
+              died + seconds(1));
+    second.FlushPersistence();
+  }
+  // A third SCM reads the same table (and the launcher writes it again): nothing twice.
+  {
+    Scm third(Options(city), clock, *participant_);
+    launcher.Write(table);
+    ASSERT_TRUE(launcher.WaitForAcks(seconds(10)));
+    for (int i = 0; i < 25; ++i) {
+      time.AdvanceTo(time.mono() + milliseconds(20));
+      third.Pass();
+    }
+    third.FlushPersistence();
+  }
+  int exits = 0, returns = 0;
+  for (const EventRecord& e : Store(Options(city).db_path).Events({})) {
+    exits += e.code == "process_exited" ? 1 : 0;
+    returns += e.code == "process_restarted" ? 1 : 0;
+  }
+  EXPECT_EQ(exits, 1);
+  EXPECT_EQ(returns, 1);
 }
 
 TEST_F(DaemonTest, RequestsWaitingWhenSpatIsDueAreAnsweredFirstButOnlyAFew) {

@@ -406,6 +406,7 @@ TEST_F(DdsSecurityRoles, EveryTopicOfTheCatalogueIsInTheTable) {
                                               t::Events().name,
                                               t::Devices().name,
                                               t::DeviceTable().name,
+                                              t::Processes().name,
                                               t::Heartbeat().name,
                                               t::InfraHeartbeat().name,
                                               t::SignalRequests().name,

@@ -1,14 +1,23 @@
 // autodrive-city with real processes: `up` then `down` leaves nothing behind; a killed SCM is
-// started again and the lights come back from flash through the start-up sequence; a mixed
-// city starts with a component off; a crash loop is reported; a bad city file is refused
-// before any process starts.
+// started again and the lights come back from flash through the start-up sequence; a killed
+// process (a light host, the SCM itself) raises an alarm in the SCM's event log (`scmctl
+// events`) and on the dashboard's live feed, and an event when it is back; a mixed city starts
+// with a component off; a crash loop is reported; a bad city file is refused before any process
+// starts.
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 
 #include <chrono>
+#include <condition_variable>
+#include <cstdio>
 #include <fstream>
+#include <functional>
+#include <mutex>
+#include <regex>
 #include <set>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -17,12 +26,20 @@
 #include "common/config.h"
 #include "tests/scm_processes.h"
 
+// After Eigen (through scm_processes.h): httplib brings <resolv.h>, whose `_res` macro breaks
+// Eigen's headers.
+#include <httplib.h>
+
 namespace autodrive::test {
 namespace {
 
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 using ::testing::HasSubstr;
+
+double WallSeconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
 
 class Launcher : public ScmProcesses {
  protected:
@@ -94,9 +111,175 @@ class Launcher : public ScmProcesses {
   }
 
   std::string LauncherLog() const { return config::ReadFile(dir_ / "launcher.log"); }
+
+  /// The dashboard's port, from the launcher's line "dashboard: http://127.0.0.1:PORT/" (it
+  /// prints it once the city is up), or 0 when it does not come.
+  int DashboardPort() const {
+    const std::regex line("dashboard: http://127\\.0\\.0\\.1:([0-9]+)/");
+    for (const auto end = SteadyClock::now() + seconds(60); SteadyClock::now() < end;) {
+      std::smatch m;
+      const std::string log = LauncherLog();
+      if (std::regex_search(log, m, line)) return std::stoi(m[1]);
+      std::this_thread::sleep_for(milliseconds(50));
+    }
+    return 0;
+  }
+
+  /// The SCM's event log as `scmctl --json events` prints it, since `since` (seconds).
+  std::vector<nlohmann::json> ScmctlEvents(double since) const {
+    const Output out =
+        Scmctl({"--json", "events", "--since", fmt::format("{:.3f}", since), "--limit", "1000"});
+    std::vector<nlohmann::json> events;
+    const nlohmann::json j = nlohmann::json::parse(out.text, nullptr, false);
+    if (j.is_discarded() || !j.contains("values")) return events;
+    for (const auto& [id, e] : j["values"].items()) events.push_back(e);
+    return events;
+  }
+
+  /// Runs `scmctl events` until an event with `code` about `device` is in the log (the SCM may
+  /// be restarting: scmctl then has no answer); the first such event, or nothing.
+  std::optional<nlohmann::json> WaitScmctlEvent(const std::string& code, const std::string& device,
+                                                double since) const {
+    for (const auto end = SteadyClock::now() + seconds(90); SteadyClock::now() < end;) {
+      for (const auto& e : ScmctlEvents(since)) {
+        if (e.value("code", "") == code && e.value("device", "") == device) return e;
+      }
+      std::this_thread::sleep_for(milliseconds(100));
+    }
+    return std::nullopt;
+  }
+
+  /// The first live event (on /autodrive/scm/events) with `code` about `device`, waiting up to
+  /// `timeout`; `at` is set to when this test saw it.
+  std::optional<dds::Message<msg::Event>> WaitLiveEvent(const std::string& code,
+                                                        const std::string& device,
+                                                        SteadyClock::duration timeout, double& at) {
+    for (const auto end = SteadyClock::now() + timeout; SteadyClock::now() < end;) {
+      events_->WaitForData(milliseconds(100));
+      for (auto& m : events_->TakeAll()) {
+        if (dds::View(m->code) == code && dds::View(m->device_id) == device) {
+          at = WallSeconds();
+          return std::move(m);
+        }
+      }
+    }
+    return std::nullopt;
+  }
 };
 
+/// An event of the dashboard's feed with `code` about `device`.
+auto FeedEvent(const std::string& code, const std::string& device) {
+  return [code, device](const nlohmann::json& e) {
+    return e.value("code", "") == code && e.value("device", "") == device;
+  };
+}
+
 bool Alive(int pid) { return pid > 0 && (::kill(pid, 0) == 0 || errno != ESRCH); }
+
+/// The dashboard's live feed (GET /api/stream, server-sent events) as the page reads it: every
+/// event object it carries (those of the first `state` message, of `event` and of `events`),
+/// read by a thread of its own until the feed is destroyed, connecting again when the dashboard
+/// restarts.
+class DashboardFeed {
+ public:
+  DashboardFeed(std::string host, int port) : host_(std::move(host)), port_(port) {
+    thread_ = std::thread([this] { Run(); });
+  }
+  DashboardFeed(const DashboardFeed&) = delete;
+  DashboardFeed& operator=(const DashboardFeed&) = delete;
+  ~DashboardFeed() {
+    {
+      std::lock_guard lock(mutex_);
+      stop_ = true;
+      if (client_ != nullptr) client_->stop();
+    }
+    thread_.join();
+  }
+
+  /// The first event object for which `pred` holds, waiting up to `timeout` for it.
+  std::optional<nlohmann::json> WaitFor(const std::function<bool(const nlohmann::json&)>& pred,
+                                        SteadyClock::duration timeout) {
+    std::unique_lock lock(mutex_);
+    std::optional<nlohmann::json> found;
+    cv_.wait_for(lock, timeout, [&] {
+      for (const auto& e : events_) {
+        if (pred(e)) {
+          found = e;
+          return true;
+        }
+      }
+      return false;
+    });
+    return found;
+  }
+  /// Every event seen, one line each: for failure messages.
+  std::string Seen() {
+    std::lock_guard lock(mutex_);
+    std::string out;
+    for (const auto& e : events_) out += e.dump() + "\n";
+    return out;
+  }
+
+ private:
+  void Run() {
+    for (;;) {
+      httplib::Client client(host_, port_);
+      client.set_read_timeout(10, 0);
+      {
+        std::lock_guard lock(mutex_);
+        if (stop_) return;
+        client_ = &client;
+      }
+      std::string buffer;
+      client.Get("/api/stream", [&](const char* data, std::size_t n) {
+        buffer.append(data, n);
+        for (auto end = buffer.find("\n\n"); end != std::string::npos; end = buffer.find("\n\n")) {
+          Take(buffer.substr(0, end));
+          buffer.erase(0, end + 2);
+        }
+        std::lock_guard lock(mutex_);
+        return !stop_;
+      });
+      {
+        std::lock_guard lock(mutex_);
+        client_ = nullptr;
+        if (stop_) return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the dashboard restarts
+    }
+  }
+  // One SSE message: "event: NAME" and "data: JSON" lines.
+  void Take(const std::string& message) {
+    std::string name, data;
+    std::istringstream lines(message);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("event: ", 0) == 0) name = line.substr(7);
+      if (line.rfind("data: ", 0) == 0) data += line.substr(6);
+    }
+    const nlohmann::json j = nlohmann::json::parse(data, nullptr, false);
+    if (j.is_discarded()) return;
+    std::vector<nlohmann::json> got;
+    if (name == "event" && j.contains("event")) got.push_back(j["event"]);
+    if ((name == "events" || name == "state") && j.contains("events")) {
+      for (const auto& e : j["events"]) got.push_back(e);
+    }
+    if (got.empty()) return;
+    {
+      std::lock_guard lock(mutex_);
+      events_.insert(events_.end(), got.begin(), got.end());
+    }
+    cv_.notify_all();
+  }
+
+  const std::string host_;
+  const int port_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::vector<nlohmann::json> events_;
+  httplib::Client* client_ = nullptr;
+  bool stop_ = false;
+  std::thread thread_;
+};
 
 TEST_F(Launcher, UpThenDownLeavesNoProcessBehind) {
   const std::string city = WriteCity(
@@ -185,6 +368,145 @@ TEST_F(Launcher, AKilledScmIsStartedAgainAndTheLightsComeBackThroughTheStartUpSe
   ASSERT_TRUE(standby) << "no start-up flash after the restart";
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   EXPECT_THAT(LauncherLog(), HasSubstr("scm exited with code 137: starting it again"));
+  up->Stop(milliseconds(60000));
+}
+
+TEST_F(Launcher, AKilledLightHostRaisesAnAlarmInTheLogAndOnTheDashboardAndAnEventWhenBack) {
+  const std::string city = WriteCity(
+      "  sim: {mode: off}\n  eye: {mode: off}\n  dashboard: {mode: on, listen: "
+      "\"127.0.0.1:0\"}\n");
+  auto up = Up(city);
+  const auto s = WaitStatus(*up, AllRunning, seconds(120));
+  ASSERT_FALSE(s.is_null()) << LauncherLog();
+  const int port = DashboardPort();
+  ASSERT_GT(port, 0) << LauncherLog();
+  DashboardFeed feed("127.0.0.1", port);
+  const int lights = Process(s, "lights")->value("pid", -1);
+  ASSERT_GT(lights, 0);
+  (void)events_->TakeAll();  // what came before
+
+  const double killed_at = WallSeconds();
+  ASSERT_EQ(::kill(lights, SIGKILL), 0);
+  // The alarm, live on the events topic: the figure of how long it took (not asserted: the
+  // machine may be loaded).
+  double live_at = 0;
+  const auto live = WaitLiveEvent("process_exited", "process/lights", seconds(60), live_at);
+  ASSERT_TRUE(live.has_value()) << LauncherLog();
+  std::printf("process_exited on the events topic %.0f ms after the kill\n",
+              (live_at - killed_at) * 1000.0);
+  EXPECT_EQ((*live)->severity, autodrive_msgs_msg_Event_Constants_ALARM);
+
+  // In the SCM's event log, as scmctl shows it.
+  const auto logged = WaitScmctlEvent("process_exited", "process/lights", killed_at - 60);
+  ASSERT_TRUE(logged.has_value()) << LauncherLog();
+  std::printf("process_exited in scmctl events %.0f ms after the kill\n",
+              (WallSeconds() - killed_at) * 1000.0);
+  EXPECT_EQ(logged->value("severity", ""), "alarm");
+  EXPECT_TRUE(logged->value("active", false));
+  EXPECT_THAT(logged->value("message", ""),
+              HasSubstr("process lights (pid " + std::to_string(lights)));
+  EXPECT_THAT(logged->value("message", ""), HasSubstr("killed by signal 9 (SIGKILL)"));
+  EXPECT_THAT(logged->value("message", ""), HasSubstr("(restart 1)"));
+  EXPECT_GE(logged->value("stamp", 0.0), killed_at - 0.001) << "stamped when it died";
+  EXPECT_EQ(logged->value("id", 0), static_cast<int>((*live)->event_id))
+      << "one event: the same id live and in the log";
+
+  // On the dashboard's live feed: an active alarm (the page's severity 2).
+  const auto shown = feed.WaitFor(FeedEvent("process_exited", "process/lights"), seconds(60));
+  ASSERT_TRUE(shown.has_value());
+  std::printf("process_exited on the dashboard's feed by %.0f ms after the kill\n",
+              (WallSeconds() - killed_at) * 1000.0);
+  EXPECT_EQ((*shown)["severity"], 2);
+  EXPECT_EQ((*shown)["active"], true);
+  EXPECT_EQ((*shown)["id"], logged->value("id", 0));
+
+  // Started again (after a second) and ready: an information that clears the alarm.
+  const auto back = WaitScmctlEvent("process_restarted", "process/lights", killed_at - 60);
+  ASSERT_TRUE(back.has_value()) << LauncherLog();
+  EXPECT_EQ(back->value("severity", ""), "info");
+  EXPECT_FALSE(back->value("active", true));
+  EXPECT_THAT(back->value("message", ""), HasSubstr("is running again (restart 1)"));
+  EXPECT_THAT(back->value("message", ""), HasSubstr("killed by signal 9 (SIGKILL)"));
+  EXPECT_GT(back->value("stamp", 0.0), logged->value("stamp", 0.0));
+  const auto back_shown =
+      feed.WaitFor(FeedEvent("process_restarted", "process/lights"), seconds(60));
+  ASSERT_TRUE(back_shown.has_value());
+  EXPECT_EQ((*back_shown)["severity"], 0) << "information";
+  // Logged once each, though the launcher repeats its table every second: two more tables.
+  dds::Reader<msg::ProcessTable> tables(*participant_, dds::topics::Processes());
+  int more = 0;
+  for (const auto end = SteadyClock::now() + seconds(30); more < 3 && SteadyClock::now() < end;) {
+    tables.WaitForData(milliseconds(200));
+    more += static_cast<int>(tables.TakeAll().size());
+  }
+  EXPECT_GE(more, 3) << "the launcher's table every second (the first: its last, latched)";
+  int exits = 0;
+  for (const auto& e : ScmctlEvents(killed_at - 60)) {
+    exits += e.value("code", "") == "process_exited" ? 1 : 0;
+  }
+  EXPECT_EQ(exits, 1);
+  up->Stop(milliseconds(60000));
+}
+
+TEST_F(Launcher, AKilledScmLogsItsOwnDeathOnceBackStampedWhenItDied) {
+  const std::string city = WriteCity(
+      "  sim: {mode: off}\n  eye: {mode: off}\n  dashboard: {mode: on, listen: "
+      "\"127.0.0.1:0\"}\n");
+  auto up = Up(city);
+  const auto s = WaitStatus(*up, AllRunning, seconds(120));
+  ASSERT_FALSE(s.is_null()) << LauncherLog();
+  const int port = DashboardPort();
+  ASSERT_GT(port, 0) << LauncherLog();
+  DashboardFeed feed("127.0.0.1", port);
+  const int scm = Process(s, "scm")->value("pid", -1);
+  ASSERT_GT(scm, 0);
+  // The first SCM's events are on the dashboard already (the ids the next SCM must not reuse).
+  ASSERT_TRUE(feed.WaitFor(FeedEvent("scm_started", ""), seconds(60)).has_value());
+  (void)events_->TakeAll();
+
+  const double killed_at = WallSeconds();
+  ASSERT_EQ(::kill(scm, SIGKILL), 0);
+  // Nobody can log it while the SCM is dead: the SCM started again logs it from the launcher's
+  // last table, stamped when it died.
+  double live_at = 0;
+  const auto live = WaitLiveEvent("process_exited", "process/scm", seconds(60), live_at);
+  ASSERT_TRUE(live.has_value()) << LauncherLog();
+  std::printf("the SCM's own death on the events topic %.0f ms after the kill\n",
+              (live_at - killed_at) * 1000.0);
+  const auto logged = WaitScmctlEvent("process_exited", "process/scm", killed_at - 60);
+  ASSERT_TRUE(logged.has_value()) << LauncherLog();
+  std::printf("the SCM's own death in scmctl events %.0f ms after the kill\n",
+              (WallSeconds() - killed_at) * 1000.0);
+  EXPECT_EQ(logged->value("severity", ""), "alarm");
+  EXPECT_THAT(logged->value("message", ""),
+              HasSubstr("process scm (pid " + std::to_string(scm) + ", on "));
+  EXPECT_THAT(logged->value("message", ""), HasSubstr("killed by signal 9 (SIGKILL)"));
+  EXPECT_THAT(logged->value("message", ""), HasSubstr("restart 1"));
+  // Stamped when it died: after the kill, and before the new SCM started.
+  std::optional<double> restarted_scm;
+  for (const auto& e : ScmctlEvents(killed_at)) {
+    if (e.value("code", "") == "scm_started") restarted_scm = e.value("stamp", 0.0);
+  }
+  ASSERT_TRUE(restarted_scm.has_value());
+  EXPECT_GE(logged->value("stamp", 0.0), killed_at - 0.001);
+  EXPECT_LT(logged->value("stamp", 0.0), *restarted_scm)
+      << "stamped with the time of the death, not when the new SCM learnt of it";
+
+  // On the dashboard, which outlived the SCM: the new SCM's events are new to it (their ids
+  // go on from the log's, never those of the first SCM's events again).
+  const auto shown = feed.WaitFor(FeedEvent("process_exited", "process/scm"), seconds(60));
+  ASSERT_TRUE(shown.has_value()) << logged->dump() << "\n" << feed.Seen();
+  std::printf("the SCM's own death on the dashboard's feed by %.0f ms after the kill\n",
+              (WallSeconds() - killed_at) * 1000.0);
+  EXPECT_EQ((*shown)["severity"], 2);
+  EXPECT_EQ((*shown)["id"], logged->value("id", 0));
+
+  const auto back = WaitScmctlEvent("process_restarted", "process/scm", killed_at - 60);
+  ASSERT_TRUE(back.has_value()) << LauncherLog();
+  EXPECT_THAT(back->value("message", ""), HasSubstr("is running again (restart 1)"));
+  ASSERT_TRUE(feed.WaitFor(FeedEvent("process_restarted", "process/scm"), seconds(60)))
+      << back->dump() << "\n"
+      << feed.Seen();
   up->Stop(milliseconds(60000));
 }
 

@@ -294,11 +294,12 @@ void Hub::SetProcesses(json processes, double rx_ms) {
 void Hub::AddEvent(json event, double rx_ms) {
   std::lock_guard lock(mutex_);
   const std::uint64_t id = event.value("id", std::uint64_t{0});
-  if (id != 0 && !event_seen_.emplace(id, 0).second) return;
+  if (id != 0 && !event_seen_.emplace(event.value("source", ""), id).second) return;
   if (!event.contains("acked_by")) event["acked_by"] = nullptr;
   events_.push_back(event);
   while (events_.size() > options_.max_events) {
-    event_seen_.erase(events_.front().value("id", std::uint64_t{0}));
+    event_seen_.erase(std::make_pair(events_.front().value("source", ""),
+                                     events_.front().value("id", std::uint64_t{0})));
     events_.pop_front();
   }
   if (options_.batch_interval.count() == 0) {
@@ -315,13 +316,17 @@ void Hub::AddEvent(json event, double rx_ms) {
 
 bool Hub::Ack(std::uint64_t id, const std::string& by, double at_s) {
   std::lock_guard lock(mutex_);
-  const auto it = std::ranges::find_if(
-      events_, [&](const json& e) { return e.value("id", std::uint64_t{0}) == id; });
-  if (it == events_.end() || !it->value("active", false) || it->value("severity", 0) < 2) {
-    return false;
-  }
+  const auto it = std::ranges::find_if(events_, [&](const json& e) {
+    return e.value("id", std::uint64_t{0}) == id && e.value("active", false) &&
+           e.value("severity", 0) >= 2;
+  });
+  if (it == events_.end()) return false;
   (*it)["acked_by"] = by;
-  PublishLocked("ack", {{"rx", at_s * 1000.0}, {"id", id}, {"by", by}, {"at", at_s}});
+  PublishLocked("ack", {{"rx", at_s * 1000.0},
+                        {"id", id},
+                        {"source", it->value("source", "")},
+                        {"by", by},
+                        {"at", at_s}});
   return true;
 }
 

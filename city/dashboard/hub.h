@@ -17,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -109,11 +110,12 @@ class Hub {
   void SetDevice(nlohmann::json device, double rx_ms);
   /// The launcher's processes (P objects), sent when changed.
   void SetProcesses(nlohmann::json processes, double rx_ms);
-  /// An event (E object with "id"); a repeat of a known id (the latched history on
-  /// reconnection) is ignored. With a batch interval, events within it go out as one `events`
-  /// message (oldest first).
+  /// An event (E object with "id" and "source"); a repeat of a known id of the same source (the
+  /// latched history on reconnection) is ignored. With a batch interval, events within it go
+  /// out as one `events` message (oldest first).
   void AddEvent(nlohmann::json event, double rx_ms);
-  /// An operator acknowledged event `id`. False if the event is unknown or not an active alarm.
+  /// An operator acknowledged the active alarm `id` (the first such of any source). False if
+  /// there is no active alarm with that id.
   bool Ack(std::uint64_t id, const std::string& by, double at_s);
   /// A V2I request's status (R object with "vehicle" and "request").
   void SetRequest(nlohmann::json request, double rx_ms);
@@ -149,8 +151,10 @@ class Hub {
   std::map<std::string, nlohmann::json> devices_;        ///< by id
   nlohmann::json processes_ = nlohmann::json::array();
   std::deque<nlohmann::json> events_;
-  std::map<std::uint64_t, std::size_t> event_seen_;  ///< ids of events_ (value unused)
-  std::map<std::string, nlohmann::json> requests_;   ///< by "vehicle/request"
+  /// (source, id) of events_: ids are their source's (the SCM's event log, a light host's
+  /// session), so two sources may use the same id.
+  std::set<std::pair<std::string, std::uint64_t>> event_seen_;
+  std::map<std::string, nlohmann::json> requests_;  ///< by "vehicle/request"
   // Batching (Options::batch_interval).
   nlohmann::json pending_lamps_ = nlohmann::json::object();
   double pending_lamps_rx_ = 0.0;

@@ -158,6 +158,25 @@ TEST(DashboardHub, EventsAreKeptOnceAndOnlyActiveAlarmsCanBeAcknowledged) {
   EXPECT_EQ(events[2]["id"], 6);
 }
 
+TEST(DashboardHub, EventsOfTwoSourcesWithOneIdAreBothShownAndTheAlarmIsTheOneAcknowledged) {
+  // The SCM numbers its events by its event log, a light host per session: their ids meet.
+  Hub hub = MakeHub();
+  auto browser = hub.Subscribe();
+  (void)Drain(*browser);
+  hub.AddEvent({{"id", 4}, {"source", "infra/lights"}, {"severity", 1}, {"active", true}}, 1.0);
+  hub.AddEvent({{"id", 4}, {"source", "scm"}, {"severity", 2}, {"active", true}}, 1.0);
+  hub.AddEvent({{"id", 4}, {"source", "scm"}, {"severity", 2}, {"active", true}}, 1.0);  // again
+  auto got = Drain(*browser);
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[1].data["event"]["source"], "scm");
+  EXPECT_TRUE(hub.Ack(4, "alice", 10.0)) << "the active alarm of id 4, not the warning";
+  got = Drain(*browser);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].data["source"], "scm");
+  EXPECT_TRUE(hub.State()["events"][0]["acked_by"].is_null());
+  EXPECT_EQ(hub.State()["events"][1]["acked_by"], "alice");
+}
+
 TEST(DashboardHub, TrafficIsThinnedToItsIntervalAndAlwaysCurrentInTheState) {
   Hub::Options options;
   options.traffic_interval = std::chrono::hours(1);

@@ -573,13 +573,17 @@ void Server::PollProcesses() {
   json processes = json::array();
   for (const json& p : status.value("processes", json::array())) {
     const int starts = p.value("starts", 0);
+    // The launcher's words ("killed by signal 9 (SIGKILL); restart 1 in 1.0 s"); a launcher
+    // older than them gave only its last exit code.
+    std::string detail = p.value("detail", "");
+    if (!p.contains("detail") && p.contains("last_exit") && !p["last_exit"].is_null()) {
+      detail = fmt::format("last exit {}", p["last_exit"].dump());
+    }
     processes.push_back({{"name", p.value("name", "")},
                          {"state", p.value("phase", "")},
                          {"pid", p.value("pid", -1)},
                          {"restarts", starts > 0 ? starts - 1 : 0},
-                         {"detail", p.contains("last_exit") && !p["last_exit"].is_null()
-                                        ? fmt::format("last exit {}", p["last_exit"].dump())
-                                        : std::string()}});
+                         {"detail", std::move(detail)}});
   }
   hub_.SetProcesses(std::move(processes), NowMs());
 }

@@ -176,7 +176,8 @@ int Up(const UpOptions& o) {
   dds::ParticipantOptions participant_options;
   participant_options.partition = o.partition;
   // DDS Security from the environment, as every program of the city takes it; the launcher's
-  // own identity is /autodrive/launcher (role `launcher`: it only reads what readiness needs).
+  // own identity is /autodrive/launcher (role `launcher`: it reads what readiness needs and
+  // writes its process table).
   // The children inherit the environment and each takes its own default enclave, so an
   // enclave override in the environment would give them all the launcher's (docs/security.md).
   participant_options.security = dds::SecurityOptions::FromEnvironment();

@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "city/launcher/process_table.h"
+
 #include "common/dds/messages.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
@@ -80,6 +82,8 @@ struct Supervisor::Impl {
   dds::Reader<msg::Heartbeat> infra_heartbeats;  // the device hosts' (sender "infra/<name>")
   dds::Reader<msg::Clock> clock;
   dds::Reader<msg::TrafficObjects> traffic;
+  ProcessTableWriter table;  // the processes for the SCM (/autodrive/scm/processes)
+  LauncherState launcher_state = LauncherState::kStarting;
   mutable std::mutex mutex;  // guards the states
   std::vector<Process> processes;
   std::set<std::string> heard;  // "sender|city" of heartbeats since the last drain
@@ -91,7 +95,8 @@ struct Supervisor::Impl {
         scm_heartbeats(participant, dds::topics::Heartbeat()),
         infra_heartbeats(participant, dds::topics::InfraHeartbeat()),
         clock(participant, dds::topics::Clock()),
-        traffic(participant, dds::topics::Traffic()) {
+        traffic(participant, dds::topics::Traffic()),
+        table(participant, plan.city_name) {
     std::filesystem::create_directories(plan.run_dir / "logs");
     for (const ProcessPlan& pp : plan.processes) {
       Process& process = processes.emplace_back();
@@ -99,41 +104,62 @@ struct Supervisor::Impl {
       process.state.name = pp.name;
       process.state.log = pp.log.string();
       process.state.since = std::chrono::system_clock::now();
+      process.state.detail = "not started yet";
     }
-    WriteStatus();
+    Publish();
   }
 
-  void SetPhase(Process& p, Phase phase) {
+  void SetPhase(Process& p, Phase phase, std::string detail) {
     {
       std::lock_guard lock(mutex);
       p.state.phase = phase;
       p.state.pid = p.child && p.child->running() ? p.child->pid() : -1;
       p.state.since = std::chrono::system_clock::now();
+      p.state.detail = std::move(detail);
     }
-    WriteStatus();
+    Publish();
+  }
+
+  std::vector<ProcessState> Snapshot() const {
+    std::lock_guard lock(mutex);
+    std::vector<ProcessState> out;
+    out.reserve(processes.size());
+    for (const Process& p : processes) out.push_back(p.state);
+    return out;
+  }
+
+  // What changed goes out at once: status.json and the process table.
+  void Publish() {
+    const std::vector<ProcessState> states = Snapshot();
+    WriteStatus(states);
+    table.Write(launcher_state, states);
+  }
+
+  // The table at least every ProcessTableWriter::kPeriod, also when nothing changes.
+  void PublishIfDue() {
+    if (table.due()) table.Write(launcher_state, Snapshot());
   }
 
   // status.json, replaced whole (written beside and renamed).
-  void WriteStatus() const {
+  void WriteStatus(const std::vector<ProcessState>& states) const {
     nlohmann::json j;
     j["city"] = plan.city_name;
     j["city_file"] = plan.city_file.string();
     j["launcher_pid"] = ::getpid();
     j["updated"] = Iso(std::chrono::system_clock::now());
     nlohmann::json list = nlohmann::json::array();
-    {
-      std::lock_guard lock(mutex);
-      for (const Process& p : processes) {
-        nlohmann::json e;
-        e["name"] = p.state.name;
-        e["phase"] = PhaseName(p.state.phase);
-        e["pid"] = p.state.pid;
-        e["starts"] = p.state.starts;
-        e["last_exit"] = p.state.last_exit ? nlohmann::json(*p.state.last_exit) : nlohmann::json();
-        e["since"] = Iso(p.state.since);
-        e["log"] = p.state.log;
-        list.push_back(std::move(e));
-      }
+    for (const ProcessState& s : states) {
+      nlohmann::json e;
+      e["name"] = s.name;
+      e["phase"] = PhaseName(s.phase);
+      e["pid"] = s.pid;
+      e["starts"] = s.starts;
+      e["last_exit"] = s.last_exit ? nlohmann::json(*s.last_exit) : nlohmann::json();
+      e["exits"] = s.exits;
+      e["since"] = Iso(s.since);
+      e["detail"] = s.detail;
+      e["log"] = s.log;
+      list.push_back(std::move(e));
     }
     j["processes"] = std::move(list);
     const std::filesystem::path file = plan.run_dir / "status.json";
@@ -192,11 +218,33 @@ struct Supervisor::Impl {
     options.output_file = p.plan->log;
     options.own_process_group = true;
     p.child.emplace(ChildProcess::Start(p.plan->argv, options));
+    int starts = 0;
     {
       std::lock_guard lock(mutex);
-      ++p.state.starts;
+      starts = ++p.state.starts;
     }
-    SetPhase(p, Phase::kStarting);
+    SetPhase(p, Phase::kStarting,
+             starts == 1 ? "starting" : fmt::format("starting again (restart {})", starts - 1));
+  }
+
+  // What a running process's row says: how often it was restarted, and why last.
+  static std::string RunningDetail(const ProcessState& s) {
+    if (s.starts <= 1 || !s.exit) return "running";
+    return fmt::format("running (restart {}); last exit: {}", s.starts - 1, ToString(*s.exit));
+  }
+
+  // Records an exit on its own (not a stop of ours) of `p`, whose child has been reaped.
+  void RecordExit(Process& p, const ExitStatus& status) {
+    std::lock_guard lock(mutex);
+    p.state.last_exit = status.code;
+    ++p.state.exits;
+    p.state.exit = status;
+    p.state.exit_pid = p.state.pid;
+    p.state.exited_at = std::chrono::system_clock::now();
+  }
+
+  static ExitStatus StatusOf(const ChildProcess& child, int code) {
+    return child.exit_status().value_or(ExitStatus{code, 0});
   }
 
   // Waits until `p` is ready; throws LaunchError when it exits first or takes too long.
@@ -206,11 +254,9 @@ struct Supervisor::Impl {
       Drain();
       if (Ready(*p.plan)) break;
       if (const auto code = p.child->Wait(0ms)) {
-        {
-          std::lock_guard lock(mutex);
-          p.state.last_exit = *code;
-        }
-        SetPhase(p, Phase::kStopped);
+        const ExitStatus status = StatusOf(*p.child, *code);
+        RecordExit(p, status);
+        SetPhase(p, Phase::kStopped, fmt::format("{} before it was ready", ToString(status)));
         throw LaunchError(
             fmt::format("{} exited with code {} before it was ready; its log ({}):\n{}",
                         p.plan->name, *code, p.plan->log.string(), Tail(p.plan->log, 15)));
@@ -223,9 +269,10 @@ struct Supervisor::Impl {
             p.plan->ready.kind == Readiness::Kind::kHeartbeat ? "heartbeat" : "sample on its topic",
             p.plan->log.string(), Tail(p.plan->log, 15)));
       }
+      PublishIfDue();
       std::this_thread::sleep_for(50ms);
     }
-    SetPhase(p, Phase::kRunning);
+    SetPhase(p, Phase::kRunning, RunningDetail(p.state));
     say(fmt::format("{} is up (pid {})", p.plan->name, p.child->pid()));
   }
 
@@ -239,6 +286,8 @@ struct Supervisor::Impl {
   }
 
   void Supervise(const std::atomic<bool>& stop) {
+    launcher_state = LauncherState::kRunning;
+    table.Write(launcher_state, Snapshot());
     while (!stop.load()) {
       const auto now = Clock::now();
       for (Process& p : processes) {
@@ -248,13 +297,13 @@ struct Supervisor::Impl {
             if (p.state.phase == Phase::kStarting) {
               Drain();
               if (Ready(*p.plan)) {
-                SetPhase(p, Phase::kRunning);
+                SetPhase(p, Phase::kRunning, RunningDetail(p.state));
                 say(fmt::format("{} is up again (pid {})", p.plan->name, p.child->pid()));
               }
             }
             continue;
           }
-          Exited(p, *code, now);
+          Exited(p, StatusOf(*p.child, *code), now);
         } else if ((p.state.phase == Phase::kExited || p.state.phase == Phase::kCrashLoop) &&
                    now >= p.start_at) {
           say(fmt::format("starting {} again (start {})", p.plan->name, p.state.starts + 1));
@@ -262,49 +311,66 @@ struct Supervisor::Impl {
             Start(p);
           } catch (const std::exception& e) {
             say(fmt::format("{} could not be started: {}", p.plan->name, e.what()));
-            Exited(p, 127, now);
+            Exited(p, ExitStatus{127, 0}, now);
           }
         }
       }
+      PublishIfDue();
       std::this_thread::sleep_for(50ms);
     }
   }
 
-  void Exited(Process& p, int code, Clock::time_point now) {
-    {
-      std::lock_guard lock(mutex);
-      p.state.last_exit = code;
-    }
+  void Exited(Process& p, const ExitStatus& status, Clock::time_point now) {
+    RecordExit(p, status);
+    const int code = status.code;
     const Restart r = p.plan->restart;
     if (r == Restart::kNever || (r == Restart::kOnFailure && code == 0)) {
-      SetPhase(p, Phase::kStopped);
+      const char* policy = r == Restart::kNever ? "never" : "on-failure";
+      SetPhase(p, Phase::kStopped,
+               fmt::format("{}; not started again (restart: {})", ToString(status), policy));
       say(fmt::format("{} exited with code {}: not started again (restart: {})", p.plan->name, code,
-                      r == Restart::kNever ? "never" : "on-failure"));
+                      policy));
       return;
     }
     p.exits.push_back(now);
     while (!p.exits.empty() && now - p.exits.front() > plan.crash_loop_window) {
       p.exits.pop_front();
     }
+    const int restart = p.state.starts;  // the next start is this restart
     if (static_cast<int>(p.exits.size()) >= plan.crash_loop_exits) {
       p.start_at = p.exits.front() + plan.crash_loop_window;
-      SetPhase(p, Phase::kCrashLoop);
+      SetRestartAt(p, p.start_at - now);
+      const double window_s = std::chrono::duration<double>(plan.crash_loop_window).count();
+      const double in_s = std::chrono::duration<double>(p.start_at - now).count();
+      SetPhase(p, Phase::kCrashLoop,
+               fmt::format("{}; crash loop: {} exits within {:.0f} s; restart {} in {:.0f} s",
+                           ToString(status), p.exits.size(), window_s, restart, in_s));
       say(fmt::format(
           "{} is in a crash loop: it exited {} times in {:.0f} s (last code {}); it starts again "
           "in {:.0f} s. Its log ({}):\n{}",
-          p.plan->name, p.exits.size(),
-          std::chrono::duration<double>(plan.crash_loop_window).count(), code,
-          std::chrono::duration<double>(p.start_at - now).count(), p.plan->log.string(),
+          p.plan->name, p.exits.size(), window_s, code, in_s, p.plan->log.string(),
           Tail(p.plan->log, 10)));
       return;
     }
     // The SCM at once (the lights flash until it is back); the others after a second.
     p.start_at = p.plan->name == "scm" ? now : now + 1s;
-    SetPhase(p, Phase::kExited);
+    SetRestartAt(p, p.start_at - now);
+    SetPhase(p, Phase::kExited,
+             fmt::format("{}; restart {} in {:.1f} s", ToString(status), restart,
+                         std::chrono::duration<double>(p.start_at - now).count()));
     say(fmt::format("{} exited with code {}: starting it again", p.plan->name, code));
   }
 
+  // The wall-clock time of a restart `in` from now, for the table.
+  void SetRestartAt(Process& p, Clock::duration in) {
+    std::lock_guard lock(mutex);
+    p.state.restart_at = std::chrono::system_clock::now() +
+                         std::chrono::duration_cast<std::chrono::system_clock::duration>(in);
+  }
+
   void Down() {
+    launcher_state = LauncherState::kStopping;
+    table.Write(launcher_state, Snapshot());
     for (auto it = processes.rbegin(); it != processes.rend(); ++it) {
       Process& p = *it;
       if (p.child && p.child->running()) {
@@ -316,7 +382,9 @@ struct Supervisor::Impl {
           p.state.last_exit = code;
         }
       }
-      if (p.state.phase != Phase::kWaiting) SetPhase(p, Phase::kStopped);
+      if (p.state.phase != Phase::kWaiting && p.state.phase != Phase::kStopped) {
+        SetPhase(p, Phase::kStopped, "stopped by the launcher");
+      }
     }
   }
 };

@@ -20,6 +20,7 @@
 
 #include "common/dds/participant.h"
 #include "common/error.h"
+#include "common/process.h"
 
 namespace autodrive::launcher {
 
@@ -40,22 +41,35 @@ enum class Phase {
 
 [[nodiscard]] const char* PhaseName(Phase phase);
 
+/// One process as the launcher runs it: `status.json`'s row and the process table's
+/// (city/launcher/process_table.h).
 struct ProcessState {
   std::string name;
   Phase phase = Phase::kWaiting;
   pid_t pid = -1;
   int starts = 0;
-  std::optional<int> last_exit;  ///< exit code (128 + signal)
-  std::chrono::system_clock::time_point since{};
+  std::optional<int> last_exit;  ///< exit code (128 + signal), a stop by the launcher included
+  std::chrono::system_clock::time_point since{};  ///< when it entered its phase
   std::string log;
+  /// Its exits on its own (not stopped by the launcher): how many, and the last one's status,
+  /// pid and time.
+  int exits = 0;
+  std::optional<ExitStatus> exit;
+  pid_t exit_pid = -1;
+  std::chrono::system_clock::time_point exited_at{};
+  /// kExited, kCrashLoop: when it is started again.
+  std::chrono::system_clock::time_point restart_at{};
+  /// For people: "killed by signal 9 (SIGKILL); restart 1 in 1.0 s", "running (restart 1)".
+  std::string detail;
 };
 
 class Supervisor {
  public:
   /// `say` gets a line for each thing a person should know (started, ready, exited, restarted,
   /// crash loop, stopped). `participant` must outlive it; it watches the SCM's and the device
-  /// hosts' heartbeats, /clock and the traffic topic for readiness (under DDS Security, what the
-  /// `launcher` role may read: docs/security.md).
+  /// hosts' heartbeats, /clock and the traffic topic for readiness, and writes the process
+  /// table on `/autodrive/scm/processes` on every change and every second (under DDS Security,
+  /// what the `launcher` role may read and write: docs/security.md).
   Supervisor(LaunchPlan plan, const dds::Participant& participant,
              std::function<void(const std::string&)> say);
   Supervisor(const Supervisor&) = delete;

@@ -24,6 +24,8 @@
 #include "autodrive_msgs/msg/MapSignalGroup.h"
 #include "autodrive_msgs/msg/OperatorReply.h"
 #include "autodrive_msgs/msg/OperatorRequest.h"
+#include "autodrive_msgs/msg/ProcessEntry.h"
+#include "autodrive_msgs/msg/ProcessTable.h"
 #include "autodrive_msgs/msg/SignRegistry.h"
 #include "autodrive_msgs/msg/SignalGroupState.h"
 #include "autodrive_msgs/msg/SignalRequest.h"
@@ -73,6 +75,8 @@
   X(autodrive_msgs_msg_dds__MapSignalGroup_, MapSignalGroup)           \
   X(autodrive_msgs_msg_dds__OperatorReply_, OperatorReply)             \
   X(autodrive_msgs_msg_dds__OperatorRequest_, OperatorRequest)         \
+  X(autodrive_msgs_msg_dds__ProcessEntry_, ProcessEntry)               \
+  X(autodrive_msgs_msg_dds__ProcessTable_, ProcessTable)               \
   X(autodrive_msgs_msg_dds__SignRegistry_, SignRegistry)               \
   X(autodrive_msgs_msg_dds__SignalGroupState_, SignalGroupState)       \
   X(autodrive_msgs_msg_dds__SignalRequest_, SignalRequest)             \

@@ -170,6 +170,9 @@ TopicSpec<msg::DeviceStatus> Devices() {
 TopicSpec<msg::DeviceTable> DeviceTable() {
   return Spec<msg::DeviceTable>("/autodrive/scm/device_table", Qos::LatchedState());
 }
+TopicSpec<msg::ProcessTable> Processes() {
+  return Spec<msg::ProcessTable>("/autodrive/scm/processes", Qos::LatchedState());
+}
 TopicSpec<msg::Heartbeat> Heartbeat() {
   return Spec<msg::Heartbeat>("/autodrive/scm/heartbeat", Qos::Stream(16));
 }

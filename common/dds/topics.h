@@ -87,6 +87,9 @@ TopicSpec<msg::DeviceStatus> Devices();    ///< latched, last one per writer
 /// Latched: the SCM's table of its city's devices (every status period of theirs, at most
 /// 1 s apart, and soon after a change).
 TopicSpec<msg::DeviceTable> DeviceTable();
+/// Latched, the last table of each launcher: the city's processes as `autodrive-city` runs
+/// them (on every change of one, and every second), for the SCM's process alarms.
+TopicSpec<msg::ProcessTable> Processes();
 /// The SCM's heartbeat (`/autodrive/scm/heartbeat`, sender "scm"): what the lights follow, and
 /// the SCM's alone to write (DDS Security grants it to the `scm` role only). Stream (last 16).
 TopicSpec<msg::Heartbeat> Heartbeat();

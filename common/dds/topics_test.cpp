@@ -105,6 +105,7 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
                                  ROW(Events()),
                                  ROW(Devices()),
                                  ROW(DeviceTable()),
+                                 ROW(Processes()),
                                  ROW(Heartbeat()),
                                  ROW(InfraHeartbeat()),
                                  ROW(SignalRequests()),
@@ -134,6 +135,8 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
   }
   EXPECT_EQ(Map().qos.durability, Qos::Durability::kTransientLocal);
   EXPECT_EQ(Signs().qos.durability, Qos::Durability::kTransientLocal);
+  // A restarted SCM finds each launcher's last table: how its own death is reported to it.
+  EXPECT_EQ(Processes().qos.durability, Qos::Durability::kTransientLocal);
   EXPECT_EQ(Spat().qos.durability, Qos::Durability::kVolatile);
   EXPECT_EQ(TypeName<decltype(Lidar(v))::Type>(), "sensor_msgs::msg::dds_::LaserScan_");
   EXPECT_EQ(TypeName<decltype(Spat())::Type>(), "autodrive_msgs::msg::dds_::Spat_");

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/ids.h"
+#include "common/time.h"
 
 namespace autodrive::scm {
 
@@ -58,14 +59,28 @@ class EventSink {
   EventSink(const EventSink&) = delete;
   EventSink& operator=(const EventSink&) = delete;
   virtual ~EventSink() = default;
+  /// An event that happens now.
   virtual void Emit(Event event) = 0;
+  /// An event that happened at `at` (the system's clock), before it is raised: one the SCM
+  /// learns of late, as a process's death it hears of only after its own restart. It is
+  /// stamped, published and logged with that time (and numbered as it is raised).
+  virtual void EmitAt(Event event, Time at) = 0;
 };
 
 /// Keeps every event it is given, in order (tests, and tools that collect events).
 class EventRecorder final : public EventSink {
  public:
-  void Emit(Event event) override { events_.push_back(std::move(event)); }
+  void Emit(Event event) override {
+    events_.push_back(std::move(event));
+    stamps_.emplace_back();
+  }
+  void EmitAt(Event event, Time at) override {
+    events_.push_back(std::move(event));
+    stamps_.emplace_back(at);
+  }
   [[nodiscard]] const std::vector<Event>& events() const { return events_; }
+  /// By event: the time it was given with (`EmitAt`), or nothing (`Emit`: now).
+  [[nodiscard]] const std::vector<std::optional<Time>>& stamps() const { return stamps_; }
   /// The events with code `code`.
   [[nodiscard]] std::vector<Event> WithCode(const std::string& code) const {
     std::vector<Event> out;
@@ -74,10 +89,14 @@ class EventRecorder final : public EventSink {
     }
     return out;
   }
-  void Clear() { events_.clear(); }
+  void Clear() {
+    events_.clear();
+    stamps_.clear();
+  }
 
  private:
   std::vector<Event> events_;
+  std::vector<std::optional<Time>> stamps_;
 };
 
 }  // namespace autodrive::scm

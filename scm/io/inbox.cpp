@@ -23,6 +23,7 @@ ScmInbox::ScmInbox(dds::Participant& participant, const Clock& clock, dds::LoopW
   signal_requests_ =
       std::make_unique<dds::Reader<msg::SignalRequest>>(participant, dds::topics::SignalRequests());
   device_statuses_ = std::make_unique<DeviceStatusInbox>(participant, clock);
+  processes_ = std::make_unique<ProcessTableInbox>(participant);
   waitset_.Attach(*signal_requests_);
   publications_ = std::make_unique<dds::PublicationWatcher>(participant);
 }

@@ -2,11 +2,12 @@
 /// @file
 /// What arrived at the SCM since its loop's last pass: operator requests (on the shared
 /// read-only topic, on the topic of each operator the city allows, and on the topics of
-/// operators it does not allow that writers appeared on, to refuse them), V2I signal requests
-/// and the devices' status reports. The DDS edge of the loop's inputs: it owns their readers and
-/// attaches them to the loop's waitset. What to do with an input is the daemon's, and how many
-/// to take in a pass its `PassScheduler`'s. Loop thread only (device reports are taken off DDS
-/// by Cyclone's thread inside `DeviceStatusInbox`). Not copyable or movable.
+/// operators it does not allow that writers appeared on, to refuse them), V2I signal requests,
+/// the devices' status reports and the launchers' process tables. The DDS edge of the loop's
+/// inputs: it owns their readers and attaches them to the loop's waitset. What to do with an input
+/// is the daemon's, and how many to take in a pass its `PassScheduler`'s. Loop thread only (device
+/// reports are taken off DDS by Cyclone's thread inside `DeviceStatusInbox`). Not copyable or
+/// movable.
 
 #include <cstddef>
 #include <cstdint>
@@ -24,6 +25,7 @@
 #include "common/dds/reader.h"
 #include "common/time.h"
 #include "scm/io/device_inbox.h"
+#include "scm/io/process_tables.h"
 
 namespace autodrive::scm {
 
@@ -71,6 +73,11 @@ class ScmInbox {
   [[nodiscard]] std::span<const ReceivedReport> TakeDeviceReports();
   /// Device reports refused (malformed) or dropped (too many devices) since the last call.
   [[nodiscard]] std::uint64_t TakeDeviceRefusals();
+  /// The next launcher's process table that arrived, in order, valid until the next call;
+  /// nothing when none waits.
+  [[nodiscard]] std::optional<ProcessTableView> TakeProcessTable() { return processes_->Take(); }
+  /// Process tables refused (malformed) so far.
+  [[nodiscard]] std::uint64_t process_table_refusals() const { return processes_->malformed(); }
 
  private:
   /// The operator requests of one topic.
@@ -88,6 +95,7 @@ class ScmInbox {
   std::size_t operator_cursor_ = 0;
   std::unique_ptr<dds::Reader<msg::SignalRequest>> signal_requests_;
   std::unique_ptr<DeviceStatusInbox> device_statuses_;
+  std::unique_ptr<ProcessTableInbox> processes_;
   std::unique_ptr<dds::PublicationWatcher> publications_;
   std::vector<ReceivedReport> reports_;  // drained from device_statuses_, reused each pass
   std::uint64_t device_refusals_seen_ = 0;

@@ -62,6 +62,18 @@ CREATE TABLE IF NOT EXISTS intersection_states (
 ) STRICT;
 )sql";
 
+// The SCM's process events of each process, found at start-up (`LatestProcessEvents`) without
+// reading the whole log: a partial index holds only them. Made on every open (IF NOT EXISTS):
+// a database of the same schema version written before it gets it then; an older SCM that
+// opens the file keeps it up to date without knowing it. The codes are ProcessWatch's
+// (scm/core/process_watch.h), literal so that SQLite can match the query to the index.
+constexpr const char* kProcessEventsIndex =
+    "CREATE INDEX IF NOT EXISTS events_of_processes ON events (code, device_id, time_ns) "
+    "WHERE code IN ('process_exited', 'process_restarted')";
+constexpr const char* kLatestProcessEvents =
+    "SELECT code, device_id, max(time_ns) FROM events "
+    "WHERE code IN ('process_exited', 'process_restarted') GROUP BY code, device_id";
+
 constexpr const char* kEventColumns =
     "id, time_ns, severity, source, code, message, intersection_id, device_id, actor, active";
 
@@ -200,6 +212,7 @@ struct Store::Impl {
 
   Statement begin, commit;
   Statement insert_event, count_events, select_events_oldest, select_events_newest;
+  Statement last_event_id, latest_process_events;
   Statement insert_config, latest_config, config_by_id, config_history;
   Statement prune_events_before, prune_events_keep, prune_configs, count_configs;
   Statement upsert_state, select_states;
@@ -317,13 +330,16 @@ struct Store::Impl {
       }
     }
     // Migrations from older versions go here when there are any (version < kSchemaVersion).
+    Exec(kProcessEventsIndex);
 
     begin = Statement(db, "BEGIN IMMEDIATE");
     commit = Statement(db, "COMMIT");
     insert_event = Statement(db,
-                             "INSERT INTO events (time_ns, severity, source, code, message, "
+                             "INSERT INTO events (id, time_ns, severity, source, code, message, "
                              "intersection_id, device_id, actor, active) "
-                             "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+                             "VALUES (?10, ?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+    last_event_id = Statement(db, "SELECT seq FROM sqlite_sequence WHERE name = 'events'");
+    latest_process_events = Statement(db, kLatestProcessEvents);
     count_events = Statement(db, "SELECT count(*) FROM events");
     const std::string select = std::string("SELECT ") + kEventColumns +
                                " FROM events WHERE time_ns >= ?1 AND id > ?2 ORDER BY id ";
@@ -422,6 +438,11 @@ std::int64_t Store::AppendEvents(const std::vector<EventRecord>& events) {
           .Bind(7, e.device_id)
           .Bind(8, e.actor)
           .Bind(9, std::int64_t{e.active ? 1 : 0});
+      if (e.id > 0) {
+        use.Bind(10, e.id);
+      } else {
+        use.BindNull(10);  // the next id
+      }
       use.Run();
     }
     return static_cast<std::int64_t>(sqlite3_last_insert_rowid(impl_->db));
@@ -472,6 +493,22 @@ std::vector<EventRecord> Store::Events(const EventQuery& query) const {
     e.actor = use.Text(8);
     e.active = use.Int(9) != 0;
     out.push_back(std::move(e));
+  }
+  return out;
+}
+
+std::int64_t Store::LastEventId() const {
+  std::lock_guard lock(impl_->mutex);
+  Use use(impl_->db, impl_->last_event_id);
+  return use.Step() ? use.Int(0) : 0;
+}
+
+std::vector<LatestDeviceEvent> Store::LatestProcessEvents() const {
+  std::lock_guard lock(impl_->mutex);
+  Use use(impl_->db, impl_->latest_process_events);
+  std::vector<LatestDeviceEvent> out;
+  while (use.Step()) {
+    out.push_back(LatestDeviceEvent{use.Text(0), use.Text(1), FromNs(use.Int(2))});
   }
   return out;
 }

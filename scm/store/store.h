@@ -54,6 +54,14 @@ struct EventRecord {
   bool operator==(const EventRecord&) const = default;
 };
 
+/// The newest event of one code about one device (`Store::LatestProcessEvents`).
+struct LatestDeviceEvent {
+  std::string code;
+  std::string device_id;
+  Time time{};
+  bool operator==(const LatestDeviceEvent&) const = default;
+};
+
 /// Which events `Store::Events` returns, and in what order.
 struct EventQuery {
   /// Only events with `time >= since`.
@@ -134,9 +142,13 @@ class Store {
 
   // ---- Event log --------------------------------------------------------------------------
 
-  /// Appends `event` (its `id` is ignored) and returns its row id: 1 for the first event of
-  /// the database, then one more each time (ids are never reused).
-  /// @throws StoreError when the write fails; nothing is written then.
+  /// Appends `event` and returns its row id. With `event.id` 0 the id is the next one: 1 for
+  /// the first event of the database, then one more each time; with `event.id` set (the SCM
+  /// numbers its events as it raises them, from `LastEventId`, so that an event has the same
+  /// id live and in the log) that id, which must be above every id used so far. Ids are never
+  /// reused.
+  /// @throws StoreError when the write fails (an id already used included); nothing is written
+  ///   then.
   std::int64_t AppendEvent(const EventRecord& event);
 
   /// Appends `events` in one transaction (the writer thread's batches) and returns the row id
@@ -156,6 +168,16 @@ class Store {
 
   /// The number of events in the log.
   [[nodiscard]] std::int64_t EventCount() const;
+
+  /// The largest event id ever used (pruned events included), 0 for a new database: the SCM
+  /// numbers its events from the next one.
+  [[nodiscard]] std::int64_t LastEventId() const;
+
+  /// For each process event code (`process_exited`, `process_restarted`: scm/core/
+  /// process_watch.h) and device, the time of the newest such event: what the SCM's process
+  /// watch has already logged when it starts. Read through an index of those events alone, not
+  /// the whole log.
+  [[nodiscard]] std::vector<LatestDeviceEvent> LatestProcessEvents() const;
 
   // ---- Applied configuration --------------------------------------------------------------
 

@@ -6,12 +6,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <thread>
+#include <tuple>
 
 #include "common/test_support.h"
 
@@ -76,6 +78,23 @@ std::string RawText(const std::string& path, const std::string& sql) {
   return out;
 }
 
+// SQLite's query plan of `sql` on the file, its steps joined by "; ".
+std::string RawPlan(const std::string& path, const std::string& sql) {
+  sqlite3* db = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* s = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(db, ("EXPLAIN QUERY PLAN " + sql).c_str(), -1, &s, nullptr),
+            SQLITE_OK);
+  std::string out;
+  while (sqlite3_step(s) == SQLITE_ROW) {
+    out += reinterpret_cast<const char*>(sqlite3_column_text(s, 3));
+    out += "; ";
+  }
+  sqlite3_finalize(s);
+  sqlite3_close(db);
+  return out;
+}
+
 TEST(ContentHash, IsFnv1a64InSixteenHexDigits) {
   // Reference values of 64-bit FNV-1a (Fowler, Noll, Vo test vectors).
   EXPECT_EQ(ContentHash(""), "cbf29ce484222325");
@@ -90,14 +109,70 @@ TEST_F(StoreTest, AppendReturnsConsecutiveIdsAndRoundTripsEveryField) {
   std::vector<EventRecord> written;
   for (int i = 0; i < 10; ++i) {
     EventRecord e = MakeEvent(i);
-    e.id = 999;  // ignored
-    const std::int64_t id = store.AppendEvent(e);
+    const std::int64_t id = store.AppendEvent(e);  // id 0: the next one
     EXPECT_EQ(id, i + 1);
     e.id = id;
     written.push_back(e);
   }
   EXPECT_EQ(store.EventCount(), 10);
   EXPECT_EQ(store.Events({}), written);
+}
+
+TEST_F(StoreTest, AnEventNumberedByTheScmKeepsItsIdAndTheCountGoesOnAfterPruning) {
+  Store store(DbPath());
+  EXPECT_EQ(store.LastEventId(), 0);
+  // The SCM numbers its events as it raises them (from LastEventId); one it had to drop leaves
+  // a gap.
+  EventRecord e = MakeEvent(1);
+  e.id = 1;
+  EXPECT_EQ(store.AppendEvent(e), 1);
+  e.id = 3;
+  EXPECT_EQ(store.AppendEvent(e), 3);
+  EXPECT_EQ(store.LastEventId(), 3);
+  const auto got = store.Events({});
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[1].id, 3);
+  e.id = 3;
+  EXPECT_THROW(store.AppendEvent(e), StoreError) << "an id is used once";
+  // Pruned to nothing, then reopened (the SCM restarted): the count goes on, ids are not reused.
+  EXPECT_EQ(store.PruneEvents(std::nullopt, 0), 2);
+  Store reopened(DbPath());
+  EXPECT_EQ(reopened.EventCount(), 0);
+  EXPECT_EQ(reopened.LastEventId(), 3);
+  e.id = 0;
+  EXPECT_EQ(reopened.AppendEvent(e), 4);
+}
+
+TEST_F(StoreTest, TheNewestProcessEventOfEachDeviceIsFoundThroughItsOwnIndex) {
+  Store store(DbPath());
+  EXPECT_TRUE(store.LatestProcessEvents().empty());
+  const auto event = [](std::string code, std::string device, int s) {
+    EventRecord e = MakeEvent(0);
+    e.code = std::move(code);
+    e.device_id = std::move(device);
+    e.time = Time(seconds(s));
+    return e;
+  };
+  store.AppendEvents(
+      {event("process_exited", "process/lights", 10),
+       event("process_restarted", "process/lights", 12),
+       event("process_exited", "process/lights", 30), event("process_exited", "process/scm", 20),
+       event("device_lost", "process/lights", 99), event("process_exited", "process/lights", 25)});
+  std::vector<LatestDeviceEvent> latest = store.LatestProcessEvents();
+  std::sort(latest.begin(), latest.end(), [](const auto& a, const auto& b) {
+    return std::tie(a.code, a.device_id) < std::tie(b.code, b.device_id);
+  });
+  EXPECT_EQ(latest, (std::vector<LatestDeviceEvent>{
+                        {"process_exited", "process/lights", Time(seconds(30))},
+                        {"process_exited", "process/scm", Time(seconds(20))},
+                        {"process_restarted", "process/lights", Time(seconds(12))}}));
+  // Read through the partial index, not the whole log (a million events at most): SQLite's
+  // plan of the store's query.
+  const std::string plan = RawPlan(DbPath(),
+                                   "SELECT code, device_id, max(time_ns) FROM events WHERE code IN "
+                                   "('process_exited', 'process_restarted') GROUP BY code, "
+                                   "device_id");
+  EXPECT_NE(plan.find("USING COVERING INDEX events_of_processes"), std::string::npos) << plan;
 }
 
 TEST_F(StoreTest, TextWithQuotesNulsAndNonAsciiRoundTrips) {

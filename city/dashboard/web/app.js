@@ -1332,8 +1332,9 @@
   const evEl = $('events');
   const evRows = new Map(); // key -> row
   let evSeq = 0;
+  // An id is its source's (the SCM's event log, a light host's session): two sources may use one.
   function evKey(e) {
-    return e.id !== undefined && e.id !== null ? String(e.id) : 'local-' + ++evSeq;
+    return e.id !== undefined && e.id !== null ? str(e.source) + '#' + String(e.id) : 'local-' + ++evSeq;
   }
   function evHtml(e) {
     const sev = Math.max(0, Math.min(3, Math.round(num(e.severity, 0))));
@@ -1417,7 +1418,7 @@
     ac.textContent = alarms + (alarms === 1 ? ' alarm' : ' alarms');
   }
   function ackEvent(m) {
-    const row = evRows.get(String(m.id));
+    const row = evRows.get(evKey({ id: m.id, source: m.source }));
     if (!row) return;
     row._e = Object.assign({}, row._e, { acked_by: m.by || 'someone', acked_at: m.at });
     row.className = evClass(row._e);
@@ -1442,7 +1443,7 @@
             for (const row of evRows.values()) merged.set(row._key, row._e);
             for (const e of arr(body && body.events)) {
               if (!e || typeof e !== 'object') continue;
-              const k = e.id !== undefined && e.id !== null ? String(e.id) : 'h-' + ++evSeq;
+              const k = e.id !== undefined && e.id !== null ? evKey(e) : 'h-' + ++evSeq;
               merged.set(k, Object.assign({}, merged.get(k) || {}, e));
             }
             setEvents(Array.from(merged.values()));
