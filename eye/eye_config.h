@@ -144,8 +144,10 @@ struct CameraConfig {
 /// The filter per car and the search for tags.
 struct TrackingConfig {
   /// Process noise: the car's acceleration (m/s²) and angular acceleration (rad/s²), white.
-  /// A Nigel starting or braking hard reaches 1.5 m/s².
-  double accel_sigma = 2.0;
+  /// A Nigel launches at up to its tyres' friction limit, μ g = 0.4 × 9.81 ≈ 3.9 m/s²: with 2.0,
+  /// at 15 frames a second the frame after a launch was refused as an outlier (the small town's
+  /// cars leaving their spawn).
+  double accel_sigma = 4.0;
   double yaw_accel_sigma = 1.5;
   /// A measurement further than this (Mahalanobis distance squared, 3 degrees of freedom) from
   /// the prediction is an outlier; 16.3 is the 99.9% point.

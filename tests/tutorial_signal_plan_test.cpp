@@ -129,7 +129,11 @@ TEST_F(TutorialSignalPlan, TheEditedCityValidatesBrokenRulesAreRefusedAndTheNewP
   r = Lab({"plan", "centre", "auto"});
   EXPECT_EQ(r.code, 0) << r.text;
   centre = WaitIntersection(
-      "centre", [](const nlohmann::json& x) { return x.value("plan_by", "") == "schedule"; },
+      "centre",
+      [](const nlohmann::json& x) {
+        // Back to the schedule at once, back to its plan at the next safe point.
+        return x.value("plan_by", "") == "schedule" && x.value("plan", "") == "day";
+      },
       seconds(120));
   EXPECT_EQ(centre.value("plan", ""), "day") << centre.dump();
 }
