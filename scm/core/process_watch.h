@@ -149,8 +149,8 @@ class ProcessWatch {
   Logs* LogsOf(std::string_view host, std::string_view name);
 
   ProcessWatchParams params_;
-  std::map<std::string, Logs, std::less<>> logged_;     ///< by device id, from the event log
-  std::map<std::string, Logs, std::less<>> processes_;  ///< by "host\0name"
+  std::map<std::string, Logs, std::less<>> logged_;         ///< by device id, from the event log
+  std::map<std::string, Logs, std::less<>> processes_;      ///< by "host\0name"
   std::map<std::string, Launcher, std::less<>> launchers_;  ///< by host
   std::string key_;  ///< scratch "host\0name": a table of known processes allocates nothing
   ProcessWatchCounters counters_;
