@@ -81,7 +81,7 @@ std::string TestCity(const std::filesystem::path& dir, bool lab_cars = false) {
   };
   replace("../maps/", Config("config/maps") + "/");
   replace("../cameras/", Config("config/cameras") + "/");
-  replace("rate_hz: 30", "rate_hz: 1");
+  replace("rate_hz: 15", "rate_hz: 1");
   if (!lab_cars) {
     replace("traffic:\n", "traffic:\n  lab_cars: {source: none}\n");
     // ... and the SUMO cars out of the simulator's world, or they would drive through them.
