@@ -396,9 +396,11 @@ int main(int argc, char** argv) {
   dds_cli.Add(app, "DDS partition of the SCM");
   app.add_option("--operator", operator_name,
                  "operator name for commands that change state (default: $AUTODRIVE_OPERATOR)");
-  app.add_option("--timeout", timeout_s,
-                 "seconds to wait for the SCM and its answer (config apply: 120 unless given; "
-                 "the SCM builds the whole city before it answers)")
+  app.add_option(
+         "--timeout", timeout_s,
+         "seconds to wait for the SCM and its answer (config apply and validate --scm: 120 unless "
+         "given; "
+         "the SCM builds the whole city before it answers)")
       ->capture_default_str();
   app.add_flag("--json", c.json, "print answers (and watched messages) as JSON, one per line");
   AddCommands(app, c);
@@ -416,7 +418,9 @@ int main(int argc, char** argv) {
 
   // A city of a thousand intersections takes the SCM seconds to build (its map, its
   // controllers, its writers), more on a busy machine; the loop runs on meanwhile.
-  if (c.apply->parsed() && app.count("--timeout") == 0) timeout_s = 120.0;
+  // Both build the whole city on the SCM before it answers.
+  const bool builds_city = c.apply->parsed() || (c.validate->parsed() && c.validate_on_scm);
+  if (builds_city && app.count("--timeout") == 0) timeout_s = 120.0;
   try {
     if (c.validate->parsed() && !c.validate_on_scm) return ValidateHere(c.file);
     if (c.watch->parsed()) return Watch(dds_options, c.watch_what, c.count, c.duration_s, c.json);
