@@ -1,9 +1,9 @@
-// autodrive-city with real processes: `up` then `down` leaves nothing behind; a killed SCM is
-// started again and the lights come back from flash through the start-up sequence; a killed
-// process (a light host, the SCM itself) raises an alarm in the SCM's event log (`scmctl
-// events`) and on the dashboard's live feed, and an event when it is back; a mixed city starts
-// with a component off; a crash loop is reported; a bad city file is refused before any process
-// starts.
+// autodrive-city with real processes: `up` (in a shell without CYCLONEDDS_URI) then `down`
+// leaves nothing behind; a killed SCM is started again and the lights come back from flash
+// through the start-up sequence; a killed process (a light host, the SCM itself) raises an alarm
+// in the SCM's event log (`scmctl events`) and on the dashboard's live feed, and an event when
+// it is back; a mixed city starts with a component off; a crash loop is reported; a bad city
+// file is refused before any process starts.
 #include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -66,10 +66,12 @@ class Launcher : public ScmProcesses {
     return city;
   }
 
-  std::unique_ptr<ChildProcess> Up(const std::string& city, std::vector<std::string> extra = {}) {
+  std::unique_ptr<ChildProcess> Up(const std::string& city, std::vector<std::string> extra = {},
+                                   std::vector<std::string> env = {}) {
     std::vector<std::string> argv{Bin("autodrive-city"), "up", city, "--partition", partition_};
     argv.insert(argv.end(), extra.begin(), extra.end());
     ChildOptions options;
+    options.extra_env = std::move(env);
     options.output_file = dir_ / "launcher.log";
     return std::make_unique<ChildProcess>(ChildProcess::Start(argv, options));
   }
@@ -285,7 +287,9 @@ TEST_F(Launcher, UpThenDownLeavesNoProcessBehind) {
   const std::string city = WriteCity(
       "  sim: {mode: off}\n  eye: {mode: off}\n  dashboard: {mode: on, listen: "
       "\"127.0.0.1:0\"}\n");
-  auto up = Up(city);
+  // As in a new shell, with no CYCLONEDDS_URI: the launcher takes the shipped loopback
+  // configuration as its children do, or it would never hear that they are ready.
+  auto up = Up(city, {}, {"CYCLONEDDS_URI="});
   const auto s = WaitStatus(*up, AllRunning, seconds(120));
   ASSERT_FALSE(s.is_null()) << LauncherLog();
   std::set<std::string> names;

@@ -25,6 +25,7 @@
 #include "city/launcher/supervisor.h"
 
 #include "common/dds/participant.h"
+#include "common/dds/program_options.h"
 #include "common/error.h"
 #include "common/ids.h"
 #include "common/logging.h"
@@ -173,6 +174,10 @@ int Up(const UpOptions& o) {
   if (plan.dashboard) MakeTokens(*plan.dashboard);
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&](int) { stop.store(true); });
+  // Without CYCLONEDDS_URI every program of the city takes the shipped loopback configuration
+  // (config/dds/localhost.xml); the launcher must too, or it would not hear their readiness.
+  // The children inherit the variable it sets.
+  dds::UseShippedDdsConfigUnlessSet();
   dds::ParticipantOptions participant_options;
   participant_options.partition = o.partition;
   // DDS Security from the environment, as every program of the city takes it; the launcher's

@@ -30,7 +30,7 @@ void UseShippedDdsConfigUnlessSet() {
           "Cyclone DDS's defaults");
       return;
     }
-    ::setenv("CYCLONEDDS_URI", ("file://" + file).c_str(), 0);
+    ::setenv("CYCLONEDDS_URI", ("file://" + file).c_str(), 1);
     spdlog::info(
         "CYCLONEDDS_URI is not set: using {} (loopback only, as scripts/run-city does; set "
         "CYCLONEDDS_URI to config/dds/lab.xml for a lab of several hosts)",
