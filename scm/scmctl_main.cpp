@@ -19,6 +19,7 @@
 #include "common/dds/conversions.h"
 #include "common/dds/program_options.h"
 #include "common/dds/topics.h"
+#include "common/logging.h"
 #include "common/shutdown.h"
 #include "scm/config_loader.h"
 #include "scm/core/city.h"
@@ -396,11 +397,9 @@ int main(int argc, char** argv) {
   dds_cli.Add(app, "DDS partition of the SCM");
   app.add_option("--operator", operator_name,
                  "operator name for commands that change state (default: $AUTODRIVE_OPERATOR)");
-  app.add_option(
-         "--timeout", timeout_s,
-         "seconds to wait for the SCM and its answer (config apply and validate --scm: 120 unless "
-         "given; "
-         "the SCM builds the whole city before it answers)")
+  app.add_option("--timeout", timeout_s,
+                 "seconds to wait for the SCM and its answer (config apply and validate --scm: "
+                 "120 unless given, as the SCM builds the whole city before it answers)")
       ->capture_default_str();
   app.add_flag("--json", c.json, "print answers (and watched messages) as JSON, one per line");
   AddCommands(app, c);
@@ -411,6 +410,9 @@ int main(int argc, char** argv) {
     // an invalid request is, not CLI11's own numbers.
     return app.exit(e) == 0 ? 0 : 2;
   }
+  // Log lines (warnings and worse only) go to stderr: stdout carries nothing but the answers,
+  // which `--json` makes one JSON object per line.
+  InitLogging("scmctl", spdlog::level::warn);
   // DDS Security: an operator's identity is /autodrive/operator/<name> (docs/security.md).
   dds_cli.SetOwnEnclave(operator_name.empty() ? "/autodrive/viewer/scmctl"
                                               : "/autodrive/operator/" + operator_name);

@@ -10,6 +10,8 @@
 #include <optional>
 #include <set>
 
+#include <nlohmann/json.hpp>
+
 #include "autodrive_msgs/msg/DeviceCommand.h"
 #include "autodrive_msgs/msg/Heartbeat.h"
 #include "autodrive_msgs/msg/MapData.h"
@@ -266,6 +268,20 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   r = Scmctl({"--json", "status"});
   EXPECT_THAT(r.text, HasSubstr("{\"message\":\"city driving_school"));
   EXPECT_THAT(r.text, HasSubstr("\"result\":\"ok\""));
+  {
+    // In a new shell (no CYCLONEDDS_URI: scmctl takes the shipped file and may say so), stdout
+    // is still nothing but the answer, one JSON object per line.
+    const std::vector<std::string> argv{
+        test::Bin("scmctl"), "--partition", partition_, "--timeout", "10", "--json", "status"};
+    ChildProcess p(argv, {"CYCLONEDDS_URI="});
+    int lines = 0;
+    while (auto line = p.ReadLine(seconds(30))) {
+      ++lines;
+      EXPECT_TRUE(nlohmann::json::accept(*line)) << *line;
+    }
+    EXPECT_EQ(p.Wait(seconds(30)), std::optional<int>(0));
+    EXPECT_EQ(lines, 1);
+  }
   // Configurations: a good one validates and applies; one that breaks a rule is refused. The
   // text travels, not the path, so the test's copy lives in its own folder.
   r = Scmctl({"config", "validate", Config("config/cities/small_town.yaml")});
