@@ -1,6 +1,7 @@
 // autodrive-infra: hosts a lab's traffic light heads as devices (simulated, or physical through a
 // microcontroller on a serial port), with the local fail-safe and the independent conflict
 // monitor. See docs/infrastructure.md.
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -8,8 +9,10 @@
 #include <CLI/CLI.hpp>
 
 #include "common/dds/clock_subscriber.h"
+#include "common/dds/lockstep.h"
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
+#include "common/error.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
@@ -38,6 +41,8 @@ int main(int argc, char** argv) {
                  "wall: the computer's clock (real track); sim: /clock from the simulator")
       ->check(CLI::IsMember({"wall", "sim"}))
       ->capture_default_str();
+  std::string lockstep_name;
+  app.add_option("--lockstep", lockstep_name, dds::LockstepOptionHelp("before the SCM's"));
   dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
 
@@ -48,12 +53,18 @@ int main(int argc, char** argv) {
 
     // The loop is paced by the wall clock; the devices live in the system's clock, which is
     // the same wall clock on the real track and /clock in simulation.
+    const bool lockstep = !lockstep_name.empty();
+    if (lockstep && app.count("--clock") > 0 && clock_kind == "wall") {
+      throw InputError("--lockstep runs on the simulator's steps, not on --clock wall");
+    }
     WallClock wall;
     std::unique_ptr<SimClock> sim_clock;
-    if (clock_kind == "sim") sim_clock = std::make_unique<SimClock>();
+    if (clock_kind == "sim" || lockstep) sim_clock = std::make_unique<SimClock>();
     Clock* clock = sim_clock ? static_cast<Clock*>(sim_clock.get()) : &wall;
+    std::atomic<bool> stop{false};
     // Before any other thread starts, so that they all inherit the blocked signals.
     ShutdownSignals signals([&] {
+      stop.store(true);
       wall.Interrupt();
       if (sim_clock) sim_clock->Interrupt();
     });
@@ -61,7 +72,9 @@ int main(int argc, char** argv) {
     dds_cli.SetOwnEnclave("/autodrive/infra/" + config.name);
     dds::Participant participant(dds_cli.Participant());
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
-    if (sim_clock != nullptr) {
+    if (lockstep) {
+      sim_clock->AdvanceTo(Time{});  // the simulator's lockstep starts at 0
+    } else if (sim_clock != nullptr) {
       clock_subscriber = std::make_unique<dds::SimClockSubscriber>(participant, *sim_clock);
       spdlog::info("running on /clock; waiting for the first message");
       while (!sim_clock->started()) {
@@ -72,7 +85,17 @@ int main(int argc, char** argv) {
                  plan.heads.size(), plan.map.name, config.city, dds_cli.partition(),
                  ToString(clock->kind()));
     DeviceHost host(config, std::move(plan), participant, clock->Read());
-    host.Run(*clock, wall);
+    if (lockstep) {
+      // A pass at each step's time, answered once every reader has what it wrote; then the
+      // host stops as Run would.
+      (void)dds::RunLockstepController(participant, lockstep_name, stop, [&](Time t) {
+        sim_clock->AdvanceTo(t);
+        host.Step(sim_clock->Read());
+      });
+      host.Stop(sim_clock->Read());
+    } else {
+      host.Run(*clock, wall);
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "autodrive-infra: %s\n", e.what());

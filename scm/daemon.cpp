@@ -570,6 +570,8 @@ void Scm::Pass() { impl_->Pass(); }
 
 MonoTime Scm::next_deadline() const { return impl_->NextDeadline(); }
 
+void Scm::WaitForSenders() { impl_->publishers->WaitIdle(); }
+
 void Scm::FlushPersistence() {
   impl_->persistence->Flush();
   impl_->persistence->RunCompletions();

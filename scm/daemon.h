@@ -92,6 +92,10 @@ class Scm {
   void Pass();
   /// The next instant the loop would wake at with no input (tests step a simulated clock to it).
   [[nodiscard]] MonoTime next_deadline() const;
+  /// Waits until the sender threads wrote everything the passes so far handed them (SPaT, the
+  /// device table): lockstep (`autodrive-scm --lockstep`) then waits for their
+  /// acknowledgements.
+  void WaitForSenders();
   /// Waits until queued database writes are done (tests).
   void FlushPersistence();
 

@@ -1,12 +1,15 @@
 // autodrive-scm: the Smart City Manager daemon. See docs/scm.md.
+#include <atomic>
 #include <cstdio>
 #include <memory>
 
 #include <CLI/CLI.hpp>
 
 #include "common/dds/clock_subscriber.h"
+#include "common/dds/lockstep.h"
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
+#include "common/error.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
@@ -59,6 +62,9 @@ int main(int argc, char** argv) {
                  "for the first message)")
       ->check(CLI::IsMember({"wall", "sim"}))
       ->capture_default_str();
+  std::string lockstep_name;
+  app.add_option("--lockstep", lockstep_name,
+                 dds::LockstepOptionHelp("after the lights' (docs/scm.md)"));
   dds_cli.Add(app);
   app.add_option("--tick-ms", tick_ms,
                  "longest sleep of the control loop in ms (requests and due controllers wake it "
@@ -86,19 +92,27 @@ int main(int argc, char** argv) {
     options.retention.max_event_age = FromSeconds(keep_days * 86400.0);
     options.retention.max_events = keep_events;
     options.retention.max_configs = keep_configs;
+    const bool lockstep = !lockstep_name.empty();
+    if (lockstep && app.count("--clock") > 0 && clock_kind == "wall") {
+      throw InputError("--lockstep runs on the simulator's steps, not on --clock wall");
+    }
     WallClock wall;
     std::unique_ptr<SimClock> sim;
-    if (clock_kind == "sim") sim = std::make_unique<SimClock>();
+    if (clock_kind == "sim" || lockstep) sim = std::make_unique<SimClock>();
     Clock& clock = sim ? static_cast<Clock&>(*sim) : wall;
     std::atomic<scm::Scm*> running{nullptr};
+    std::atomic<bool> stop{false};
     // Before any other thread starts, so that they all inherit the blocked signals.
     ShutdownSignals signals([&] {
+      stop.store(true);
       if (auto* d = running.load()) d->Stop();
       clock.Interrupt();
     });
     dds::Participant participant(dds_cli.Participant());
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
-    if (sim) {
+    if (lockstep) {
+      sim->AdvanceTo(Time{});  // the simulator's lockstep starts at 0; the steps move it on
+    } else if (sim) {
       // /clock drives the control timeline; it comes over the daemon's own participant.
       clock_subscriber = std::make_unique<dds::SimClockSubscriber>(participant, *sim);
       spdlog::info("running on /clock; waiting for the first message");
@@ -108,7 +122,20 @@ int main(int argc, char** argv) {
     running = &daemon;
     if (clock.interrupted()) daemon.Stop();
     spdlog::info("running city {} ({} clock, partition '{}')", daemon.city().config.name,
-                 clock_kind, dds_cli.partition());
+                 lockstep ? "lockstep " + lockstep_name : clock_kind, dds_cli.partition());
+    if (lockstep) {
+      // A pass at each step's time, answered once every reader has what it wrote.
+      (void)dds::RunLockstepController(participant, lockstep_name, stop, [&](Time t) {
+        sim->AdvanceTo(t);
+        try {
+          daemon.Pass();
+        } catch (const std::exception& e) {
+          spdlog::error("pass failed: {}", e.what());  // as in Run: the signals go on
+        }
+        daemon.WaitForSenders();
+      });
+      daemon.Stop();  // Run then only says that the SCM stops
+    }
     daemon.Run();
     running = nullptr;
     spdlog::info("stopped");

@@ -69,7 +69,7 @@ struct SimService::Impl {
     traffic = std::make_unique<internal::BackgroundTraffic>(participant, o.traffic,
                                                             std::move(names), !cameras->empty());
     if (o.mode == SimMode::kLockstep) {
-      lockstep = std::make_unique<dds::LockstepServer>(participant, o.controllers);
+      lockstep = std::make_unique<dds::LockstepServer>(participant, o.controllers, o.stages);
     }
     origin = o.mode == SimMode::kRealTime ? WallClock().Now() : Time{};
   }

@@ -142,12 +142,27 @@ TEST(SimLockstep, ACitysServiceSectionIsCheckedWithTheKeyNamed) {
   EXPECT_THAT(load("{mode: lockstep}"), testing::HasSubstr("lockstep needs at least one"));
   EXPECT_THAT(load("{mode: lockstep, controllers: [a, a]}"),
               testing::HasSubstr("a is listed twice"));
+  EXPECT_THAT(load("{mode: lockstep, stages: [[a], [b, a]]}"),
+              testing::HasSubstr("stages: a is listed twice"));
+  EXPECT_THAT(load("{mode: lockstep, stages: [[a]], controllers: [a]}"),
+              testing::HasSubstr("controllers: a is listed twice"));
+  EXPECT_THAT(load("{mode: lockstep, stages: [[]]}"),
+              testing::HasSubstr("stages: a stage cannot be empty"));
+  EXPECT_THAT(load("{mode: lockstep, stages: [[end]]}"),
+              testing::HasSubstr("stages: a controller cannot be named 'end'"));
+  EXPECT_THAT(load("{mode: fast, stages: [[a]]}"),
+              testing::HasSubstr("stages: only lockstep has stages of controllers"));
   EXPECT_THAT(load("{mode: lockstepp, controllers: [a]}"), testing::HasSubstr("mode"));
   EXPECT_THAT(load("{control_period_s: 0}"), testing::HasSubstr("control_period_s"));
   const auto ok = config::LoadString<SimConfig>(
       "service: {mode: lockstep, controllers: [driver], duration_s: 12}\n", "city.yaml");
   EXPECT_EQ(ok.service.mode, SimMode::kLockstep);
   EXPECT_EQ(ok.service.duration, std::optional<Duration>(seconds(12)));
+  const auto staged = config::LoadString<SimConfig>(
+      "service: {mode: lockstep, stages: [[lights], [scm, eye]]}\n", "city.yaml");
+  EXPECT_EQ(staged.service.stages,
+            (std::vector<std::vector<std::string>>{{"lights"}, {"scm", "eye"}}));
+  EXPECT_TRUE(staged.service.controllers.empty());
 }
 
 TEST(SimLockstep, TheWorldAdvancesOneControlPeriodPerAnswerAndWaitsForIt) {

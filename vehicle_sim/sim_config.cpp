@@ -26,14 +26,24 @@ void SpawnConfig::Validate() const {
 void SimVehicleConfig::Validate() const { (void)ParseVehicleName(name); }
 
 void ServiceOptions::Validate() const {
-  AUTODRIVE_THROW_UNLESS(mode != SimMode::kLockstep || !controllers.empty(),
+  AUTODRIVE_THROW_UNLESS(mode != SimMode::kLockstep || !controllers.empty() || !stages.empty(),
                          "controllers: lockstep needs at least one controller to wait for "
-                         "(sim.service.controllers, or --controller NAME)");
+                         "(sim.service.controllers or stages, or --controller NAME)");
+  AUTODRIVE_THROW_UNLESS(mode == SimMode::kLockstep || stages.empty(),
+                         "stages: only lockstep has stages of controllers");
   std::set<std::string> names;
-  for (const std::string& c : controllers) {
-    AUTODRIVE_THROW_UNLESS(!c.empty(), "controllers: a controller's name cannot be empty");
-    AUTODRIVE_THROW_UNLESS(names.insert(c).second, "controllers: " << c << " is listed twice");
+  const auto check = [&names](const std::string& c, std::string_view key) {
+    AUTODRIVE_THROW_UNLESS(!c.empty(), key << ": a controller's name cannot be empty");
+    AUTODRIVE_THROW_UNLESS(
+        c != "end" && c.find(',') == std::string::npos,
+        key << ": a controller cannot be named '" << c << "' (not 'end', no comma)");
+    AUTODRIVE_THROW_UNLESS(names.insert(c).second, key << ": " << c << " is listed twice");
+  };
+  for (const auto& stage : stages) {
+    AUTODRIVE_THROW_UNLESS(!stage.empty(), "stages: a stage cannot be empty");
+    for (const std::string& c : stage) check(c, "stages");
   }
+  for (const std::string& c : controllers) check(c, "controllers");
 }
 
 namespace {

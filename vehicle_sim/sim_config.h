@@ -98,6 +98,10 @@ struct ServiceOptions {
   std::optional<Duration> duration;  ///< stop after this much simulated time
   /// Lockstep: the controllers that must answer every step (their `step_done` frame ids).
   std::vector<std::string> controllers;
+  /// Lockstep: controllers that answer each step before `controllers`, stage by stage, each
+  /// stage told the step once the one before answered (common/dds/lockstep.h, "Stages"): e.g.
+  /// `[[eye], [lights], [scm]]` so that the SCM decides on the lamps and fleet of the step.
+  std::vector<std::vector<std::string>> stages;
   /// SUMO's background traffic (`/autodrive/scm/traffic`) in the world: seen, drawn and
   /// collided with (traffic.h). Off: the topic is not read.
   bool traffic = true;
@@ -113,9 +117,11 @@ struct ServiceOptions {
     a.Optional("duration_s", duration,
                config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
     a.Optional("controllers", controllers);
+    a.Optional("stages", stages);
     a.Optional("traffic", traffic);
   }
-  /// Lockstep needs at least one controller; names are unique and not empty.
+  /// Lockstep needs at least one controller (plain or staged); names are unique and not
+  /// empty; no stage is empty.
   void Validate() const;
   bool operator==(const ServiceOptions&) const = default;
 };

@@ -157,6 +157,7 @@ struct ServiceOverrides {
   std::optional<double> command_timeout_s;
   std::optional<double> control_period_s;
   std::vector<std::string> controllers;
+  std::vector<std::string> stages;  // each NAME[,NAME...]
   std::optional<bool> traffic;
 };
 
@@ -180,12 +181,23 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
     options.command_timeout = FromSeconds(*overrides.command_timeout_s);
   if (overrides.control_period_s) options.control_period = FromSeconds(*overrides.control_period_s);
   if (overrides.traffic) options.traffic = *overrides.traffic;
-  if (!overrides.controllers.empty()) {
+  if (!overrides.controllers.empty() || !overrides.stages.empty()) {
     // A controller named for a mode that waits for none would be silently ignored.
     AUTODRIVE_THROW_UNLESS(options.mode == SimMode::kLockstep,
-                           "--controller: only lockstep waits for controllers; this run's mode is "
+                           "--controller, --stage: only lockstep waits for controllers; this "
+                           "run's mode is "
                                << mode_name << " (add --mode lockstep)");
-    options.controllers = overrides.controllers;
+    if (!overrides.controllers.empty()) options.controllers = overrides.controllers;
+    if (!overrides.stages.empty()) options.stages.clear();
+    for (const std::string& stage : overrides.stages) {
+      std::vector<std::string>& names = options.stages.emplace_back();
+      for (std::size_t at = 0;;) {
+        const std::size_t comma = stage.find(',', at);
+        names.push_back(stage.substr(at, comma - at));
+        if (comma == std::string::npos) break;
+        at = comma + 1;
+      }
+    }
   }
   options.Validate();
   const maps::Map map = maps::LoadMapOrLayout(city.map_path);
@@ -244,6 +256,9 @@ int main(int argc, char** argv) {
   app.add_option("--controller", overrides.controllers,
                  "lockstep: a controller to wait for at every step (repeat for several; "
                  "default: sim.service.controllers)");
+  app.add_option("--stage", overrides.stages,
+                 "lockstep: NAME[,NAME...], controllers told each step before the others and "
+                 "answering it first; repeat for stages in order (default: sim.service.stages)");
   app.add_option("--real-time-factor", overrides.real_time_factor,
                  "simulated seconds per wall second in realtime mode (default 1)")
       ->check(CLI::Range(0.01, 1000.0));

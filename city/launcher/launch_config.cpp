@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cstdlib>
+#include <optional>
 #include <set>
 
 #include "traffic/traffic_config.h"
@@ -47,6 +48,39 @@ std::string Substitute(std::string text, const LaunchPlan& plan) {
   replace("{city}", plan.city_file.string());
   replace("{run}", plan.run_dir.string());
   return text;
+}
+
+// A city whose simulator runs in lockstep (`sim.service.mode: lockstep`): each of the city's
+// programs that the simulator waits for (by its name in `sim.service.stages` or `controllers`)
+// gets `--lockstep NAME`; an agent it waits for passes its own. Nothing is waited for (no
+// controller is heard before the simulator's first step, which waits for them all), and
+// nothing is restarted: the run ends when a controller leaves. Throws `ConfigError` when the
+// simulator would wait for a process the launcher does not start, or for one that cannot be a
+// controller.
+void PlanLockstep(LaunchPlan& plan, const vehicle_sim::ServiceOptions& service,
+                  const std::string& city_path) {
+  std::set<std::string> waited(service.controllers.begin(), service.controllers.end());
+  for (const auto& stage : service.stages) waited.insert(stage.begin(), stage.end());
+  const std::set<std::string> controllers{"lights", "scm", "traffic", "driver"};
+  for (ProcessPlan& p : plan.processes) {
+    if (p.name == "dashboard") continue;
+    p.ready = {};
+    p.restart = Restart::kNever;
+    if (!waited.erase(p.name) || !p.city_program) continue;
+    if (!controllers.contains(p.name)) {
+      throw ConfigError(fmt::format(
+          "{}: sim.service: the simulator would wait in lockstep for {}, which has no lockstep "
+          "mode (the city's controllers: {})",
+          city_path, p.name, fmt::join(controllers, ", ")));
+    }
+    p.argv.insert(p.argv.end(), {"--lockstep", p.name});
+  }
+  if (!waited.empty()) {
+    throw ConfigError(
+        fmt::format("{}: sim.service: the simulator would wait in lockstep for {}, which the "
+                    "launcher does not start (the city's programs by name, or launch.agents)",
+                    city_path, fmt::join(waited, ", ")));
+  }
 }
 
 }  // namespace
@@ -201,8 +235,12 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
   }
   // 3. The simulator and the cars' driver.
   const bool sim = IsOn(launch.sim, city.config.sim.has_value(), "sim", plan.city_file);
+  std::optional<vehicle_sim::ServiceOptions> lockstep;
   if (sim) {
-    (void)vehicle_sim::LoadSimCity(city_path);
+    const vehicle_sim::SimCity sim_city = vehicle_sim::LoadSimCity(city_path);
+    if (sim_city.sim.service.mode == vehicle_sim::SimMode::kLockstep) {
+      lockstep = sim_city.sim.service;
+    }
     add("sim", launch.sim, {bin("autodrive-sim"), "--city", city_path}, Restart::kOnFailure,
         {Readiness::Kind::kClock, {}, {}});
   }
@@ -286,6 +324,7 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
     d.url_file = plan.run_dir / "dashboard.url";
     plan.dashboard = std::move(d);
   }
+  if (lockstep) PlanLockstep(plan, *lockstep, city_path);
   for (const ProcessPlan& p : plan.processes) {
     if (p.argv.front().find('/') != std::string::npos && !std::filesystem::exists(p.argv.front())) {
       throw InputError(fmt::format("{}: {}: the program {} is not there (build it first)",

@@ -100,6 +100,35 @@ TEST_F(Plan, AgentsComeAfterTheCitysProgramsWithTheirPathsFilledIn) {
   EXPECT_FALSE(a.city_program);
 }
 
+TEST_F(Plan, ALockstepCityStartsItsControllersWithTheirNamesAndWaitsForNone) {
+  const auto city = [&](const std::string& service) {
+    std::string text = config::ReadFile(City(Lights() + "  eye: {mode: off}\n"));
+    text.replace(text.find("\nsim:\n"), 6, "\nsim:\n  service: " + service + "\n");
+    std::ofstream(dir_ / "city.yaml") << text;
+    return dir_ / "city.yaml";
+  };
+  const LaunchPlan plan =
+      PlanCity(city("{mode: lockstep, stages: [[lights], [scm]], controllers: [traffic, driver]}"),
+               dir_ / "bin");
+  EXPECT_EQ(Names(plan), (std::vector<std::string>{"lights", "scm", "sim", "traffic", "driver"}));
+  for (const ProcessPlan& p : plan.processes) {
+    EXPECT_EQ(p.ready.kind, Readiness::Kind::kNone) << p.name;
+    EXPECT_EQ(p.restart, Restart::kNever) << p.name;
+    const bool controller = p.name != "sim";
+    EXPECT_EQ(
+        p.argv.size() >= 2 && p.argv[p.argv.size() - 2] == "--lockstep" && p.argv.back() == p.name,
+        controller)
+        << p.name;
+  }
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] {
+                (void)PlanCity(city("{mode: lockstep, stages: [[lights], [scm]], controllers: "
+                                    "[driver, planner]}"),
+                               dir_ / "bin");
+              }),
+              HasSubstr("sim.service: the simulator would wait in lockstep for planner, which "
+                        "the launcher does not start"));
+}
+
 TEST_F(Plan, BadFilesAreRefusedWithOneErrorNamingWhere) {
   // A misspelt key in another program's section: refused here, before anything starts.
   {

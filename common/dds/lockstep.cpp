@@ -69,14 +69,27 @@ std::vector<dds_instance_handle_t> MatchedPublications(dds_entity_t reader) {
 // --- LockstepServer --------------------------------------------------------------------------
 
 LockstepServer::LockstepServer(const Participant& participant,
-                               const std::vector<std::string>& controllers)
+                               const std::vector<std::string>& controllers,
+                               const std::vector<std::vector<std::string>>& stages)
     : step_(participant, topics::SimStep()), done_(participant, topics::SimStepDone()) {
-  AUTODRIVE_THROW_UNLESS(!controllers.empty(), "lockstep: needs at least one controller");
-  for (const std::string& name : controllers) {
-    AUTODRIVE_THROW_UNLESS(!name.empty(), "lockstep: a controller's name cannot be empty");
-    AUTODRIVE_THROW_UNLESS(controllers_.try_emplace(name).second,
-                           "lockstep: controller " << name << " is listed twice");
+  AUTODRIVE_THROW_UNLESS(!controllers.empty() || !stages.empty(),
+                         "lockstep: needs at least one controller");
+  const auto add = [this](const std::vector<std::string>& names, std::string frame_id) {
+    for (const std::string& name : names) {
+      AUTODRIVE_THROW_UNLESS(!name.empty(), "lockstep: a controller's name cannot be empty");
+      AUTODRIVE_THROW_UNLESS(name != kLockstepEnd && name.find(',') == std::string::npos,
+                             "lockstep: a controller cannot be named '"
+                                 << name << "' (not '" << kLockstepEnd << "', no comma)");
+      AUTODRIVE_THROW_UNLESS(controllers_.try_emplace(name, Controller{groups_.size()}).second,
+                             "lockstep: controller " << name << " is listed twice");
+    }
+    groups_.push_back(Group{names, std::move(frame_id)});
+  };
+  for (const auto& stage : stages) {
+    AUTODRIVE_THROW_UNLESS(!stage.empty(), "lockstep: a stage of controllers cannot be empty");
+    add(stage, fmt::format("{}{}", kLockstepStagePrefix, fmt::join(stage, ",")));
   }
+  if (!controllers.empty()) add(controllers, "");
 }
 
 std::vector<std::string> LockstepServer::controllers() const {
@@ -191,18 +204,27 @@ void LockstepServer::Announce(Time stamp) {
                                            << ToSeconds(*announced_) << " s");
   for (auto& [name, c] : controllers_) c.answered = false;
   announced_ = stamp;
-  Write(stamp, "");
+  stage_ = 0;
+  Write(stamp, groups_[stage_].frame_id);
 }
 
 bool LockstepServer::WaitForAnswers(const std::atomic<bool>& stop, OptionalTimeout timeout) {
   AUTODRIVE_CHECK(announced_ && !ended_, "lockstep: no step to wait for");
   const Deadline deadline(timeout);
-  const auto unanswered = [this] { return Those([](const Controller& c) { return !c.answered; }); };
+  // The controllers of the stage told the step that have not answered it.
+  const auto unanswered = [this] {
+    return Those([this](const Controller& c) { return c.stage == stage_ && !c.answered; });
+  };
   auto next_report = SteadyClock::now() + kAnswerReport;
   for (;;) {
     TakeSamples();
     const std::vector<std::string> missing = unanswered();
-    if (missing.empty()) return true;
+    if (missing.empty()) {
+      if (stage_ + 1 == groups_.size()) return true;
+      ++stage_;  // every message of the stage before was acknowledged: tell the next one
+      Write(*announced_, groups_[stage_].frame_id);
+      continue;
+    }
     if (stop.load()) return false;
     if (deadline.passed()) {
       throw LockstepError(
@@ -223,7 +245,8 @@ bool LockstepServer::WaitForAnswers(const std::atomic<bool>& stop, OptionalTimeo
 void LockstepServer::ThrowIfOneLeft() const {
   const std::vector<dds_instance_handle_t> matched = MatchedPublications(done_.handle());
   const std::vector<std::string> gone = Those([&](const Controller& c) {
-    return !c.answered && std::find(matched.begin(), matched.end(), c.writer) == matched.end();
+    return c.stage == stage_ && !c.answered &&
+           std::find(matched.begin(), matched.end(), c.writer) == matched.end();
   });
   if (gone.empty()) return;
   throw LockstepError(
@@ -279,29 +302,47 @@ bool LockstepClient::Register(const std::atomic<bool>& stop, OptionalTimeout tim
   return true;
 }
 
+bool LockstepClient::ForMe(std::string_view frame_id) const {
+  if (!frame_id.starts_with(kLockstepStagePrefix)) return true;  // every plain controller's
+  frame_id.remove_prefix(kLockstepStagePrefix.size());
+  for (;;) {
+    const std::size_t comma = frame_id.find(',');
+    if (frame_id.substr(0, comma) == name_) return true;
+    if (comma == std::string_view::npos) return false;
+    frame_id.remove_prefix(comma + 1);
+  }
+}
+
 std::optional<Time> LockstepClient::TakeStep() {
-  if (!steps_.TakeOne(sample_)) return std::nullopt;
-  seen_simulator_ = true;
-  if (View(sample_->frame_id) == kLockstepEnd) {
-    ended_ = true;
-    return std::nullopt;
+  while (steps_.TakeOne(sample_)) {
+    seen_simulator_ = true;
+    const std::string_view frame_id = View(sample_->frame_id);
+    if (frame_id == kLockstepEnd) {
+      ended_ = true;
+      return std::nullopt;
+    }
+    if (!ForMe(frame_id)) continue;  // another stage's
+    Time t;
+    try {
+      t = FromMsg(sample_->stamp);
+    } catch (const InputError& e) {
+      throw LockstepError(fmt::format("lockstep: a step with a bad stamp: {}", e.what()), {});
+    }
+    // The plain controllers' announcement of a step this (staged) controller answered.
+    if (last_step_ && t == *last_step_ && last_was_staged_ && frame_id.empty()) continue;
+    if (last_step_ && t <= *last_step_) {
+      throw LockstepError(
+          fmt::format("lockstep: the step at {:.3f} s came after the step at {:.3f} s: steps go "
+                      "forward (two simulators on one partition?)",
+                      ToSeconds(t), ToSeconds(*last_step_)),
+          {});
+    }
+    last_step_ = t;
+    last_was_staged_ = !frame_id.empty();
+    answer_due_ = true;
+    return t;
   }
-  Time t;
-  try {
-    t = FromMsg(sample_->stamp);
-  } catch (const InputError& e) {
-    throw LockstepError(fmt::format("lockstep: a step with a bad stamp: {}", e.what()), {});
-  }
-  if (last_step_ && t <= *last_step_) {
-    throw LockstepError(
-        fmt::format("lockstep: the step at {:.3f} s came after the step at {:.3f} s: steps go "
-                    "forward (two simulators on one partition?)",
-                    ToSeconds(t), ToSeconds(*last_step_)),
-        {});
-  }
-  last_step_ = t;
-  answer_due_ = true;
-  return t;
+  return std::nullopt;
 }
 
 bool LockstepClient::SimulatorLeft() {
@@ -338,6 +379,42 @@ void LockstepClient::Answer() {
   Write(*last_step_);
   answer_due_ = false;
   ++answered_;
+}
+
+std::string LockstepOptionHelp(std::string_view where) {
+  return fmt::format(
+      "a controller of the simulator's lockstep by this name (docs/vehicle_sim.md, "
+      "\"Lockstep\"): one pass at each step's simulated time, answered once every reader "
+      "acknowledged what it wrote, so that a run is reproducible; runs on the steps' time (not "
+      "with --clock wall). List it in the simulator's sim.service.stages {}",
+      where);
+}
+
+// --- RunLockstepController --------------------------------------------------------------------
+
+LockstepRun RunLockstepController(const Participant& participant, std::string name,
+                                  const std::atomic<bool>& stop,
+                                  const std::function<void(Time)>& step) {
+  LockstepClient lockstep(participant, std::move(name));
+  spdlog::info("lockstep controller {}: waiting for the simulator", lockstep.name());
+  LockstepRun run;
+  if (lockstep.Register(stop)) {
+    while (const std::optional<Time> t = lockstep.NextStep(stop)) {
+      step(*t);
+      if (!participant.WaitForAcks(kLockstepAckTimeout)) {
+        spdlog::warn(
+            "lockstep: what {} wrote at {:.3f} s was not acknowledged by every reader within {} "
+            "s: the run may not be reproducible",
+            lockstep.name(), ToSeconds(*t), kLockstepAckTimeout.count());
+      }
+      lockstep.Answer();
+    }
+  }
+  run.steps = lockstep.answered();
+  run.ended = lockstep.ended();
+  spdlog::info("lockstep controller {}: {} after {} step(s)", lockstep.name(),
+               run.ended ? "the simulator ended the run" : "stopped", run.steps);
+  return run;
 }
 
 }  // namespace autodrive::dds

@@ -34,6 +34,16 @@
 ///    `kLockstepEnd` in `frame_id`, with the stamp of the step it stops at (asked to stop
 ///    while it waits for answers, that is the step already announced, announced again), and
 ///    waits for its acknowledgement; nothing answers it. Controllers may then exit.
+/// Stages. Some controllers read what others write in the same step: the SCM decides on the
+/// lamps the light host shows, the light host on the SCM's commands, the Eye's fleet feeds the
+/// SCM. For a run to be reproducible each must see the other's messages of the step, or none of
+/// them, every time. So a run may order controllers in stages that answer each step one after
+/// the other, before the plain controllers: the simulator tells each stage the step in turn
+/// (`frame_id` `for:NAME,NAME…`, the stage's controllers), and tells the next stage only once
+/// every controller of the one before answered (so its messages were acknowledged by then);
+/// the plain controllers get the step last, with an empty `frame_id`, as without stages. A
+/// controller answers the step once: a staged one ignores the step's later announcements (the
+/// same stamp), and every controller ignores a `for:` step that does not name it.
 /// 5. Leaving. A controller whose `step_done` writer is gone (its process ended, or DDS's
 ///    lease expired) can never answer: the simulator stops with `LockstepError` naming it. A
 ///    simulator whose `step` writer is gone before the end stops its controllers with
@@ -48,6 +58,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -65,6 +76,9 @@ namespace autodrive::dds {
 
 /// The `frame_id` of the simulator's last step: nothing follows it and nothing answers it.
 inline constexpr std::string_view kLockstepEnd = "end";
+/// How a step announced to a stage of controllers starts its `frame_id`; the stage's names
+/// follow, separated by commas.
+inline constexpr std::string_view kLockstepStagePrefix = "for:";
 /// The `stamp` of a controller's registration (`step_done` before the first step): ROS time 0.
 inline constexpr Time kLockstepRegistrationStamp{};
 /// How long each side waits for its readers to acknowledge a step's messages before it warns
@@ -91,9 +105,12 @@ class LockstepError : public InputError {
 class LockstepServer {
  public:
   /// Creates the `step` writer and the `step_done` reader on `participant` (which must
-  /// outlive it). `controllers`: the names that must answer every step. Throws `InputError`
-  /// when there is none, a name is empty or a name is listed twice.
-  LockstepServer(const Participant& participant, const std::vector<std::string>& controllers);
+  /// outlive it). `controllers`: the names that must answer every step; `stages`: controllers
+  /// that answer each step before them, stage by stage, in this order (see "Stages" above).
+  /// Throws `InputError` when there is no controller at all, a stage is empty, a name is
+  /// empty, `end`, has a comma, or is listed twice.
+  LockstepServer(const Participant& participant, const std::vector<std::string>& controllers,
+                 const std::vector<std::vector<std::string>>& stages = {});
   LockstepServer(const LockstepServer&) = delete;
   LockstepServer& operator=(const LockstepServer&) = delete;
 
@@ -110,7 +127,8 @@ class LockstepServer {
   /// fails.
   void Announce(Time stamp);
 
-  /// Blocks until every controller answered the step last announced (rule 3). True then;
+  /// Blocks until every controller answered the step last announced (rule 3), telling each
+  /// stage the step once the stage before answered. True then;
   /// false when `stop` is set first. Throws `LockstepError` naming the controllers that did
   /// not answer when `timeout` passes, or those that left (rule 5) at once. May be called
   /// again after a time-out: answers already taken still count. Precondition (checked): a
@@ -133,6 +151,7 @@ class LockstepServer {
 
  private:
   struct Controller {
+    std::size_t stage = 0;  // index in groups_
     bool registered = false;
     bool answered = false;  // the step last announced
     bool warned_stale = false;
@@ -147,10 +166,18 @@ class LockstepServer {
   void ThrowIfOneLeft() const;
   void Write(Time stamp, std::string_view frame_id);
 
+  // One stage: its controllers and the `frame_id` that tells them a step.
+  struct Group {
+    std::vector<std::string> names;
+    std::string frame_id;
+  };
+
   Writer<msg::Header> step_;
   Reader<msg::Header> done_;
   Message<msg::Header> sample_;
   std::map<std::string, Controller, std::less<>> controllers_;
+  std::vector<Group> groups_;           // the stages in order, then the plain controllers (if any)
+  std::size_t stage_ = 0;               // the group told the step last announced
   std::vector<std::string> strangers_;  // names warned about
   bool registered_ = false;
   bool ended_ = false;
@@ -211,8 +238,11 @@ class LockstepClient {
   [[nodiscard]] const std::string& name() const { return name_; }
 
  private:
-  // Takes the next step, if one is waiting: its time, or nothing (and `ended_` on the end).
+  // Takes the next step for this controller, if one is waiting: its time, or nothing (and
+  // `ended_` on the end). Skips another stage's steps and a later stage's of a step answered.
   std::optional<Time> TakeStep();
+  // Whether a step with `frame_id` is for this controller.
+  [[nodiscard]] bool ForMe(std::string_view frame_id) const;
   // Whether the simulator's `step` writer, once seen, is gone.
   bool SimulatorLeft();
   void Write(Time stamp);
@@ -225,8 +255,30 @@ class LockstepClient {
   bool ended_ = false;
   bool seen_simulator_ = false;    // its `step` writer was matched once
   std::optional<Time> last_step_;  // the step last returned
+  bool last_was_staged_ = false;   // ... told to a stage naming this controller
   bool answer_due_ = false;        // ... and not yet answered
   std::int64_t answered_ = 0;
 };
+
+/// The help of a program's `--lockstep NAME` option (with `RunLockstepController`); `where`
+/// says where the program goes in the simulator's `sim.service.stages`.
+[[nodiscard]] std::string LockstepOptionHelp(std::string_view where);
+
+/// What `RunLockstepController` did.
+struct LockstepRun {
+  std::int64_t steps = 0;  ///< steps answered
+  bool ended = false;      ///< the simulator ended the run (otherwise `stop` was set)
+};
+
+/// A controller's whole side of a run, for a program whose work at a step is one call (the SCM,
+/// a light host): registers as `name`, then at each step calls `step` with the step's
+/// simulated time, waits until every reader acknowledged what any writer of `participant`
+/// wrote (after `kLockstepAckTimeout` it warns that the run may not be reproducible and goes
+/// on), and answers. Returns when the simulator ends the run or `stop` is set; logs both.
+/// `step` must write synchronously (or wait for its own sender threads) before it returns.
+/// Throws `LockstepError` as `LockstepClient` does.
+LockstepRun RunLockstepController(const Participant& participant, std::string name,
+                                  const std::atomic<bool>& stop,
+                                  const std::function<void(Time)>& step);
 
 }  // namespace autodrive::dds

@@ -243,6 +243,56 @@ TEST(Lockstep, StepsThatGoBackAreAnError) {
             "(two simulators on one partition?)");
 }
 
+// Stages answer each step in order, before the plain controllers; each is told the step only
+// once the stage before answered, and each controller answers once.
+TEST(Lockstep, StagesAreToldTheStepInTurnAndThePlainControllersLast) {
+  const std::atomic<bool> never{false};
+  Participant sim(Isolated()), ctl(Isolated());
+  LockstepServer server(sim, {"plain"}, {{"first"}, {"second", "third"}});
+  EXPECT_THAT(server.controllers(), ElementsAre("first", "plain", "second", "third"));
+  LockstepClient first(ctl, "first"), second(ctl, "second"), third(ctl, "third"),
+      plain(ctl, "plain");
+  for (LockstepClient* c : {&first, &second, &third, &plain}) {
+    ASSERT_TRUE(c->Register(never, kLong)) << c->name();
+  }
+  ASSERT_TRUE(server.WaitForControllers(never, kLong));
+  const auto answer = [&](LockstepClient& c, Time t) {
+    const std::optional<Time> step = c.NextStep(never, kLong);
+    ASSERT_TRUE(step.has_value()) << c.name();
+    EXPECT_EQ(*step, t) << c.name();
+    c.Answer();
+  };
+  const auto waiting_for = [&] {
+    try {
+      (void)server.WaitForAnswers(never, 0s);
+      return std::vector<std::string>{};
+    } catch (const LockstepError& e) {
+      return e.controllers();
+    }
+  };
+  for (int k = 0; k < 5; ++k) {
+    const Time t = At(10ms * k);
+    server.Announce(t);
+    EXPECT_FALSE(second.NextStep(never, 100ms).has_value()) << "not its stage's turn yet";
+    EXPECT_FALSE(plain.NextStep(never, 100ms).has_value()) << "not its turn yet";
+    answer(first, t);
+    EXPECT_THAT(waiting_for(), ElementsAre("second", "third"));
+    EXPECT_FALSE(plain.NextStep(never, 100ms).has_value()) << "not its turn yet";
+    answer(third, t);
+    answer(second, t);
+    EXPECT_THAT(waiting_for(), ElementsAre("plain"));
+    answer(plain, t);
+    ASSERT_TRUE(server.WaitForAnswers(never, kLong)) << "step " << k;
+  }
+  server.End(At(50ms));
+  for (LockstepClient* c : {&first, &second, &third, &plain}) {
+    EXPECT_FALSE(c->NextStep(never, kLong).has_value()) << c->name();
+    EXPECT_TRUE(c->ended()) << c->name();
+    EXPECT_EQ(c->answered(), 5) << c->name() << ": each step answered once";
+  }
+  EXPECT_EQ(server.stale_answers(), 0);
+}
+
 TEST(Lockstep, ABadListOfControllersOrAnEmptyNameIsRefused) {
   Participant p(Isolated());
   EXPECT_EQ(test::ErrorMessage<InputError>([&] { LockstepServer s(p, {}); }),
@@ -255,6 +305,16 @@ TEST(Lockstep, ABadListOfControllersOrAnEmptyNameIsRefused) {
               LockstepServer s(p, {"a", "b", "a"});
             }),
             "lockstep: controller a is listed twice");
+  EXPECT_EQ(test::ErrorMessage<InputError>([&] {
+              LockstepServer s(p, {"a"}, {{"b"}, {}});
+            }),
+            "lockstep: a stage of controllers cannot be empty");
+  EXPECT_EQ(test::ErrorMessage<InputError>([&] {
+              LockstepServer s(p, {"a"}, {{"b", "a"}});
+            }),
+            "lockstep: controller a is listed twice");
+  EXPECT_EQ(test::ErrorMessage<InputError>([&] { LockstepServer s(p, {}, {{"x,y"}}); }),
+            "lockstep: a controller cannot be named 'x,y' (not 'end', no comma)");
   EXPECT_EQ(test::ErrorMessage<InputError>([&] { LockstepClient c(p, ""); }),
             "lockstep: a controller's name cannot be empty");
 }

@@ -1,11 +1,14 @@
 #include "common/dds/participant.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cstdlib>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include "common/dds/qos.h"
+#include "common/dds/writer.h"
 #include "common/error.h"
 
 namespace autodrive::dds {
@@ -80,6 +83,25 @@ void DomainSecurityClaim::Release() noexcept {
 }
 
 }  // namespace internal
+
+bool Participant::WaitForAcks(std::chrono::steady_clock::duration timeout) const {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  // Every writer is a child of the participant's one publisher.
+  std::vector<dds_entity_t> writers(16);
+  for (;;) {
+    const dds_return_t n = dds_get_children(publisher_.handle(), writers.data(), writers.size());
+    internal::ThrowIfError(n, "dds_get_children(publisher)");
+    const bool all = static_cast<std::size_t>(n) <= writers.size();
+    writers.resize(static_cast<std::size_t>(n));
+    if (all) break;  // else more writers than room: ask again
+  }
+  for (const dds_entity_t writer : writers) {
+    const auto left = std::max(deadline - std::chrono::steady_clock::now(),
+                               std::chrono::steady_clock::duration::zero());
+    if (!internal::WaitForAcks(writer, left)) return false;
+  }
+  return true;
+}
 
 Participant::Participant(const ParticipantOptions& options) : partition_(options.partition) {
   std::optional<std::uint32_t> domain = options.domain_id;

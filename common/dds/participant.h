@@ -3,6 +3,7 @@
 /// A DDS domain participant with the publisher and subscriber every writer and reader of a
 /// process uses.
 
+#include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -81,6 +82,11 @@ class Participant {
   [[nodiscard]] bool secured() const { return !enclave_.empty(); }
   /// The enclave this participant authenticates as ("/autodrive/scm"); empty when unsecured.
   [[nodiscard]] const std::string& enclave() const { return enclave_; }
+
+  /// Waits until every matched reliable reader acknowledged every sample that any writer of
+  /// this participant wrote, or `timeout` (steady clock, for all of them together) passes.
+  /// True when they did. A lockstep controller calls it before it answers a step.
+  [[nodiscard]] bool WaitForAcks(std::chrono::steady_clock::duration timeout) const;
 
   /// Records that `topic_name` carries `type_name` in this participant. Cyclone lets one name
   /// carry two types (whose readers and writers then silently never match); we refuse it.

@@ -236,6 +236,11 @@ bool ScmPublishers::TryWrite(dds::Writer<T>& writer, const T& sample) {
 
 ScmPublishers::~ScmPublishers() = default;
 
+void ScmPublishers::WaitIdle() {
+  spat_->WaitIdle();
+  device_table_->WaitIdle();
+}
+
 PublisherCounters ScmPublishers::counters() const {
   PublisherCounters c = counters_;
   c.write_failures += spat_->failures() + device_table_->failures();

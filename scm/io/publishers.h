@@ -96,6 +96,9 @@ class ScmPublishers {
   std::optional<std::uint64_t> ResetMonitor(const IntersectionModel& x, std::string_view issued_by,
                                             std::uint64_t request_id, Time now);
 
+  /// Waits until the sender threads wrote everything handed over (SPaT, the device table).
+  void WaitIdle();
+
   [[nodiscard]] PublisherCounters counters() const;
   [[nodiscard]] std::uint64_t session() const { return session_; }
 
