@@ -2,14 +2,20 @@
 // controllers (the lights first, then the SCM, common/dds/lockstep.h "Stages"), the example
 // driver as a plain one. Two runs with the same seed give the same cars' log and the same SPaT,
 // byte for byte, with the signals running (start-up, then greens), and every process ends with
-// the simulator's end.
+// the simulator's end; `autodrive-city up` runs such a city to its end and exits by itself.
 #include <fmt/format.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <fstream>
 #include <iterator>
+#include <regex>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "common/config.h"
 #include "tests/scm_processes.h"
@@ -101,6 +107,40 @@ TEST_F(LockstepCity, TwoRunsWithTheSameSeedGiveTheSameCarsAndTheSameSpat) {
   EXPECT_EQ(a.spat, b.spat);
   // Start-up (flash 3 s, all red 7 s) is over well before 25 s: the plan's greens came.
   EXPECT_GT(a.greens, 0) << a.spat;
+}
+
+// `autodrive-city up` of a city in lockstep (5 simulated seconds): it starts each controller
+// with its name, and exits 0 by itself once every process ended with the run, leaving none.
+TEST_F(LockstepCity, UpRunsALockstepCityToTheSimulatorsEndAndExitsByItself) {
+  std::string text = config::ReadFile(WriteLockstepCity());
+  text.replace(text.find("controllers: [driver]}"), 22, "controllers: [driver], duration_s: 5}");
+  text += "launch:\n  run_dir: " + (dir_ / "run").string() +
+          "\n  lights: {config: " + Config("config/infra/driving_school.yaml") +
+          "}\n  eye: {mode: off}\n  dashboard: {mode: off}\n";
+  const std::string city = Write("up.yaml", text);
+  const Output up = RunCaptured({Bin("autodrive-city"), "up", city, "--partition", partition_});
+  EXPECT_EQ(up.code, 0) << up.text;
+  EXPECT_THAT(up.text, ::testing::HasSubstr("--lockstep lights"));
+  EXPECT_THAT(up.text, ::testing::HasSubstr("--lockstep scm"));
+  EXPECT_THAT(up.text, ::testing::HasSubstr("--lockstep driver"));
+  EXPECT_THAT(up.text,
+              ::testing::HasSubstr("sim exited with code 0: not started again (restart: never)"));
+  EXPECT_THAT(up.text, ::testing::HasSubstr("every process ended and none is to be started again"));
+  const nlohmann::json status =
+      nlohmann::json::parse(config::ReadFile(dir_ / "run" / "status.json"));
+  for (const auto& p : status.at("processes")) {
+    EXPECT_EQ(p.value("phase", ""), "stopped") << p.dump();
+    EXPECT_EQ(p.value("last_exit", -1), 0) << p.dump();
+  }
+  // Every process `up` started ("NAME is up (pid N)") is gone.
+  const std::regex started("is up \\(pid ([0-9]+)\\)");
+  int pids = 0;
+  for (auto it = std::sregex_iterator(up.text.begin(), up.text.end(), started);
+       it != std::sregex_iterator(); ++it, ++pids) {
+    const int pid = std::stoi((*it)[1].str());
+    EXPECT_TRUE(::kill(pid, 0) != 0 && errno == ESRCH) << "pid " << pid << " is still there";
+  }
+  EXPECT_EQ(pids, 4) << up.text;
 }
 
 }  // namespace

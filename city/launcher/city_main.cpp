@@ -222,6 +222,13 @@ int Up(const UpOptions& o) {
         });
       }
       supervisor.Supervise(stop);
+      // Not stopped: every process ended on its own with none to start again (a lockstep run
+      // whose simulator ended). The run's result is theirs.
+      if (!stop.load()) {
+        for (const ProcessState& s : supervisor.states()) {
+          if (s.last_exit.value_or(0) != 0) code = 1;
+        }
+      }
     } catch (const LaunchError& e) {
       std::fprintf(stderr, "autodrive-city: %s\n", e.what());
       code = 1;

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -316,6 +317,11 @@ struct Supervisor::Impl {
         }
       }
       PublishIfDue();
+      if (std::ranges::all_of(processes,
+                              [](const Process& p) { return p.state.phase == Phase::kStopped; })) {
+        say("every process ended and none is to be started again");
+        return;
+      }
       std::this_thread::sleep_for(50ms);
     }
   }

@@ -83,7 +83,8 @@ class Supervisor {
   void Up(const std::atomic<bool>& stop);
   /// Until `stop`: starts again what exits, as its policy says; a process that exits
   /// `crash_loop_exits` times within the window is reported and started again only once the
-  /// window has passed since its first exit in it.
+  /// window has passed since its first exit in it. Returns early once every process ended with
+  /// none to be started again (a lockstep run whose simulator ended).
   void Supervise(const std::atomic<bool>& stop);
   /// Stops every process in reverse start order (SIGTERM, SIGKILL after the grace period).
   void Down();
