@@ -242,6 +242,8 @@ Duration SimService::time() const { return impl_->world.time(); }
 
 std::int64_t SimService::traffic_collisions() const { return impl_->traffic->collisions(); }
 
+std::uint64_t SimService::camera_frames() const { return impl_->cameras->frames(); }
+
 std::int64_t SimService::steps() const { return impl_->world.steps(); }
 
 }  // namespace autodrive::vehicle_sim

@@ -65,6 +65,9 @@ class SimService {
   /// Times a car ran into a background object so far (a car and an object touching after
   /// not touching for a second or more; each is logged). Thread-safe.
   [[nodiscard]] std::int64_t traffic_collisions() const;
+  /// Camera frames published so far, every camera together: a camera whose topic has no
+  /// reader draws none. Thread-safe.
+  [[nodiscard]] std::uint64_t camera_frames() const;
 
  private:
   struct Impl;

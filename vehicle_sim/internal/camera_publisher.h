@@ -6,6 +6,7 @@
 /// wait for them; a frame that falls due while the last is still being rendered is dropped and
 /// counted).
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -56,6 +57,9 @@ class CameraPublisher {
   void WaitForAcks(std::chrono::steady_clock::duration timeout) const;
 
   [[nodiscard]] bool empty() const { return cameras_->empty(); }
+  /// Frames published so far, every camera together (a camera with no reader draws none).
+  /// Thread-safe.
+  [[nodiscard]] std::uint64_t frames() const { return frames_.load(std::memory_order_relaxed); }
 
  private:
   // Whether a frame is due at `now` (`due_`: which).
@@ -71,6 +75,7 @@ class CameraPublisher {
   std::vector<CarLights> lights_;
   std::vector<HeadLamps> head_lamps_;
   Image image_;
+  std::atomic<std::uint64_t> frames_{0};
   std::vector<std::unique_ptr<CameraWorker>> workers_;  // real-time mode: one per camera; last
 };
 
