@@ -98,7 +98,15 @@ bool Participant::WaitForAcks(std::chrono::steady_clock::duration timeout) const
   for (const dds_entity_t writer : writers) {
     const auto left = std::max(deadline - std::chrono::steady_clock::now(),
                                std::chrono::steady_clock::duration::zero());
-    if (!internal::WaitForAcks(writer, left)) return false;
+    try {
+      if (!internal::WaitForAcks(writer, left)) return false;
+    } catch (const DdsError& e) {
+      // Deleted meanwhile by another thread (the SCM's loader drops the writers of lights no
+      // city holds any more): it has nothing left to be acknowledged.
+      if (e.code() != DDS_RETCODE_BAD_PARAMETER && e.code() != DDS_RETCODE_ALREADY_DELETED) {
+        throw;
+      }
+    }
   }
   return true;
 }

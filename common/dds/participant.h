@@ -85,7 +85,8 @@ class Participant {
 
   /// Waits until every matched reliable reader acknowledged every sample that any writer of
   /// this participant wrote, or `timeout` (steady clock, for all of them together) passes.
-  /// True when they did. A lockstep controller calls it before it answers a step.
+  /// True when they did; a writer deleted meanwhile (by another thread) counts as done. A
+  /// lockstep controller calls it before it answers a step.
   [[nodiscard]] bool WaitForAcks(std::chrono::steady_clock::duration timeout) const;
 
   /// Records that `topic_name` carries `type_name` in this participant. Cyclone lets one name
