@@ -1,6 +1,7 @@
 // autodrive-example-driver: drives every car of a city along its lanes over DDS, as user code on
 // the real cars would: from each car's devkit topics (ips, imu, lidar) and the lights' states
 // (signal_<i>/state) to its throttle and steering commands. See examples/README.md.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -20,6 +21,7 @@
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
+#include "common/error.h"
 #include "common/geometry.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
@@ -66,6 +68,8 @@ const char* ToString(vehicle_sim::DriverDecision::Reason r) {
       return "giving way to a vehicle in the intersection";
     case vehicle_sim::DriverDecision::Reason::kObstacle:
       return "stopping for something ahead";
+    case vehicle_sim::DriverDecision::Reason::kGoal:
+      return "stopped at the end of its route";
     case vehicle_sim::DriverDecision::Reason::kLost:
       return "off the lanes";
   }
@@ -130,6 +134,28 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.05, 1.0))
       ->capture_default_str();
   app.add_option("--seed", seed, "seed of the route choices")->capture_default_str();
+  std::vector<std::string> only;
+  app.add_option("--vehicles", only,
+                 "drive only these cars of the sim section (NAME[,NAME...]; default: all)")
+      ->delimiter(',');
+  std::vector<std::string> route;
+  app.add_option("--route", route,
+                 "lanes to drive in order (LANE[,LANE...], as autodrive-map info names them); "
+                 "past them it chooses at random. Only with one car (--vehicles)")
+      ->delimiter(',');
+  bool stop_at_end = false;
+  app.add_flag("--stop-at-route-end", stop_at_end,
+               "stop at the end of the route's last lane (its goal) instead of driving on");
+  vehicle_sim::DriverOptions faults;
+  app.add_flag("--ignore-lights", faults.ignore_lights,
+               "fault on purpose: drive through red lights (to test what judges a driver)");
+  app.add_flag("--ignore-stop-signs", faults.ignore_stop_signs,
+               "fault on purpose: roll through stop signs");
+  app.add_flag("--ignore-obstacles", faults.ignore_obstacles,
+               "fault on purpose: ignore what the LIDAR sees ahead");
+  app.add_option("--lateral-offset-m", faults.lateral_offset_m,
+                 "fault on purpose: keep this far left of the lane centres (negative: right)")
+      ->check(CLI::Range(-1.0, 1.0));
   std::string lockstep;
   app.add_option("--lockstep", lockstep,
                  "take part in the simulator's lockstep as the controller of this name: decide "
@@ -146,9 +172,34 @@ int main(int argc, char** argv) {
     ShutdownSignals signals([&] { stop.store(true); });
     dds::Participant participant(dds_cli.Participant());
 
+    for (const std::string& name : only) {
+      if (std::none_of(city.sim.vehicles.begin(), city.sim.vehicles.end(),
+                       [&](const auto& v) { return v.name == name; })) {
+        throw InputError("--vehicles: " + city_path + " has no car " + name +
+                         " in its sim section");
+      }
+    }
+    if (!route.empty() && only.size() != 1) {
+      throw InputError("--route: give exactly one car with --vehicles (a route is one car's)");
+    }
+    std::vector<LaneId> route_ids;
+    for (const std::string& lane : route) {
+      const maps::Lane* l = map.FindLane(lane);
+      if (l == nullptr) {
+        throw InputError("--route: map " + map.name + " has no lane \"" + lane +
+                         "\" (autodrive-map info lists them)");
+      }
+      route_ids.push_back(l->id);
+    }
     std::vector<std::unique_ptr<Car>> cars;
     for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
-      vehicle_sim::DriverOptions options;
+      if (!only.empty() &&
+          std::find(only.begin(), only.end(), city.sim.vehicles[i].name) == only.end()) {
+        continue;
+      }
+      vehicle_sim::DriverOptions options = faults;
+      options.route = route_ids;
+      options.stop_at_route_end = stop_at_end;
       options.cruise_throttle = throttle;
       options.seed = seed + i;
       const vehicle_sim::VehicleParams& p = city.sim.vehicles[i].params;

@@ -10,6 +10,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -229,6 +230,13 @@ struct Map {
   const Movement& movement(MovementId id) const { return movements.at(id.value() - 1); }
   const Intersection& intersection(IntersectionId id) const {
     return intersections.at(id.value() - 1);
+  }
+  /// The lane named `name` ("r2c3:W>E:0", as `autodrive-map info` lists them), or null.
+  [[nodiscard]] const Lane* FindLane(std::string_view lane_name) const {
+    for (const Lane& l : lanes) {
+      if (l.name == lane_name) return &l;
+    }
+    return nullptr;
   }
   /// The head with id `id`. Head ids are the layout's (docs/maps.md), not positions:
   /// `signal_heads` is in ascending id order and may have gaps. @throws std::out_of_range for

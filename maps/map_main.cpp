@@ -25,7 +25,7 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-int Info(const std::string& path) {
+int Info(const std::string& path, bool lanes) {
   const Map map = LoadMapOrLayout(path);
   const MapSummary s = Summarise(map);
   std::printf("map %s: %d x %d tiles of %.3g m (%.3g m x %.3g m), lanes %.3g m wide\n",
@@ -60,6 +60,26 @@ int Info(const std::string& path) {
               problems.empty() ? "every lane reaches and is reached from the boundary or a loop"
                                : (std::to_string(problems.size()) + " problems").c_str());
   for (const auto& p : problems) std::printf("    %s\n", p.c_str());
+  if (lanes) {
+    // What a route (a scenario's, the example driver's --route) is made of: each lane, where
+    // it ends, and what may follow it.
+    std::printf("  lanes (name: length; at its end; then):\n");
+    for (const auto& lane : map.lanes) {
+      std::string next;
+      for (const auto id : lane.successors) next += " " + map.lane(id).name;
+      for (const auto id : lane.movements_out) {
+        const auto& m = map.movement(id);
+        next += " " + map.lane(m.to).name + " (" + std::string(ToString(m.turn)) + ")";
+      }
+      std::string end = "open";
+      if (lane.ingress_of) {
+        const auto& x = map.intersection(*lane.ingress_of);
+        end = std::string(x.control == Control::kSignal ? "signal at " : "stop at ") + x.name;
+      }
+      std::printf("    %s: %.3f m; %s; then%s\n", lane.name.c_str(), lane.length_m, end.c_str(),
+                  next.empty() ? " nothing" : next.c_str());
+    }
+  }
   return problems.empty() ? 0 : 1;
 }
 
@@ -89,6 +109,10 @@ int main(int argc, char** argv) {
   info->add_option("map", map_path, "map.yaml or layout YAML")
       ->required()
       ->check(CLI::ExistingFile);
+  bool list_lanes = false;
+  info->add_flag("--lanes", list_lanes,
+                 "also list every lane: its length, the intersection at its end and the lanes "
+                 "that may follow it (for routes)");
 
   auto* grid = app.add_subcommand("grid", "write the layout of a grid city of R x C intersections");
   int rows = 2, cols = 2;
@@ -103,7 +127,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     autodrive::InitLogging("autodrive-map", autodrive::ParseLogLevel(log_level));
-    if (*info) return Info(map_path);
+    if (*info) return Info(map_path, list_lanes);
     if (*grid) {
       autodrive::config::SaveFile(GridCity(rows, cols, control), grid_out);
       std::printf("wrote %s (%d x %d intersections, %d x %d tiles)\n", grid_out.c_str(), rows, cols,

@@ -55,31 +55,63 @@ void LaneDriver::Localise(const RigidTransform2& X_MV) {
   }
   route_.clear();
   if (lane == nullptr) return;
-  route_.push_back({&lane->centreline, lane, nullptr, 0.0});
+  // On its route (again): make for the lane after this one.
+  const auto on_route = std::find(options_.route.begin(), options_.route.end(), lane->id);
+  if (on_route != options_.route.end()) {
+    route_next_ = static_cast<std::size_t>(on_route - options_.route.begin());
+  }
   progress_s_ = 0.0;
+  PushLane(*lane, 0.0);
   Extend();
   progress_s_ = Project(p);
 }
 
+void LaneDriver::PushLane(const maps::Lane& lane, double start_s) {
+  route_.push_back({&lane.centreline, &lane, nullptr, start_s});
+  if (NextRouteLane() == lane.id) ++route_next_;
+}
+
+std::optional<LaneId> LaneDriver::NextRouteLane() const {
+  if (route_next_ >= options_.route.size()) return std::nullopt;
+  return options_.route[route_next_];
+}
+
+bool LaneDriver::AtRouteEnd() const {
+  return options_.stop_at_route_end && !options_.route.empty() &&
+         route_next_ >= options_.route.size() && !route_.empty() && route_.back().lane != nullptr &&
+         route_.back().lane->id == options_.route.back();
+}
+
 void LaneDriver::Extend() {
   const auto end_s = [&] { return route_.back().start_s + PieceLength(route_.back()); };
-  while (!route_.empty() && end_s() < progress_s_ + 2.0) {
+  while (!route_.empty() && end_s() < progress_s_ + 2.0 && !AtRouteEnd()) {
     const Piece& last = route_.back();
     const double start = end_s();
     if (last.movement != nullptr) {
-      const maps::Lane& to = map_->lane(last.movement->to);
-      route_.push_back({&to.centreline, &to, nullptr, start});
+      PushLane(map_->lane(last.movement->to), start);
       continue;
     }
     const maps::Lane& lane = *last.lane;
+    const std::optional<LaneId> next_on_route = NextRouteLane();
     if (!lane.movements_out.empty()) {
-      std::uniform_int_distribution<std::size_t> pick(0, lane.movements_out.size() - 1);
-      const maps::Movement& m = map_->movement(lane.movements_out[pick(rng_)]);
-      route_.push_back({&m.path, nullptr, &m, start});
+      const maps::Movement* chosen = nullptr;
+      for (const MovementId id : lane.movements_out) {
+        if (map_->movement(id).to == next_on_route) chosen = &map_->movement(id);
+      }
+      if (chosen == nullptr) {
+        std::uniform_int_distribution<std::size_t> pick(0, lane.movements_out.size() - 1);
+        chosen = &map_->movement(lane.movements_out[pick(rng_)]);
+      }
+      route_.push_back({&chosen->path, nullptr, chosen, start});
     } else if (!lane.successors.empty()) {
-      std::uniform_int_distribution<std::size_t> pick(0, lane.successors.size() - 1);
-      const maps::Lane& next = map_->lane(lane.successors[pick(rng_)]);
-      route_.push_back({&next.centreline, &next, nullptr, start});
+      const auto on_route = std::find(lane.successors.begin(), lane.successors.end(),
+                                      next_on_route.value_or(LaneId{0}));
+      if (next_on_route && on_route != lane.successors.end()) {
+        PushLane(map_->lane(*on_route), start);
+      } else {
+        std::uniform_int_distribution<std::size_t> pick(0, lane.successors.size() - 1);
+        PushLane(map_->lane(lane.successors[pick(rng_)]), start);
+      }
     } else {
       break;  // a dead end: the car stops at its end
     }
@@ -197,7 +229,13 @@ DriverDecision LaneDriver::Step(
   Extend();
 
   // Pure pursuit towards the route point one lookahead ahead.
-  const Eigen::Vector2d target = PointAt(progress_s_ + options_.lookahead_m);
+  Eigen::Vector2d target = PointAt(progress_s_ + options_.lookahead_m);
+  if (options_.lateral_offset_m != 0.0) {
+    const Eigen::Vector2d along = target - PointAt(progress_s_ + options_.lookahead_m - 0.02);
+    if (along.norm() > 1e-6) {
+      target += options_.lateral_offset_m * Eigen::Vector2d(-along.y(), along.x()).normalized();
+    }
+  }
   const Eigen::Vector2d local = X_MV.inverse() * target;
   const double alpha = std::atan2(local.y(), local.x());
   const double delta =
@@ -213,7 +251,7 @@ DriverDecision LaneDriver::Step(
     if (to_line < -0.05 || to_line > options_.slow_down_m + options_.stop_gap_m + 0.5) continue;
     const maps::Intersection& x = map_->intersection(*piece.lane->ingress_of);
     bool stop = false;
-    if (x.control == maps::Control::kSignal) {
+    if (x.control == maps::Control::kSignal && !options_.ignore_lights) {
       // Red, yellow (unless too close to stop) or unknown: stop at the line.
       std::optional<Aspect> shown;
       for (SignalHeadId h : x.signal_heads) {
@@ -233,7 +271,8 @@ DriverDecision LaneDriver::Step(
         stop = true;
         decision.reason = DriverDecision::Reason::kGiveWay;
       }
-    } else if (x.control == maps::Control::kStop && sign_done_for_ != piece.lane) {
+    } else if (x.control == maps::Control::kStop && sign_done_for_ != piece.lane &&
+               !options_.ignore_stop_signs) {
       if (to_line <= options_.stop_gap_m + 0.02) {
         if (!stopped_at_sign_since_) stopped_at_sign_since_ = now;
         if (now - *stopped_at_sign_since_ >= options_.stop_sign_wait && BoxClear(x, X_MV, lidar)) {
@@ -256,7 +295,7 @@ DriverDecision LaneDriver::Step(
   // Something on its path close ahead (a car, a box): slow down, then stop. Only what is on
   // its own path counts: in an intersection's box, vehicles waiting at the other stop lines
   // are close, and often straight ahead, but not in its way.
-  if (!lidar.empty()) {
+  if (!lidar.empty() && !options_.ignore_obstacles) {
     const double gap = GapAhead(X_MV, lidar, front_s, 2 * options_.obstacle_stop_m);
     if (std::isfinite(gap)) {
       const double scale =
@@ -265,6 +304,16 @@ DriverDecision LaneDriver::Step(
         throttle = options_.cruise_throttle * scale;
         decision.reason = DriverDecision::Reason::kObstacle;
       }
+    }
+  }
+  // At the end of its route: stop with the front at the end of the last lane.
+  if (AtRouteEnd()) {
+    const Piece& last = route_.back();
+    const double room = last.start_s + PieceLength(last) - front_s - options_.stop_gap_m;
+    const double scale = std::clamp(room / options_.slow_down_m, 0.0, 1.0);
+    if (options_.cruise_throttle * scale < throttle) {
+      throttle = room < 0.01 ? 0.0 : options_.cruise_throttle * scale;
+      decision.reason = DriverDecision::Reason::kGoal;
     }
   }
   decision.throttle = throttle;

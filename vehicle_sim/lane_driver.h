@@ -17,6 +17,7 @@
 #include <random>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "common/geometry.h"
 #include "common/ids.h"
@@ -46,6 +47,20 @@ struct DriverOptions {
   double box_margin_m = 0.03;
   double lidar_x_m = 0.1445;  ///< the LIDAR ahead of the rear axle (NIGEL.md)
   std::uint64_t seed = 1;
+  /// A route: lanes in the order it should drive them. At each choice it takes the movement
+  /// or successor onto the next lane of the route it has not reached yet; past the route (or
+  /// where no choice leads to that lane) it chooses at random as without one.
+  std::vector<LaneId> route;
+  /// With a route: stop at the end of its last lane (the goal) instead of driving on.
+  bool stop_at_route_end = false;
+  /// Faults on purpose, so that what judges a driver (the scenario runner's metrics) can be
+  /// tested against a driver known to commit them: drive through red lights (and without
+  /// giving way at green), roll through stop signs, ignore what the LIDAR sees ahead, and
+  /// keep this far left of the lane centres (negative: right).
+  bool ignore_lights = false;
+  bool ignore_stop_signs = false;
+  bool ignore_obstacles = false;
+  double lateral_offset_m = 0.0;
 };
 
 /// What the driver decided, and why (for logs and tests).
@@ -58,6 +73,7 @@ struct DriverDecision {
     kStopSign,
     kGiveWay,  ///< at a green light, for what is in the intersection's box
     kObstacle,
+    kGoal,  ///< at the end of its route (`stop_at_route_end`)
     kLost
   } reason = Reason::kCruise;
 };
@@ -87,6 +103,12 @@ class LaneDriver {
   };
   void Localise(const RigidTransform2& X_MV);
   void Extend();
+  // Appends a lane to the route, counting it when it is the next lane of options_.route.
+  void PushLane(const maps::Lane& lane, double start_s);
+  // The lane of options_.route to make for next, if any.
+  [[nodiscard]] std::optional<LaneId> NextRouteLane() const;
+  // Whether the route's last lane is the last piece and the car is to stop at its end.
+  [[nodiscard]] bool AtRouteEnd() const;
   // Point of the route at arc length s, and the arc length of the route point nearest to p.
   [[nodiscard]] Eigen::Vector2d PointAt(double s) const;
   [[nodiscard]] double Project(const Eigen::Vector2d& p) const;
@@ -105,6 +127,7 @@ class LaneDriver {
   double progress_s_ = 0.0;  // arc length of the rear axle along the route
   std::optional<Duration> stopped_at_sign_since_;
   const maps::Lane* sign_done_for_ = nullptr;  // the stop-sign lane already stopped at
+  std::size_t route_next_ = 0;                 // index of the next lane of options_.route
 };
 
 }  // namespace autodrive::vehicle_sim

@@ -58,9 +58,10 @@ std::string Substitute(std::string text, const LaunchPlan& plan) {
 // simulator would wait for a process the launcher does not start, or for one that cannot be a
 // controller.
 void PlanLockstep(LaunchPlan& plan, const vehicle_sim::ServiceOptions& service,
-                  const std::string& city_path) {
+                  const std::vector<std::string>& external, const std::string& city_path) {
   std::set<std::string> waited(service.controllers.begin(), service.controllers.end());
   for (const auto& stage : service.stages) waited.insert(stage.begin(), stage.end());
+  for (const std::string& name : external) waited.erase(name);
   const std::set<std::string> controllers{"lights", "scm", "traffic", "driver"};
   for (ProcessPlan& p : plan.processes) {
     if (p.name == "dashboard") continue;
@@ -78,7 +79,8 @@ void PlanLockstep(LaunchPlan& plan, const vehicle_sim::ServiceOptions& service,
   if (!waited.empty()) {
     throw ConfigError(
         fmt::format("{}: sim.service: the simulator would wait in lockstep for {}, which the "
-                    "launcher does not start (the city's programs by name, or launch.agents)",
+                    "launcher does not start (the city's programs by name, launch.agents, or "
+                    "launch.external_controllers)",
                     city_path, fmt::join(waited, ", ")));
   }
 }
@@ -324,7 +326,7 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
     d.url_file = plan.run_dir / "dashboard.url";
     plan.dashboard = std::move(d);
   }
-  if (lockstep) PlanLockstep(plan, *lockstep, city_path);
+  if (lockstep) PlanLockstep(plan, *lockstep, launch.external_controllers, city_path);
   for (const ProcessPlan& p : plan.processes) {
     if (p.argv.front().find('/') != std::string::npos && !std::filesystem::exists(p.argv.front())) {
       throw InputError(fmt::format("{}: {}: the program {} is not there (build it first)",

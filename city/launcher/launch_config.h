@@ -117,6 +117,9 @@ struct LaunchConfig {
   ProcessConfig traffic;
   DashboardProcessConfig dashboard;
   std::vector<AgentConfig> agents;
+  /// Lockstep controllers the simulator waits for that the launcher does not start (a
+  /// scenario runner, `autodrive-scenario`, which starts the launcher itself).
+  std::vector<std::string> external_controllers;
   /// A process that exits this many times within `crash_loop_window_s` is in a crash loop:
   /// reported (status, log), and started again only after the window, not at once.
   int crash_loop_exits = 5;
@@ -135,6 +138,7 @@ struct LaunchConfig {
     a.Optional("traffic", traffic);
     a.Optional("dashboard", dashboard);
     a.Optional("agents", agents);
+    a.Optional("external_controllers", external_controllers);
     a.Optional("crash_loop_exits", crash_loop_exits, config::Range{1, 1000});
     a.Optional("crash_loop_window_s", crash_loop_window_s,
                config::Range<nanoseconds>{std::chrono::seconds(1), std::chrono::hours(24)});

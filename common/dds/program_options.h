@@ -8,6 +8,7 @@
 ///   CLI11_PARSE(app, argc, argv);
 ///   dds::Participant participant(dds_cli.Participant());
 
+#include <cstdlib>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -60,7 +61,8 @@ class ProgramOptions {
   explicit ProgramOptions(std::string own_enclave = {})
       : security_(SecurityOptions::FromEnvironment()), own_enclave_(std::move(own_enclave)) {}
 
-  /// Adds `--partition`, `--domain`, `--keystore` and `--enclave` to `app`.
+  /// Adds `--partition` (default: `AUTODRIVE_PARTITION` when set, as `autodrive-city up
+  /// --partition` gives it to agents), `--domain`, `--keystore` and `--enclave` to `app`.
   void Add(CLI::App& app,
            const std::string& partition_help =
                "DDS partition (separates cities or test runs sharing a domain; default: the "
@@ -80,6 +82,10 @@ class ProgramOptions {
   [[nodiscard]] ParticipantOptions Participant() const {
     UseShippedDdsConfigUnlessSet();
     ParticipantOptions o = options_;
+    // A program the launcher starts as an agent gets its city's partition this way.
+    if (const char* p = std::getenv("AUTODRIVE_PARTITION"); o.partition.empty() && p != nullptr) {
+      o.partition = p;
+    }
     SecurityOptions s = security_;
     if (s.enclave.empty()) s.enclave = own_enclave_;
     o.security = s;

@@ -1,0 +1,340 @@
+#include "scenarios/compose.h"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <set>
+
+#include "common/error.h"
+
+namespace autodrive::scenarios {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string Absolute(const fs::path& base_dir, const std::string& path) {
+  return (base_dir / path).lexically_normal().string();
+}
+
+// Replaces {city}, {vehicle}, {route}, {lockstep}, {run} and {scenario} in `word`.
+std::string Substitute(std::string word,
+                       const std::vector<std::pair<std::string, std::string>>& with) {
+  for (const auto& [key, value] : with) {
+    for (std::size_t at = word.find(key); at != std::string::npos;
+         at = word.find(key, at + value.size())) {
+      word.replace(at, key.size(), value);
+    }
+  }
+  return word;
+}
+
+// The program `word` names: the build's own when bin_dir has it, else as given (PATH or a path).
+std::string ResolveProgram(const std::string& word, const fs::path& bin_dir) {
+  if (word.find('/') == std::string::npos && fs::exists(bin_dir / word)) {
+    return (bin_dir / word).string();
+  }
+  return word;
+}
+
+}  // namespace
+
+std::string AgentController(const std::string& vehicle) { return "agent_" + vehicle; }
+
+std::string LocateInFile(const fs::path& file, const std::vector<std::string>& keypath,
+                         const std::string& message) {
+  std::string where;
+  for (const std::string& k : keypath) where += (k.front() == '[' || where.empty() ? "" : ".") + k;
+  try {
+    YAML::Node node = YAML::LoadFile(file.string());
+    YAML::Mark mark = node.Mark();
+    for (const std::string& k : keypath) {
+      YAML::Node next;
+      if (k.front() == '[') {
+        next = node[std::stoul(k.substr(1, k.size() - 2))];
+      } else {
+        next = node[k];
+      }
+      if (!next) break;
+      node = next;
+      mark = node.Mark();
+    }
+    return fmt::format("{}:{}:{}: {}: {}", file.string(), mark.line + 1, mark.column + 1, where,
+                       message);
+  } catch (const YAML::Exception&) {
+    return fmt::format("{}: {}: {}", file.string(), where, message);
+  }
+}
+
+ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file,
+                         const maps::Map& map, const fs::path& city_file, const fs::path& run_dir,
+                         const fs::path& bin_dir) {
+  const fs::path base_file = fs::absolute(scenario.city);
+  const fs::path base_dir = base_file.parent_path();
+  YAML::Node city;
+  try {
+    city = YAML::LoadFile(base_file.string());
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(fmt::format("{}: {}", base_file.string(), e.what()));
+  }
+  const auto refuse = [&](const std::vector<std::string>& keypath, const std::string& message) {
+    throw ConfigError(LocateInFile(scenario_file, keypath, message));
+  };
+  if (!city.IsMap() || !city["sim"] || !city["name"] || !city["map"]) {
+    refuse({"city"}, fmt::format("{} has no sim section (the simulator's cars): a scenario "
+                                 "runs in the simulator",
+                                 base_file.string()));
+  }
+  ComposedCity out;
+  out.city_name = city["name"].as<std::string>();
+  out.map_path = Absolute(base_dir, city["map"].as<std::string>());
+  city["map"] = out.map_path;
+  if (city["operators"] && city["operators"]["allowed"] &&
+      city["operators"]["allowed"].size() > 0) {
+    out.operator_name = city["operators"]["allowed"][0].as<std::string>();
+  }
+
+  // Routes: every lane on the map, each reachable from the one before.
+  for (std::size_t i = 0; i < scenario.vehicles.size(); ++i) {
+    const VehicleSpec& v = scenario.vehicles[i];
+    const std::string vi = fmt::format("[{}]", i);
+    if (v.spawn.lane && map.FindLane(*v.spawn.lane) == nullptr) {
+      refuse({"vehicles", vi, "spawn", "lane"},
+             fmt::format("map {} has no lane \"{}\" (autodrive-map info lists them)", map.name,
+                         *v.spawn.lane));
+    }
+    const maps::Lane* before = nullptr;
+    for (std::size_t k = 0; k < v.route.size(); ++k) {
+      const std::string ki = fmt::format("[{}]", k);
+      const maps::Lane* lane = map.FindLane(v.route[k]);
+      if (lane == nullptr) {
+        refuse({"vehicles", vi, "route", ki},
+               fmt::format("map {} has no lane \"{}\" (autodrive-map info lists them)", map.name,
+                           v.route[k]));
+      }
+      if (before != nullptr) {
+        const bool successor = std::find(before->successors.begin(), before->successors.end(),
+                                         lane->id) != before->successors.end();
+        const bool movement =
+            std::any_of(before->movements_out.begin(), before->movements_out.end(),
+                        [&](MovementId m) { return map.movement(m).to == lane->id; });
+        if (!successor && !movement) {
+          refuse({"vehicles", vi, "route", ki},
+                 fmt::format("lane {} does not follow {} (neither a successor nor the end of a "
+                             "movement from it)",
+                             lane->name, before->name));
+        }
+      }
+      before = lane;
+    }
+  }
+  // Events: intersections of the map, plans of the city, an operator to send them.
+  for (std::size_t i = 0; i < scenario.events.size(); ++i) {
+    const EventSpec& e = scenario.events[i];
+    const std::string ei = fmt::format("[{}]", i);
+    const auto x =
+        std::find_if(map.intersections.begin(), map.intersections.end(),
+                     [&](const maps::Intersection& y) { return y.name == e.intersection; });
+    if (x == map.intersections.end()) {
+      refuse({"events", ei, "intersection"},
+             fmt::format("map {} has no intersection \"{}\"", map.name, e.intersection));
+    }
+    if ((e.action == "mode" || e.action == "plan") && out.operator_name.empty()) {
+      refuse({"events", ei, "action"},
+             fmt::format("{} allows no operator (operators.allowed): nobody may change a mode "
+                         "or plan",
+                         base_file.string()));
+    }
+    if (e.action == "plan" && e.plan != "auto") {
+      bool found = false;
+      for (const auto& xc : city["intersections"]) {
+        if (xc["name"] && xc["name"].as<std::string>() == e.intersection) {
+          for (const auto& p : xc["plans"]) found = found || p["name"].as<std::string>() == e.plan;
+        }
+      }
+      if (!found) {
+        refuse({"events", ei, "plan"}, fmt::format("{} has no plan \"{}\" for {}",
+                                                   base_file.string(), e.plan, e.intersection));
+      }
+    }
+  }
+
+  // The simulator: the scenario's cars (keeping what the base city says of a car of the same
+  // name), seed, noise and obstacles; lockstep.
+  YAML::Node sim = city["sim"];
+  sim["seed"] = scenario.seed;
+  YAML::Node vehicles(YAML::NodeType::Sequence);
+  for (const VehicleSpec& v : scenario.vehicles) {
+    YAML::Node car(YAML::NodeType::Map);
+    if (sim["vehicles"]) {
+      for (const auto& base : sim["vehicles"]) {
+        if (base["name"] && base["name"].as<std::string>() == v.name) car = YAML::Clone(base);
+      }
+    }
+    car["name"] = v.name;
+    YAML::Node spawn(YAML::NodeType::Map);
+    if (v.spawn.lane) {
+      spawn["lane"] = *v.spawn.lane;
+      spawn["along_m"] = v.spawn.along_m;
+    } else {
+      spawn["x_m"] = *v.spawn.x_m;
+      spawn["y_m"] = *v.spawn.y_m;
+      spawn["yaw_rad"] = *v.spawn.yaw_rad;
+    }
+    car["spawn"] = spawn;
+    vehicles.push_back(car);
+  }
+  sim["vehicles"] = vehicles;
+  YAML::Node variability =
+      sim["variability"] ? sim["variability"] : YAML::Node(YAML::NodeType::Map);
+  variability["preset"] =
+      scenario.noise == vehicle_sim::VariabilityPreset::kPaper ? "paper" : "none";
+  YAML::Node obstacles(YAML::NodeType::Sequence);
+  if (variability["obstacles"]) obstacles = variability["obstacles"];
+  for (const auto& o : scenario.obstacles) {
+    YAML::Node n(YAML::NodeType::Map);
+    n["x_m"] = o.x_m;
+    n["y_m"] = o.y_m;
+    n["yaw_rad"] = o.yaw_rad;
+    n["length_m"] = o.length_m;
+    n["width_m"] = o.width_m;
+    n["height_m"] = o.height_m;
+    obstacles.push_back(n);
+  }
+  if (obstacles.size() > 0) variability["obstacles"] = obstacles;
+  sim["variability"] = variability;
+  for (auto cam : sim["cameras"]) {
+    if (cam["lens"] && cam["lens"]["calibration"]) {
+      cam["lens"]["calibration"] = Absolute(base_dir, cam["lens"]["calibration"].as<std::string>());
+    }
+  }
+  out.traffic = scenario.traffic.vehicles > 0;
+  if (out.traffic) {
+    YAML::Node traffic = city["traffic"] ? city["traffic"] : YAML::Node(YAML::NodeType::Map);
+    traffic["seed"] = scenario.seed;
+    traffic["vehicles"] = scenario.traffic.vehicles;
+    city["traffic"] = traffic;
+  } else {
+    city.remove("traffic");
+  }
+  out.controllers.emplace_back(kRunnerController);
+  if (out.traffic) out.controllers.emplace_back("traffic");
+  for (const VehicleSpec& v : scenario.vehicles) {
+    if (v.agent) out.controllers.push_back(AgentController(v.name));
+  }
+  YAML::Node service = sim["service"] ? sim["service"] : YAML::Node(YAML::NodeType::Map);
+  service["mode"] = "lockstep";
+  YAML::Node stages(YAML::NodeType::Sequence);
+  for (const char* stage : {"lights", "scm"}) {
+    YAML::Node s(YAML::NodeType::Sequence);
+    s.push_back(stage);
+    s.SetStyle(YAML::EmitterStyle::Flow);
+    stages.push_back(s);
+  }
+  service["stages"] = stages;
+  YAML::Node controllers(YAML::NodeType::Sequence);
+  for (const std::string& c : out.controllers) controllers.push_back(c);
+  service["controllers"] = controllers;
+  service["duration_s"] = std::chrono::duration<double>(scenario.time_limit_s).count();
+  service.remove("real_time_factor");
+  sim["service"] = service;
+
+  // The SCM's fleet and the Eye's cars: the scenario's.
+  if (city["fleet"]) {
+    YAML::Node names(YAML::NodeType::Sequence);
+    for (const VehicleSpec& v : scenario.vehicles) names.push_back(v.name);
+    city["fleet"]["vehicles"] = names;
+  }
+  if (city["eye"]) {
+    for (auto cam : city["eye"]["cameras"]) {
+      if (cam["calibration"]) {
+        cam["calibration"] = Absolute(base_dir, cam["calibration"].as<std::string>());
+      }
+    }
+    if (city["eye"]["vehicles"]) {
+      YAML::Node kept(YAML::NodeType::Sequence);
+      for (const auto& e : city["eye"]["vehicles"]) {
+        const std::string name = e["name"].as<std::string>();
+        if (std::any_of(scenario.vehicles.begin(), scenario.vehicles.end(),
+                        [&](const VehicleSpec& v) { return v.name == name; })) {
+          kept.push_back(e);
+        }
+      }
+      city["eye"]["vehicles"] = kept;
+    }
+  }
+
+  // The launch: the lights, the SCM, the simulator, SUMO and the agents; no Eye (it has no
+  // lockstep mode), no dashboard, no example driver for the whole city.
+  std::string lights_config = Absolute(base_dir, "../infra/" + out.city_name + ".yaml");
+  if (city["launch"] && city["launch"]["lights"] && city["launch"]["lights"]["config"]) {
+    lights_config = Absolute(base_dir, city["launch"]["lights"]["config"].as<std::string>());
+  }
+  YAML::Node launch(YAML::NodeType::Map);
+  launch["run_dir"] = fs::absolute(run_dir).lexically_normal().string();
+  launch["lights"]["config"] = lights_config;
+  launch["eye"]["mode"] = "off";
+  launch["driver"]["mode"] = "off";
+  launch["dashboard"]["mode"] = "off";
+  launch["stop_grace_s"] = 10.0;
+  YAML::Node agents(YAML::NodeType::Sequence);
+  for (const VehicleSpec& v : scenario.vehicles) {
+    if (!v.agent) continue;
+    std::vector<std::string> words = v.agent->command;
+    if (v.agent->driver) {
+      words = {"autodrive-example-driver",
+               "--city",
+               "{city}",
+               "--vehicles",
+               "{vehicle}",
+               "--lockstep",
+               "{lockstep}",
+               "--seed",
+               std::to_string(scenario.seed),
+               "--log-level",
+               "warn"};
+      if (!v.route.empty()) {
+        words.insert(words.end(), {"--route", "{route}", "--stop-at-route-end"});
+      }
+      words.insert(words.end(), v.agent->driver->begin(), v.agent->driver->end());
+    }
+    const std::vector<std::pair<std::string, std::string>> with{
+        {"{city}", fs::absolute(city_file).lexically_normal().string()},
+        {"{vehicle}", v.name},
+        {"{route}", fmt::format("{}", fmt::join(v.route, ","))},
+        {"{lockstep}", AgentController(v.name)},
+        {"{run}", fs::absolute(run_dir).lexically_normal().string()},
+        {"{scenario}", fs::absolute(scenario_file).lexically_normal().string()}};
+    YAML::Node agent(YAML::NodeType::Map);
+    agent["name"] = AgentController(v.name);
+    YAML::Node command(YAML::NodeType::Sequence);
+    for (std::size_t k = 0; k < words.size(); ++k) {
+      const std::string word = Substitute(words[k], with);
+      command.push_back(k == 0 ? ResolveProgram(word, bin_dir) : word);
+    }
+    agent["command"] = command;
+    agent["restart"] = "never";
+    if (!v.agent->env.empty()) {
+      YAML::Node env(YAML::NodeType::Sequence);
+      for (const std::string& e : v.agent->env) env.push_back(Substitute(e, with));
+      agent["env"] = env;
+    }
+    agents.push_back(agent);
+  }
+  if (agents.size() > 0) launch["agents"] = agents;
+  launch["external_controllers"].push_back(std::string(kRunnerController));
+  city["launch"] = launch;
+
+  YAML::Emitter emitter;
+  emitter << city;
+  out.yaml = fmt::format(
+      "# Composed by autodrive-scenario from {} (scenario {}) and {}: do not edit; edit the "
+      "scenario.\n{}\n",
+      fs::absolute(scenario_file).lexically_normal().string(), scenario.name, base_file.string(),
+      emitter.c_str());
+  return out;
+}
+
+}  // namespace autodrive::scenarios

@@ -1,0 +1,104 @@
+#pragma once
+/// @file
+/// The metrics of a run, computed from what the world was (`RunWorld`, the run folder's
+/// `logs/world.json`) and the raw logs (ground truth, lamps, SPaT, traffic, requests), never
+/// from anything an agent reports. Every metric's definition, its 1:14 scaling and the
+/// reference it follows are in docs/scenarios.md ("Metrics").
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+namespace autodrive::scenarios {
+
+using Points = std::vector<Eigen::Vector2d>;
+
+/// What the world was during a run: everything the metrics measure against, from the map, the
+/// simulator's section (perturbed walls, unmapped obstacles, the cars' bodies) and the
+/// scenario (routes). Written as `logs/world.json` so that another tool can recompute.
+struct RunWorld {
+  struct Car {
+    std::string name;
+    double length_m = 0.318;  ///< the body's footprint (its collision box)
+    double width_m = 0.175;
+    double centre_ahead_m = 0.07077;  ///< the footprint's centre ahead of the rear axle
+    double top_speed_mps = 0.26;      ///< free-flow speed for delay and time loss
+    Points route;  ///< the route's centre line (lanes and movements); empty: none
+    double goal_tolerance_m = 0.15;
+  };
+  struct Static {
+    std::string kind;  ///< "wall", "box" (the map's) or "obstacle" (unmapped)
+    std::string name;
+    Points footprint;  ///< counter-clockwise
+  };
+  struct StopLine {
+    std::string lane;
+    std::string intersection;
+    std::string control;          ///< "signal" or "stop"
+    std::vector<int> heads;       ///< the heads facing this lane's approach (signal)
+    Eigen::Vector2d left, right;  ///< the line's ends as seen driving along the lane
+    Eigen::Vector2d direction;    ///< unit, the lane's direction of travel at its end
+  };
+  struct Lane {
+    std::string name;  ///< a lane, or a movement through an intersection
+    double width_m = 0.0;
+    Points centreline;
+  };
+  /// The heads that show a signal group (for SPaT's prediction error against the lamps).
+  struct GroupHeads {
+    int intersection = 0;
+    int group = 0;
+    std::vector<int> heads;
+  };
+  struct Request {
+    int intersection = 0;
+    int in_lane = 0;         ///< MAP lane id (the map's lane id)
+    std::vector<int> heads;  ///< the heads facing that lane's approach
+  };
+  std::vector<Car> cars;
+  std::vector<Static> statics;
+  std::vector<StopLine> stop_lines;
+  std::vector<Lane> lanes;
+  std::vector<GroupHeads> groups;
+  /// For each MAP lane id of an ingress lane: its intersection and heads.
+  std::map<int, Request> ingress;
+  double end_s = 0.0;  ///< the run's last step
+
+  [[nodiscard]] nlohmann::json ToJson() const;
+  [[nodiscard]] static RunWorld FromJson(const nlohmann::json& j);
+};
+
+/// The constants the metrics use (docs/scenarios.md gives each its source and scaling).
+struct MetricConstants {
+  double contact_m = 0.005;    ///< bodies this close touch
+  double separation_m = 0.02;  ///< a contact ends once this far apart for `rearm_s`
+  double rearm_s = 0.5;
+  double stopped_mps = 0.01;       ///< below: stopped (CARLA 0.1 m/s / 14)
+  double moving_mps = 0.05;        ///< above: moving again (a new stop may begin)
+  double stop_zone_m = 0.3;        ///< a full stop must be within this of the stop line (4 m / 14)
+  double departure_rearm_s = 0.5;  ///< a lane departure ends after this long back on a lane
+  double scale = 14.0;             ///< lab to full scale (infractions per km)
+  /// A route point counts as passed within this distance (CARLA's 10 m / 14).
+  double route_tolerance_m = 10.0 / 14.0;
+  double rolling_resistance = 0.02;  ///< energy proxy's rolling term
+};
+
+/// Computes every metric: `{"vehicles": {name: {...}}, "run": {...}, "v2i": {...}}`.
+/// @throws InputError for a log that cannot be read or parsed (naming the file and line).
+[[nodiscard]] nlohmann::json ComputeMetrics(const RunWorld& world,
+                                            const std::filesystem::path& logs_dir,
+                                            const MetricConstants& k = {});
+
+/// The corners of a rectangle (counter-clockwise) of `length` along `yaw` and `width` across,
+/// centred at `centre`.
+[[nodiscard]] Points Rectangle(const Eigen::Vector2d& centre, double yaw, double length,
+                               double width);
+
+/// The distance between two convex polygons (0 when they overlap).
+[[nodiscard]] double PolygonDistance(const Points& a, const Points& b);
+
+}  // namespace autodrive::scenarios

@@ -1,0 +1,192 @@
+#pragma once
+/// @file
+/// A scenario file (docs/scenarios.md): a city, the cars and the programs that drive them,
+/// their spawns, routes and goals, SUMO's demand, the simulator's noise and seed, timed events,
+/// the end and the pass thresholds. Strict like every config: a refusal names the file, line
+/// and key.
+///
+/// ```yaml
+/// name: crossing_red_light
+/// description: a car drives through the Driving School's crossing ignoring its light
+/// city: ../cities/driving_school.yaml
+/// seed: 1
+/// time_limit_s: 40
+/// vehicles:
+///   - name: nigel_1
+///     spawn: {lane: "r1c0:W>E:0", along_m: 0.3}
+///     route: ["r1c0:W>E:0", "r1c2:W>E:0"]
+///     agent: {driver: [--ignore-lights]}
+/// expect: {red_light_violations: "== 0"}
+/// ```
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "common/config.h"
+#include "common/time.h"
+#include "vehicle_sim/sim_config.h"
+
+namespace autodrive::scenarios {
+
+/// The program that drives one car: the example lane driver with extra arguments, or a
+/// program of the user's. Words may hold `{city}` (the composed city file), `{vehicle}` (the
+/// car's name), `{route}` (its route's lanes, comma-separated), `{lockstep}` (the controller
+/// name it must answer the simulator's steps with), `{run}` (the run folder) and `{scenario}`
+/// (the scenario file).
+struct AgentSpec {
+  /// The example driver (`autodrive-example-driver`) for this car alone, on its route, in
+  /// lockstep, with these arguments added (e.g. `[--ignore-lights]`).
+  std::optional<std::vector<std::string>> driver;
+  /// Or a program and its arguments (a name in the build's bin folder, on PATH, or a path);
+  /// it must answer the lockstep as `{lockstep}` (docs/vehicle_sim.md, "Lockstep").
+  std::vector<std::string> command;
+  std::vector<std::string> env;  ///< NAME=value entries added to its environment
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("driver", driver);
+    a.Optional("command", command);
+    a.Optional("env", env);
+  }
+  /// Exactly one of `driver` and `command`.
+  void Validate() const;
+  bool operator==(const AgentSpec&) const = default;
+};
+
+struct VehicleSpec {
+  std::string name;  ///< `nigel_<n>`
+  vehicle_sim::SpawnConfig spawn;
+  /// Lanes to drive, in order (each reachable from the one before by a movement or a
+  /// successor); the goal is the end of the last. Empty: no route (route completion is not
+  /// measured, the car has no goal).
+  std::vector<std::string> route;
+  /// The goal is reached when the car's front is within this distance of the last lane's end.
+  double goal_tolerance_m = 0.15;
+  /// Without an agent the car stands where it spawned (no commands: held still).
+  std::optional<AgentSpec> agent;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("name", name);
+    a.Required("spawn", spawn);
+    a.Optional("route", route);
+    a.Optional("goal_tolerance_m", goal_tolerance_m, config::Range{0.01, 10.0});
+    a.Optional("agent", agent);
+  }
+  void Validate() const;
+  bool operator==(const VehicleSpec&) const = default;
+};
+
+/// What happens at a time.
+struct EventSpec {
+  Duration at_s{0};  ///< simulated time since the start
+  /// `mode` (an intersection put into `flash`, `dark` or back to `auto`), `plan` (an
+  /// intersection's plan chosen by name, or `auto` for its schedule), `preempt` or `priority`
+  /// (a V2I request for `vehicle` at `intersection`, from the lane it is on), `cancel` (that
+  /// vehicle's request cancelled).
+  std::string action;
+  std::string intersection;  ///< the map's intersection name
+  std::string mode;          ///< action mode: flash | dark | auto
+  std::string plan;          ///< action plan: a plan of the intersection, or auto
+  std::string vehicle;       ///< actions preempt, priority, cancel
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
+    a.Required("action", action, config::OneOf{{"mode", "plan", "preempt", "priority", "cancel"}});
+    a.Optional("intersection", intersection);
+    a.Optional("mode", mode, config::OneOf{{"", "flash", "dark", "auto"}});
+    a.Optional("plan", plan);
+    a.Optional("vehicle", vehicle);
+  }
+  /// The keys each action needs, and no other.
+  void Validate() const;
+  bool operator==(const EventSpec&) const = default;
+};
+
+/// SUMO's background traffic: the base city's `traffic` section with these figures.
+struct TrafficSpec {
+  int vehicles = 0;  ///< 0: no background traffic (the section is dropped)
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("vehicles", vehicles, config::Range{0, 10000});
+  }
+  bool operator==(const TrafficSpec&) const = default;
+};
+
+/// When the run ends (besides `time_limit_s`).
+struct EndSpec {
+  /// End once every car with a route has reached its goal and stands still there (and at
+  /// least one car has a route).
+  bool goals_reached = true;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("goals_reached", goals_reached);
+  }
+  bool operator==(const EndSpec&) const = default;
+};
+
+struct Scenario {
+  std::string name;
+  std::string description;
+  std::string city;  ///< the base city file, relative to the scenario file
+  std::uint64_t seed = 1;
+  vehicle_sim::VariabilityPreset noise = vehicle_sim::VariabilityPreset::kNone;
+  Duration time_limit_s = std::chrono::seconds(60);
+  std::vector<VehicleSpec> vehicles;
+  TrafficSpec traffic;
+  /// Unmapped obstacles standing on the track from the start.
+  std::vector<vehicle_sim::UnmappedObstacle> obstacles;
+  std::vector<EventSpec> events;
+  EndSpec end;
+  /// Pass thresholds: a run-level metric (docs/scenarios.md, "Metrics") and a comparison,
+  /// e.g. `collisions: "== 0"`, `route_completion: ">= 1"`.
+  std::map<std::string, std::string> expect;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("name", name);
+    a.Optional("description", description);
+    a.Required("city", city);
+    a.Optional("seed", seed);
+    a.Optional("noise", noise);
+    a.Optional("time_limit_s", time_limit_s,
+               config::Range<Duration>{std::chrono::milliseconds(100), std::chrono::hours(24)});
+    a.Required("vehicles", vehicles);
+    a.Optional("traffic", traffic);
+    a.Optional("obstacles", obstacles);
+    a.Optional("events", events);
+    a.Optional("end", end);
+    a.Optional("expect", expect);
+  }
+  /// A name of letters, digits, '_' and '-'; cars named once, at least one; expectations
+  /// name known metrics with a valid comparison.
+  void Validate() const;
+  bool operator==(const Scenario&) const = default;
+};
+
+/// A pass threshold: `<op> <number>` with op one of `<`, `<=`, `==`, `>=`, `>`, `!=`.
+struct Expectation {
+  std::string op;
+  double value = 0.0;
+  [[nodiscard]] bool Holds(double x) const;
+};
+/// @throws InputError for text that is not `<op> <number>`.
+[[nodiscard]] Expectation ParseExpectation(std::string_view text);
+
+/// The run-level metrics an `expect` may name, in the order reports list them.
+[[nodiscard]] const std::vector<std::string_view>& RunMetricNames();
+
+/// Loads and checks a scenario file; its `city` is resolved against the file's folder.
+/// @throws ConfigError naming the file, line and key.
+[[nodiscard]] Scenario LoadScenario(const std::filesystem::path& path);
+
+}  // namespace autodrive::scenarios

@@ -1,0 +1,77 @@
+// autodrive-scenario: runs a scenario of the twin in lockstep and judges it from ground truth,
+// lamps and SPaT (docs/scenarios.md).
+#include <atomic>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "scenarios/runner.h"
+
+#include "common/error.h"
+#include "common/logging.h"
+#include "common/process.h"
+#include "common/shutdown.h"
+
+int main(int argc, char** argv) {
+  using namespace autodrive;
+  CLI::App app{
+      "autodrive-scenario: runs scenarios of the twin (a city, cars and the programs that drive "
+      "them, events, pass thresholds) in lockstep, and judges each run from the simulator's "
+      "ground truth, the lamps and SPaT. See docs/scenarios.md."};
+  app.require_subcommand(1);
+  std::string log_level = "warn";
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
+      ->capture_default_str();
+
+  scenarios::RunOptions run;
+  std::uint64_t seed = 0;
+  CLI::App* run_cmd = app.add_subcommand(
+      "run",
+      "run one scenario: bring its city up in lockstep, record, apply its events, take it "
+      "down, and write report.json in --out. Exit code 0: every expectation held; 1: one "
+      "failed; 2: the run could not be made; 130: interrupted");
+  std::string scenario_file, out_dir;
+  run_cmd->add_option("scenario", scenario_file, "the scenario file (YAML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  run_cmd
+      ->add_option("--out", out_dir, "the run folder (made; what an earlier run left is replaced)")
+      ->required();
+  CLI::Option* seed_opt =
+      run_cmd->add_option("--seed", seed, "the seed, instead of the scenario's");
+  run_cmd->add_option("--partition", run.partition,
+                      "DDS partition of the run (default: one of its own, so that runs beside "
+                      "each other and a running city never meet)");
+  bool quiet = false;
+  run_cmd->add_flag("--quiet", quiet, "no progress lines");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    InitLogging("autodrive-scenario", ParseLogLevel(log_level));
+    std::atomic<bool> stop{false};
+    ShutdownSignals signals([&] { stop.store(true); });
+    run.scenario_file = scenario_file;
+    run.out_dir = out_dir;
+    run.bin_dir = ExecutableDir();
+    if (seed_opt->count() > 0) run.seed = seed;
+    run.command_line.assign(argv, argv + argc);
+    run.stop = &stop;
+    run.progress = !quiet;
+    const scenarios::RunResult result = scenarios::RunScenario(run);
+    const auto& end = result.report["end"];
+    std::printf("%s: %s at %.2f s (%s); report: %s/report.json\n",
+                result.report["scenario"]["name"].get<std::string>().c_str(),
+                result.exit_code == 0   ? "passed"
+                : result.exit_code == 1 ? "FAILED"
+                                        : "not completed",
+                end["t_s"].get<double>(), end["reason"].get<std::string>().c_str(),
+                out_dir.c_str());
+    for (const std::string& f : result.failures) std::printf("  failed: %s\n", f.c_str());
+    return result.exit_code;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "autodrive-scenario: %s\n", e.what());
+    return 2;
+  }
+}
