@@ -5,11 +5,14 @@
 #include <signal.h>
 #include <spdlog/spdlog.h>
 #include <sys/eventfd.h>
+#include <sys/prctl.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdint>
+#include <cstdlib>
+#include <string>
 #include <system_error>
 
 #include "common/error.h"
@@ -91,6 +94,16 @@ void ShutdownSignals::Run() {
     AUTODRIVE_CHECK(got == static_cast<ssize_t>(sizeof info), "short signalfd read: " << got);
     on_signal_(static_cast<int>(info.ssi_signo));
   }
+}
+
+void StopWithParentIfAsked() {
+  const char* value = std::getenv(kStopWithParentEnv);
+  if (value == nullptr || *value == '\0') return;
+  const pid_t parent = static_cast<pid_t>(std::strtol(value, nullptr, 10));
+  if (parent <= 1) return;
+  ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+  // Inherited from a grandparent (our parent is another process): not for us.
+  if (::getppid() != parent) ::prctl(PR_SET_PDEATHSIG, 0);
 }
 
 }  // namespace autodrive

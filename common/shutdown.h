@@ -7,6 +7,16 @@
 
 namespace autodrive {
 
+/// The environment entry that asks a child to stop with its parent: `NAME=<the parent's pid>`.
+inline constexpr const char* kStopWithParentEnv = "AUTODRIVE_STOP_WITH_PARENT";
+
+/// When `AUTODRIVE_STOP_WITH_PARENT` names this process's parent (a runner that started it),
+/// asks the kernel for SIGTERM when that parent dies (PR_SET_PDEATHSIG): a killed scenario
+/// runner or sweep leaves no process. Call it after `ShutdownSignals` is made (so that the
+/// SIGTERM is an orderly stop). Nothing happens when the variable is unset or names another
+/// process than the parent (a value inherited from further up).
+void StopWithParentIfAsked();
+
 /// Reports SIGINT and SIGTERM on a thread of its own, which calls `on_signal(signal_number)`
 /// once per signal. Since the callback runs on an ordinary thread, it may lock, log and notify
 /// (unlike a signal handler).

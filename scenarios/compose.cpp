@@ -43,31 +43,6 @@ std::string ResolveProgram(const std::string& word, const fs::path& bin_dir) {
 
 std::string AgentController(const std::string& vehicle) { return "agent_" + vehicle; }
 
-std::string LocateInFile(const fs::path& file, const std::vector<std::string>& keypath,
-                         const std::string& message) {
-  std::string where;
-  for (const std::string& k : keypath) where += (k.front() == '[' || where.empty() ? "" : ".") + k;
-  try {
-    YAML::Node node = YAML::LoadFile(file.string());
-    YAML::Mark mark = node.Mark();
-    for (const std::string& k : keypath) {
-      YAML::Node next;
-      if (k.front() == '[') {
-        next = node[std::stoul(k.substr(1, k.size() - 2))];
-      } else {
-        next = node[k];
-      }
-      if (!next) break;
-      node = next;
-      mark = node.Mark();
-    }
-    return fmt::format("{}:{}:{}: {}: {}", file.string(), mark.line + 1, mark.column + 1, where,
-                       message);
-  } catch (const YAML::Exception&) {
-    return fmt::format("{}: {}: {}", file.string(), where, message);
-  }
-}
-
 ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file,
                          const maps::Map& map, const fs::path& city_file, const fs::path& run_dir,
                          const fs::path& bin_dir) {

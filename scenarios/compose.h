@@ -42,10 +42,4 @@ struct ComposedCity {
                                        const std::filesystem::path& run_dir,
                                        const std::filesystem::path& bin_dir);
 
-/// "FILE:LINE:COLUMN: KEYPATH: message" for the node at `keypath` of the YAML file (path
-/// elements: map keys, or list indices as "[i]"); the file's name alone when it is absent.
-[[nodiscard]] std::string LocateInFile(const std::filesystem::path& file,
-                                       const std::vector<std::string>& keypath,
-                                       const std::string& message);
-
 }  // namespace autodrive::scenarios

@@ -23,6 +23,7 @@
 #include "common/dds/writer.h"
 #include "common/error.h"
 #include "common/process.h"
+#include "common/shutdown.h"
 #include "maps/map_io.h"
 #include "vehicle_sim/sim_config.h"
 #include "vehicle_sim/variability.h"
@@ -287,7 +288,7 @@ RunResult RunScenario(const RunOptions& options) {
   // The city, through the launcher. TZ=UTC: the SCM's schedule reads the simulated time (from
   // 0, 1970-01-01 00:00) in local time, which must not depend on the machine.
   ChildOptions child_options;
-  child_options.extra_env = {"TZ=UTC"};
+  child_options.extra_env = {"TZ=UTC", fmt::format("{}={}", kStopWithParentEnv, getpid())};
   child_options.output_file = out / "launcher.log";
   child_options.own_process_group = true;
   ChildProcess launcher = ChildProcess::Start({(options.bin_dir / "autodrive-city").string(), "up",

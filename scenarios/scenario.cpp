@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <charconv>
@@ -160,11 +161,36 @@ const std::vector<std::string_view>& RunMetricNames() {
   return names;
 }
 
+std::string LocateInFile(const std::filesystem::path& file, const std::vector<std::string>& keypath,
+                         const std::string& message) {
+  std::string where;
+  for (const std::string& k : keypath) where += (k.front() == '[' || where.empty() ? "" : ".") + k;
+  try {
+    YAML::Node node = YAML::LoadFile(file.string());
+    YAML::Mark mark = node.Mark();
+    for (const std::string& k : keypath) {
+      YAML::Node next;
+      if (k.front() == '[') {
+        next = node[std::stoul(k.substr(1, k.size() - 2))];
+      } else {
+        next = node[k];
+      }
+      if (!next) break;
+      node = next;
+      mark = node.Mark();
+    }
+    return fmt::format("{}:{}:{}: {}: {}", file.string(), mark.line + 1, mark.column + 1, where,
+                       message);
+  } catch (const YAML::Exception&) {
+    return fmt::format("{}: {}: {}", file.string(), where, message);
+  }
+}
+
 Scenario LoadScenario(const std::filesystem::path& path) {
   Scenario s = config::LoadFile<Scenario>(path);
   s.city = (std::filesystem::absolute(path).parent_path() / s.city).lexically_normal().string();
   if (!std::filesystem::exists(s.city)) {
-    throw ConfigError(fmt::format("{}: city: {} does not exist", path.string(), s.city));
+    throw ConfigError(LocateInFile(path, {"city"}, s.city + " does not exist"));
   }
   return s;
 }

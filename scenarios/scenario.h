@@ -189,4 +189,10 @@ struct Expectation {
 /// @throws ConfigError naming the file, line and key.
 [[nodiscard]] Scenario LoadScenario(const std::filesystem::path& path);
 
+/// "FILE:LINE:COLUMN: KEYPATH: message" for the node at `keypath` of the YAML file (path
+/// elements: map keys, or list indices as "[i]"); the file's name alone when it is absent.
+[[nodiscard]] std::string LocateInFile(const std::filesystem::path& file,
+                                       const std::vector<std::string>& keypath,
+                                       const std::string& message);
+
 }  // namespace autodrive::scenarios

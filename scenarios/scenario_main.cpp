@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "scenarios/runner.h"
+#include "scenarios/sweep.h"
 
 #include "common/error.h"
 #include "common/logging.h"
@@ -46,12 +47,48 @@ int main(int argc, char** argv) {
                       "each other and a running city never meet)");
   bool quiet = false;
   run_cmd->add_flag("--quiet", quiet, "no progress lines");
+
+  scenarios::SweepOptions sweep;
+  CLI::App* sweep_cmd = app.add_subcommand(
+      "sweep",
+      "run a scenario over seeds and variants, several runs at once, with a progress bar; "
+      "--resume finishes a sweep that was stopped without running its finished runs again. "
+      "Writes runs/<variant>_seed<N>/ and summary.json in --out. Exit code 0: every run was "
+      "made (whatever its expectations); 2: a run could not be made; 130: interrupted");
+  std::string sweep_file, sweep_out;
+  int parallel = 0;
+  sweep_cmd->add_option("sweep", sweep_file, "the sweep file (YAML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sweep_cmd->add_option("--out", sweep_out, "the sweep folder")->required();
+  sweep_cmd->add_option("--parallel", parallel, "runs at once (default: the file's, else 2)")
+      ->check(CLI::Range(1, 256));
+  sweep_cmd->add_flag("--resume", sweep.resume,
+                      "finish a sweep in --out: keep its finished runs, run the rest");
+  sweep_cmd->add_flag("--quiet", quiet, "no progress bar");
   CLI11_PARSE(app, argc, argv);
 
   try {
     InitLogging("autodrive-scenario", ParseLogLevel(log_level));
     std::atomic<bool> stop{false};
     ShutdownSignals signals([&] { stop.store(true); });
+    StopWithParentIfAsked();
+    if (*sweep_cmd) {
+      sweep.sweep_file = sweep_file;
+      sweep.out_dir = sweep_out;
+      sweep.bin_dir = ExecutableDir();
+      if (parallel > 0) sweep.parallel = parallel;
+      sweep.stop = &stop;
+      sweep.progress = !quiet;
+      const scenarios::SweepResult r = scenarios::RunSweep(sweep);
+      std::printf(
+          "%s: %d of %d runs done (%d before), %d could not be made, %d left; summary: "
+          "%s/summary.json\n",
+          r.summary["sweep"]["name"].get<std::string>().c_str(), r.done,
+          r.summary["runs_total"].get<int>(), r.skipped, r.failed, r.left, sweep_out.c_str());
+      if (stop.load()) return 130;
+      return r.failed > 0 ? 2 : 0;
+    }
     run.scenario_file = scenario_file;
     run.out_dir = out_dir;
     run.bin_dir = ExecutableDir();

@@ -52,11 +52,11 @@ struct Town {
   std::map<SignalHeadId, std::int32_t> lamps;
   std::vector<DriverDecision> last;
 
-  void AddCar(const std::string& lane, double along, std::uint64_t seed = 1) {
+  void AddCar(const std::string& lane, double along, std::uint64_t seed = 1,
+              DriverOptions options = {}) {
     vehicle_sim::SimConfig sim;
     sim.vehicles = {{"nigel_1", vehicle_sim::SpawnConfig{lane, along, {}, {}, {}}, {}, {}, {}}};
     const int i = world.AddVehicle({}, vehicle_sim::SpawnPoses(sim, SmallTown())[0]);
-    DriverOptions options;
     options.seed = seed;
     drivers.emplace_back(SmallTown(), options);
     suites.emplace_back(vehicle_sim::SensorConfig{}, i, 1);
@@ -116,6 +116,46 @@ TEST(LaneDriver, AtGreenEverywhereKeepsDrivingOnTheRoadsOfTheTown) {
               worst);
   EXPECT_GT(travelled, 8.0);  // 0.6 x 0.26 m/s, less the stop signs
   EXPECT_LT(worst, 0.1);      // on its lane (lanes are 0.3 m wide)
+}
+
+TEST(LaneDriver, FollowsItsRouteWhateverItsSeedAndStopsAtItsEnd) {
+  // Without a route the choice at the centre crossing is random; with one, every seed turns
+  // left onto the route's last lane and stops at its end.
+  const maps::Lane* goal = SmallTown().FindLane("r1c2:S>N:0");
+  ASSERT_NE(goal, nullptr);
+  for (std::uint64_t seed = 1; seed <= 4; ++seed) {
+    Town town;
+    town.SetAll(3);
+    DriverOptions options;
+    options.route = {SmallTown().FindLane("r2c1:W>E:0")->id, goal->id};
+    options.stop_at_route_end = true;
+    town.AddCar("r2c1:W>E:0", 0.1, seed, options);
+    town.Run(30, [] {});
+    const auto& s = town.world.State(0);
+    const double front_to_end =
+        (goal->centreline.back() - s.X_MV.translation().head<2>()).norm() - 0.2297;
+    EXPECT_EQ(town.last[0].reason, DriverDecision::Reason::kGoal) << "seed " << seed;
+    EXPECT_LT(std::abs(front_to_end), 0.06) << "seed " << seed;
+    EXPECT_LT(std::abs(s.v_V_mps.x()), 0.005) << "seed " << seed;
+  }
+}
+
+TEST(LaneDriver, FaultsOnPurposeRunTheRedLightAndLeaveTheLane) {
+  Town town;
+  town.SetAll(1);
+  DriverOptions options;
+  options.ignore_lights = true;
+  options.lateral_offset_m = 0.2;
+  town.AddCar("r2c1:W>E:0", 0.1, 1, options);
+  double worst = 0;
+  town.Run(12, [&] {
+    worst = std::max(worst,
+                     DistanceToRoad(SmallTown(), town.world.State(0).X_MV.translation().head<2>()));
+  });
+  // Through the red light at the centre crossing (x 2.5), 0.2 m left of the lanes' centres
+  // (on the opposite lane, whose centre is 0.3 m away: about 0.1 m from it).
+  EXPECT_GT(town.world.State(0).X_MV.translation().x(), 2.6);
+  EXPECT_GT(worst, 0.05);
 }
 
 TEST(LaneDriver, StopsAtTheLineOnRedAndGoesOnGreen) {

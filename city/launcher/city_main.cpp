@@ -174,6 +174,7 @@ int Up(const UpOptions& o) {
   if (plan.dashboard) MakeTokens(*plan.dashboard);
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&](int) { stop.store(true); });
+  StopWithParentIfAsked();
   // Without CYCLONEDDS_URI every program of the city takes the shipped loopback configuration
   // (config/dds/localhost.xml); the launcher must too, or it would not hear their readiness.
   // The children inherit the variable it sets.
@@ -310,6 +311,7 @@ int Logs(const std::string& city, const std::string& name, std::size_t lines, bo
   // Until Ctrl-C: what is appended (a process started again appends to its log).
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&](int) { stop.store(true); });
+  StopWithParentIfAsked();
   std::uintmax_t offset = std::filesystem::file_size(log);
   while (!stop.load()) {
     std::this_thread::sleep_for(200ms);

@@ -1,0 +1,296 @@
+// The scenario file's refusals (file, line and key), the composed city, and each metric on logs
+// written by hand, against values worked out by hand.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include "scenarios/compose.h"
+#include "scenarios/metrics.h"
+#include "scenarios/scenario.h"
+
+#include "common/config.h"
+#include "common/error.h"
+#include "common/test_support.h"
+#include "maps/map_io.h"
+
+namespace autodrive::scenarios {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string Refusal(const fs::path& file) {
+  try {
+    (void)LoadScenario(file);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "(loaded)";
+}
+
+// A scenario file in `dir` whose city is the shipped Driving School, with `body` after it.
+fs::path Write(const fs::path& dir, const std::string& body) {
+  const fs::path file = dir / "s.yaml";
+  config::WriteFile(
+      file, fmt::format("name: s\ncity: {}\n{}",
+                        (test::SourceDir() / "config/cities/driving_school.yaml").string(), body));
+  return file;
+}
+
+const char* const kCar = R"(vehicles:
+  - name: nigel_1
+    spawn: {lane: "r2c0:N>E:0", along_m: 0.3}
+    route: ["r2c0:N>E:0", "r2c1:W>E:0", "r2c3:W>E:0"]
+    agent: {driver: []}
+)";
+
+TEST(ScenarioFile, RefusalsNameTheFileLineAndKey) {
+  test::TempDir dir("scenario_file");
+  EXPECT_EQ(Refusal(Write(dir.path(), kCar)), "(loaded)");
+  const auto refused = [&](const std::string& body, const std::string& expected) {
+    const fs::path file = Write(dir.path(), body);
+    const std::string what = Refusal(file);
+    EXPECT_NE(what.find(file.string() + ":"), std::string::npos) << what;
+    EXPECT_NE(what.find(expected), std::string::npos) << what;
+  };
+  refused(std::string(kCar) + "speed: 3\n", ":8:1: speed: unknown key");
+  refused(std::string(kCar) + "expect: {collisons: \"== 0\"}\n",
+          "expect: collisons is not a run metric");
+  refused(std::string(kCar) + "expect: {collisions: \"about 0\"}\n",
+          "expect.collisions: \"about 0\" is not a comparison");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: mode, intersection: x}]\n",
+          "events[0]: action mode needs mode");
+  refused(std::string(kCar) +
+              "events: [{at_s: 3, action: preempt, intersection: x, vehicle: nigel_9}]\n",
+          "vehicle nigel_9 is not one of the scenario's cars");
+  refused("vehicles:\n  - {name: car_1, spawn: {lane: a}}\n",
+          "vehicles[0]: name: \"car_1\" is not nigel_<n>");
+  refused(std::string(kCar) + "  - name: nigel_1\n    spawn: {lane: a}\n",
+          "nigel_1 is listed twice");
+  refused(std::string(kCar) + "vehicles: []\n", "duplicate key");
+  config::WriteFile(dir.path() / "s.yaml", std::string("name: s\ncity: nowhere.yaml\n") + kCar);
+  EXPECT_NE(Refusal(dir.path() / "s.yaml").find(":2:"), std::string::npos)
+      << Refusal(dir.path() / "s.yaml");
+}
+
+TEST(ScenarioFile, Expectations) {
+  EXPECT_TRUE(ParseExpectation("== 0").Holds(0));
+  EXPECT_FALSE(ParseExpectation("== 0").Holds(1));
+  EXPECT_TRUE(ParseExpectation(">= 0.95").Holds(1.0));
+  EXPECT_FALSE(ParseExpectation("<3").Holds(3));
+  EXPECT_TRUE(ParseExpectation(" != 2 ").Holds(3));
+  EXPECT_FALSE(ParseExpectation("<= 1").Holds(std::nan("")));
+  EXPECT_THROW((void)ParseExpectation("= 1"), InputError);
+  EXPECT_THROW((void)ParseExpectation(">= x"), InputError);
+  EXPECT_THROW((void)ParseExpectation(">= 1 m"), InputError);
+}
+
+std::string ComposeRefusal(const std::string& body) {
+  test::TempDir dir("scenario_compose");
+  const fs::path file = Write(dir.path(), body);
+  const Scenario s = LoadScenario(file);
+  const maps::Map map =
+      maps::LoadMapOrLayout((test::SourceDir() / "config/maps/driving_school.yaml").string());
+  try {
+    (void)ComposeCity(s, file, map, dir.path() / "city.yaml", dir.path() / "run", dir.path());
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "(composed)";
+}
+
+TEST(ComposedCity, RoutesAndEventsAreCheckedAgainstTheMapAndCity) {
+  EXPECT_EQ(ComposeRefusal(kCar), "(composed)");
+  // A route whose lanes do not follow each other, a lane the map has not, an intersection it
+  // has not, a plan the city has not: each named at its line.
+  std::string wrong = kCar;
+  wrong.replace(wrong.find("\"r2c1:W>E:0\", "), 14, "");
+  EXPECT_NE(ComposeRefusal(wrong).find(":6:"), std::string::npos) << ComposeRefusal(wrong);
+  EXPECT_NE(ComposeRefusal(wrong).find("lane r2c3:W>E:0 does not follow r2c0:N>E:0"),
+            std::string::npos);
+  std::string unknown = kCar;
+  unknown.replace(unknown.find("r2c3:W>E:0"), 10, "r9c9:W>E:0");
+  EXPECT_NE(ComposeRefusal(unknown).find("vehicles[0].route[2]: map driving_school has no lane"),
+            std::string::npos)
+      << ComposeRefusal(unknown);
+  EXPECT_NE(ComposeRefusal(std::string(kCar) +
+                           "events: [{at_s: 3, action: mode, intersection: x, mode: flash}]\n")
+                .find("events[0].intersection: map driving_school has no intersection \"x\""),
+            std::string::npos);
+  EXPECT_NE(ComposeRefusal(std::string(kCar) + "events: [{at_s: 3, action: plan, intersection: "
+                                               "driving_school_crossing, plan: rush}]\n")
+                .find("has no plan \"rush\""),
+            std::string::npos);
+}
+
+TEST(ComposedCity, RunsInLockstepWithTheScenariosCarsAndAgents) {
+  test::TempDir dir("scenario_city");
+  const fs::path file =
+      Write(dir.path(), std::string("seed: 7\ntime_limit_s: 30\ntraffic: {vehicles: 5}\n") + kCar);
+  const Scenario s = LoadScenario(file);
+  const maps::Map map =
+      maps::LoadMapOrLayout((test::SourceDir() / "config/maps/driving_school.yaml").string());
+  const ComposedCity c =
+      ComposeCity(s, file, map, dir.path() / "city.yaml", dir.path() / "run", dir.path());
+  const YAML::Node city = YAML::Load(c.yaml);
+  EXPECT_EQ(city["sim"]["seed"].as<int>(), 7);
+  EXPECT_EQ(city["traffic"]["vehicles"].as<int>(), 5);
+  EXPECT_EQ(city["sim"]["vehicles"].size(), 1U);
+  EXPECT_EQ(city["sim"]["service"]["mode"].as<std::string>(), "lockstep");
+  EXPECT_EQ(city["sim"]["service"]["duration_s"].as<double>(), 30.0);
+  EXPECT_EQ(city["sim"]["service"]["stages"][1][0].as<std::string>(), "scm");
+  EXPECT_EQ(c.controllers, (std::vector<std::string>{"scenario", "traffic", "agent_nigel_1"}));
+  EXPECT_EQ(city["launch"]["eye"]["mode"].as<std::string>(), "off");
+  EXPECT_EQ(city["launch"]["agents"][0]["command"][4].as<std::string>(), "nigel_1");
+  EXPECT_TRUE(fs::path(city["map"].as<std::string>()).is_absolute());
+}
+
+// ---- Metrics on logs written by hand ----
+
+// A straight road along x at y = 0 with one signalised stop line at x = 2 (head 3) and a wall
+// box at x in [4, 4.2]; one car (Nigel's body: 0.318 m long, centre 0.07077 m ahead of the rear
+// axle, so its tail is 0.08823 m behind the axle and its front 0.22977 m ahead).
+RunWorld Road() {
+  RunWorld w;
+  RunWorld::Car car;
+  car.name = "nigel_1";
+  car.route = {{0, 0}, {5, 0}};
+  car.goal_tolerance_m = 0.1;
+  w.cars.push_back(car);
+  w.statics.push_back({"wall", "0", Rectangle({4.1, 0}, 0, 0.2, 1.0)});
+  w.stop_lines.push_back({"east", "x", "signal", {3}, {2, 0.15}, {2, -0.15}, {1, 0}});
+  w.stop_lines.push_back({"east_stop", "y", "stop", {}, {3, 0.15}, {3, -0.15}, {1, 0}});
+  w.lanes.push_back({"east", 0.3, {{0, 0}, {5, 0}}});
+  w.groups.push_back({1, 3, {3}});
+  w.end_s = 30;
+  return w;
+}
+
+// Ground truth of a car at constant speed v along y = `y` from x0, every 10 ms for `seconds`;
+// it stops dead at x_stop (when given) for `stop_s`, then goes on.
+void WriteDrive(const fs::path& logs, double v, double seconds, double y = 0.0, double x_stop = 1e9,
+                double stop_s = 0.0) {
+  std::ofstream f(logs / "ground_truth.csv");
+  f << "t_s,vehicle,x_m,y_m,yaw_rad,vx_mps,vy_mps,yaw_rate_radps\n";
+  double x = 0, stopped = 0;
+  for (int i = 0; i * 0.01 <= seconds + 1e-9; ++i) {
+    const double t = i * 0.01;
+    double speed = v;
+    if (x >= x_stop && stopped < stop_s) {
+      speed = 0;
+      stopped += 0.01;
+    }
+    f << fmt::format("{:.6f},nigel_1,{:.6f},{:.6f},0,{:.6f},0,0\n", t, x, y, speed);
+    x += speed * 0.01;
+  }
+}
+
+void WriteLamps(const fs::path& logs, const std::string& rows) {
+  config::WriteFile(logs / "lamps.csv", "t_s,head,state\n" + rows);
+}
+
+TEST(Metrics, RedLightWhenTheTailCrossesTheLineOnRed) {
+  test::TempDir dir("metrics_red");
+  // 0.1 m/s: the tail (x - 0.08823) crosses x = 2 at t = 20.8823 s, the first sample at or
+  // after it 20.89 s. Red until 25 s: one violation at 20.89 s.
+  WriteDrive(dir.path(), 0.1, 30);
+  WriteLamps(dir.path(), "0.000000,3,1\n25.000000,3,3\n");
+  json m = ComputeMetrics(Road(), dir.path());
+  const auto& red = m["vehicles"]["nigel_1"]["red_light_violations"];
+  ASSERT_EQ(red.size(), 1U) << red;
+  EXPECT_NEAR(red[0]["t_s"].get<double>(), 20.89, 1e-6);
+  EXPECT_EQ(red[0]["head"], 3);
+  EXPECT_EQ(m["run"]["red_light_violations"], 1);
+  // Green from 20.5 s: the front crossed on red (at 17.70 s), the tail on green: none.
+  WriteLamps(dir.path(), "0.000000,3,1\n20.500000,3,3\n");
+  m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["red_light_violations"], 0);
+  // Yellow (2) is not red.
+  WriteLamps(dir.path(), "0.000000,3,2\n");
+  EXPECT_EQ(ComputeMetrics(Road(), dir.path())["run"]["red_light_violations"], 0);
+}
+
+TEST(Metrics, CollisionAtFirstContactWithItsSpeed) {
+  test::TempDir dir("metrics_collision");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  // The front (x + 0.22977) reaches the wall's face at x = 4 when x = 3.77023: at 0.2 m/s,
+  // t = 18.85115 s; within 5 mm (contact) from x = 3.76523, t = 18.82615 s: the first sample
+  // at or after it is 18.83 s. The ground truth drives through (as if nothing stopped it):
+  // one contact all the same.
+  WriteDrive(dir.path(), 0.2, 25);
+  json m = ComputeMetrics(Road(), dir.path());
+  const auto& c = m["vehicles"]["nigel_1"]["collisions"];
+  ASSERT_EQ(c.size(), 1U) << c;
+  EXPECT_NEAR(c[0]["t_s"].get<double>(), 18.83, 1e-6);
+  EXPECT_EQ(c[0]["kind"], "wall");
+  EXPECT_NEAR(c[0]["speed_mps"].get<double>(), 0.2, 1e-6);
+  EXPECT_EQ(m["run"]["collisions"], 1);
+  // The wall (0.65) and the stop sign at x = 3 it rolled through on the way (0.8).
+  EXPECT_NEAR(m["vehicles"]["nigel_1"]["penalty"].get<double>(), 0.65 * 0.8, 1e-6);
+  // 0.1 m/s for 30 s: 3 m, front at 3.22977: no contact.
+  WriteDrive(dir.path(), 0.1, 30);
+  EXPECT_EQ(ComputeMetrics(Road(), dir.path())["run"]["collisions"], 0);
+}
+
+TEST(Metrics, StopSignNeedsAFullStopWithinTheZone) {
+  test::TempDir dir("metrics_stop");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  // Rolling through x = 3 (the front at 3 when x = 2.77023): a violation at the first sample
+  // after, t = 27.71 s at 0.1 m/s, its slowest speed 0.1.
+  WriteDrive(dir.path(), 0.1, 30);
+  json m = ComputeMetrics(Road(), dir.path());
+  ASSERT_EQ(m["vehicles"]["nigel_1"]["stop_sign_violations"].size(), 1U);
+  EXPECT_NEAR(m["vehicles"]["nigel_1"]["stop_sign_violations"][0]["t_s"].get<double>(), 27.71,
+              1e-6);
+  // A full stop with the front 0.23 m before the line (x = 2.54): none.
+  WriteDrive(dir.path(), 0.1, 40, 0.0, 2.54, 2.0);
+  m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["stop_sign_violations"], 0);
+  EXPECT_EQ(m["run"]["stops"], 1);
+  EXPECT_NEAR(m["run"]["stopped_time_s"].get<double>(), 2.0, 0.011);
+  // A full stop 0.5 m before it (outside the 0.3 m zone): a violation.
+  WriteDrive(dir.path(), 0.1, 40, 0.0, 2.27, 2.0);
+  EXPECT_EQ(ComputeMetrics(Road(), dir.path())["run"]["stop_sign_violations"], 1);
+}
+
+TEST(Metrics, LaneDepartureAndRouteCompletion) {
+  test::TempDir dir("metrics_lane");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  // 0.2 m off the lane's centre (half width 0.15): one departure from the start, 0.05 m out.
+  WriteDrive(dir.path(), 0.1, 10, 0.2);
+  json m = ComputeMetrics(Road(), dir.path());
+  ASSERT_EQ(m["vehicles"]["nigel_1"]["lane_departures"].size(), 1U);
+  EXPECT_NEAR(m["vehicles"]["nigel_1"]["lane_departures"][0]["max_offset_m"].get<double>(), 0.05,
+              1e-6);
+  EXPECT_NEAR(m["vehicles"]["nigel_1"]["off_lane_fraction"].get<double>(), 1.0, 1e-6);
+  // On the lane for 10 s at 0.1 m/s: 1 m of the 5 m route, no goal.
+  WriteDrive(dir.path(), 0.1, 10, 0.0);
+  m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["lane_departures"], 0);
+  EXPECT_NEAR(m["run"]["route_completion"].get<double>(), 0.2, 1e-6);
+  EXPECT_EQ(m["run"]["goals_reached"], 0);
+  EXPECT_NEAR(m["run"]["distance_m"].get<double>(), 1.0, 1e-6);
+  // Time loss against the top speed 0.26 m/s: 10 s x (1 - 0.1 / 0.26) = 6.1538 s.
+  EXPECT_NEAR(m["run"]["time_loss_s"].get<double>(), 10 * (1 - 0.1 / 0.26), 0.01);
+  // Driving the wrong way along the lane is off it.
+  RunWorld back = Road();
+  back.lanes[0].centreline = {{5, 0}, {0, 0}};
+  EXPECT_EQ(ComputeMetrics(back, dir.path())["run"]["lane_departures"], 1);
+}
+
+TEST(Metrics, PolygonDistance) {
+  const Points a = Rectangle({0, 0}, 0, 1, 1);
+  EXPECT_NEAR(PolygonDistance(a, Rectangle({2, 0}, 0, 1, 1)), 1.0, 1e-12);
+  EXPECT_EQ(PolygonDistance(a, Rectangle({0.5, 0.5}, 0.3, 1, 1)), 0.0);
+  EXPECT_EQ(PolygonDistance(a, Rectangle({0, 0}, 0, 0.2, 0.2)), 0.0);  // inside
+  EXPECT_NEAR(
+      PolygonDistance(a, Rectangle({0, 2}, std::numbers::pi / 4, std::sqrt(2.0), std::sqrt(2.0))),
+      0.5, 1e-12);
+}
+
+}  // namespace
+}  // namespace autodrive::scenarios
