@@ -1,0 +1,276 @@
+// autodrive-scenario as a user runs it, with real processes: drivers that run a red light,
+// collide, leave their lane and roll through a stop sign each fail their expectation with the
+// violation named, the clean drive passes, and an independent recomputation (Python, standard
+// library) agrees with every report; the same seed gives the same report.json byte for byte
+// (its `invocation` aside) and another seed another one; a sweep killed halfway resumes without
+// running its finished runs again; nothing is left running after any of it.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <fstream>
+#include <set>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "common/config.h"
+#include "common/process.h"
+#include "common/test_support.h"
+
+namespace autodrive {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using std::chrono::milliseconds;
+using std::chrono::seconds;
+
+std::string Bin(const std::string& name) {
+  const char* dir = std::getenv("AUTODRIVE_BINARY_DIR");
+  return std::string(dir ? dir : ".") + "/bin/" + name;
+}
+
+std::string Shipped(const std::string& name) {
+  return (test::SourceDir() / "config/scenarios" / (name + ".yaml")).string();
+}
+
+// Every process whose environment holds `tag` (all of a run's: the runner, the launcher and the
+// city's programs inherit it).
+std::set<int> Tagged(const std::string& tag) {
+  std::set<int> pids;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream in(e.path() / "environ", std::ios::binary);
+    const std::string env((std::istreambuf_iterator<char>(in)), {});
+    if (env.find(tag) != std::string::npos && std::stoi(name) != getpid())
+      pids.insert(std::stoi(name));
+  }
+  return pids;
+}
+
+// Waits (generously) until no process carries `tag`; true when none does.
+bool NoneLeft(const std::string& tag) {
+  const auto end = std::chrono::steady_clock::now() + seconds(90);
+  while (std::chrono::steady_clock::now() < end) {
+    std::set<int> left = Tagged(tag);
+    // Zombies wait for a parent that is gone to be reaped by init: not running.
+    std::erase_if(left, [](int pid) {
+      std::ifstream stat(fmt::format("/proc/{}/stat", pid));
+      std::string s;
+      std::getline(stat, s);
+      const auto close = s.rfind(')');
+      return close == std::string::npos || s.substr(close + 2, 1) == "Z";
+    });
+    if (left.empty()) return true;
+    std::this_thread::sleep_for(milliseconds(200));
+  }
+  return false;
+}
+
+json ReadJson(const fs::path& file) { return json::parse(config::ReadFile(file)); }
+
+struct Outcome {
+  int code = -1;
+  std::string output;
+  json report;
+};
+
+class ScenarioRunner : public ::testing::Test {
+ protected:
+  ScenarioRunner() : tag_(fmt::format("AUTODRIVE_TEST_TAG={}", dir_.str())) {}
+
+  Outcome RunScenario(const std::string& file, const std::string& out,
+                      const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> argv{Bin("autodrive-scenario"), "run", file, "--out", out, "--quiet"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    ChildProcess p(argv, {tag_});
+    Outcome r;
+    while (auto line = p.ReadLine(milliseconds(600'000))) r.output += *line + "\n";
+    r.code = p.Wait(milliseconds(60'000)).value_or(-1);
+    if (fs::exists(fs::path(out) / "report.json"))
+      r.report = ReadJson(fs::path(out) / "report.json");
+    return r;
+  }
+
+  test::TempDir dir_{"scenario_runner"};
+  std::string tag_;
+};
+
+TEST_F(ScenarioRunner, FaultsOnPurposeFailNamingTheViolationAndTheCleanDrivePasses) {
+  struct Case {
+    std::string scenario;
+    int code;
+    std::string metric;  // the run metric the fault shows in, and its value
+    int value;
+  };
+  const std::vector<Case> cases{
+      {"crossing_clean", 0, "infractions", 0},
+      {"crossing_red_light", 1, "red_light_violations", 1},
+      {"obstacle_collision", 1, "collisions", 1},
+      {"lane_departure", 1, "lane_departures", 1},
+      {"stop_sign_roll", 1, "stop_sign_violations", 1},
+  };
+  std::vector<std::string> outs;
+  for (const Case& c : cases) {
+    const std::string out = (dir_.path() / c.scenario).string();
+    const Outcome r = RunScenario(Shipped(c.scenario), out);
+    SCOPED_TRACE(c.scenario + ":\n" + r.output);
+    EXPECT_EQ(r.code, c.code);
+    ASSERT_TRUE(r.report.is_object());
+    EXPECT_EQ(r.report["metrics"]["run"][c.metric], c.value);
+    EXPECT_EQ(r.report["passed"], c.code == 0);
+    if (c.code == 1) {
+      EXPECT_NE(r.output.find("failed: " + c.metric + " == 0 (got 1)"), std::string::npos);
+    }
+    // The other faults are absent: one violation, of its kind.
+    EXPECT_EQ(r.report["metrics"]["run"]["infractions"], c.value);
+    outs.push_back(out);
+  }
+  // The fault's time and the car's speed, from the logged ground truth by hand: the red light
+  // at the first step the car's tail (0.08823 m behind its rear axle) is past the stop line at
+  // x 2.0 (west approach, head 3 red since the start-up's all-red).
+  {
+    const json report = ReadJson(fs::path(outs[1]) / "report.json");
+    ASSERT_EQ(report["metrics"]["vehicles"]["nigel_1"]["red_light_violations"].size(), 1U);
+    const json red = report["metrics"]["vehicles"]["nigel_1"]["red_light_violations"][0];
+    std::ifstream truth(fs::path(outs[1]) / "logs/ground_truth.csv");
+    std::string line;
+    std::getline(truth, line);
+    double crossed = -1;
+    while (std::getline(truth, line)) {
+      double t = 0, x = 0;
+      ASSERT_EQ(std::sscanf(line.c_str(), "%lf,nigel_1,%lf", &t, &x), 2) << line;
+      if (x - 0.08823 >= 2.0) {
+        crossed = t;
+        break;
+      }
+    }
+    EXPECT_NEAR(red["t_s"].get<double>(), crossed, 1e-6);
+    EXPECT_EQ(red["head"], 3);
+  }
+  // An independent recomputation from the raw logs agrees with every report.
+  std::vector<std::string> argv{"/usr/bin/python3",
+                                (test::SourceDir() / "tests/scenario_recompute.py").string()};
+  argv.insert(argv.end(), outs.begin(), outs.end());
+  ChildProcess check(argv);
+  std::string said;
+  while (auto line = check.ReadLine(milliseconds(300'000))) said += *line + "\n";
+  EXPECT_EQ(check.Wait(milliseconds(60'000)), std::optional<int>(0)) << said;
+  EXPECT_EQ(said.find("DISAGREES"), std::string::npos) << said;
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, SameSeedSameReportAnotherSeedAnother) {
+  // The small town's crossing with SUMO and four cars, with the paper's noise (which the seed
+  // draws), 20 simulated seconds.
+  std::string text = config::ReadFile(Shipped("small_town_crossing"));
+  text.replace(text.find("city: ../cities/"), 16,
+               "city: " + (test::SourceDir() / "config/cities/").string());
+  text.replace(text.find("time_limit_s: 60"), 16, "time_limit_s: 20\nnoise: paper");
+  const fs::path file = dir_.path() / "noisy.yaml";
+  config::WriteFile(file, text);
+  const auto stable = [](json report) {
+    report.erase("invocation");
+    return report.dump(2);
+  };
+  const Outcome a = RunScenario(file.string(), (dir_.path() / "a").string());
+  const Outcome b = RunScenario(file.string(), (dir_.path() / "b").string());
+  const Outcome c = RunScenario(file.string(), (dir_.path() / "c").string(), {"--seed", "2"});
+  ASSERT_TRUE(a.report.is_object()) << a.output;
+  ASSERT_TRUE(b.report.is_object()) << b.output;
+  ASSERT_TRUE(c.report.is_object()) << c.output;
+  EXPECT_EQ(a.report["end"]["reason"], "time_limit");
+  EXPECT_EQ(stable(a.report), stable(b.report));
+  EXPECT_EQ(config::ReadFile(dir_.path() / "a/logs/ground_truth.csv"),
+            config::ReadFile(dir_.path() / "b/logs/ground_truth.csv"));
+  // Another seed: other noise, other cars' paths, other metrics (not only the seed field).
+  EXPECT_NE(a.report["metrics"].dump(), c.report["metrics"].dump());
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, CtrlCTakesTheCityDown) {
+  const std::string out = (dir_.path() / "interrupted").string();
+  ChildProcess p({Bin("autodrive-scenario"), "run", Shipped("crossing_clean"), "--out", out},
+                 {tag_});
+  // Once the city runs (the launcher's log says so), Ctrl-C.
+  const auto end = std::chrono::steady_clock::now() + seconds(120);
+  while (std::chrono::steady_clock::now() < end) {
+    std::ifstream log(fs::path(out) / "launcher.log");
+    const std::string text((std::istreambuf_iterator<char>(log)), {});
+    if (text.find("is up.") != std::string::npos) break;
+    std::this_thread::sleep_for(milliseconds(100));
+  }
+  ASSERT_EQ(::kill(p.pid(), SIGINT), 0);
+  EXPECT_EQ(p.Wait(milliseconds(120'000)), std::optional<int>(130));
+  const json report = ReadJson(fs::path(out) / "report.json");
+  EXPECT_EQ(report["end"]["reason"], "interrupted");
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, ASweepKilledHalfwayResumesWithoutRunningItsFinishedRunsAgain) {
+  // 20 runs: the clean crossing for 6 simulated seconds, 10 seeds, two variants.
+  const fs::path sweep = dir_.path() / "sweep.yaml";
+  config::WriteFile(sweep, fmt::format(R"(name: twenty
+scenario: {}
+seed_range: {{first: 1, count: 10}}
+parallel: 2
+variants:
+  - {{name: cruise, set: {{time_limit_s: 6}}}}
+  - {{name: slow, agent_args: [--throttle, "0.4"], set: {{time_limit_s: 6}}}}
+)",
+                                       Shipped("crossing_clean")));
+  const fs::path out = dir_.path() / "sweep";
+  const auto reports = [&] {
+    std::map<std::string, std::string> done;
+    if (!fs::exists(out / "runs")) return done;
+    for (const auto& e : fs::directory_iterator(out / "runs")) {
+      // A run stopped with the sweep says it was interrupted: not done.
+      const fs::path report = e.path() / "report.json";
+      if (fs::exists(report) &&
+          json::parse(config::ReadFile(report))["end"]["reason"] != "interrupted") {
+        done[e.path().filename().string()] = config::ReadFile(report);
+      }
+    }
+    return done;
+  };
+  std::map<std::string, std::string> before;
+  {
+    ChildProcess first({Bin("autodrive-scenario"), "sweep", sweep.string(), "--out", out.string()},
+                       {tag_});
+    const auto end = std::chrono::steady_clock::now() + seconds(600);
+    while (reports().size() < 6 && std::chrono::steady_clock::now() < end) {
+      std::this_thread::sleep_for(milliseconds(200));
+    }
+    ASSERT_GE(reports().size(), 6U);
+    // Killed outright: its runs and their cities go with it.
+    ASSERT_EQ(::kill(first.pid(), SIGKILL), 0);
+    (void)first.Wait(milliseconds(10'000));
+  }
+  EXPECT_TRUE(NoneLeft(tag_)) << "a sweep killed with SIGKILL left processes";
+  before = reports();
+  ASSERT_LT(before.size(), 20U);
+  ChildProcess resume(
+      {Bin("autodrive-scenario"), "sweep", sweep.string(), "--out", out.string(), "--resume"},
+      {tag_});
+  std::string said;
+  while (auto line = resume.ReadLine(milliseconds(900'000))) said += *line + "\n";
+  EXPECT_EQ(resume.Wait(milliseconds(60'000)), std::optional<int>(0)) << said;
+  EXPECT_NE(said.find(fmt::format("20 of 20 runs done ({} before)", before.size())),
+            std::string::npos)
+      << said;
+  const auto after = reports();
+  EXPECT_EQ(after.size(), 20U);
+  for (const auto& [id, text] : before) {
+    EXPECT_EQ(after.at(id), text) << id << " was run again";
+  }
+  const json summary = ReadJson(out / "summary.json");
+  EXPECT_EQ(summary["runs_done"], 20);
+  EXPECT_EQ(summary["variants"][0]["stats"]["collisions"]["n"], 10);
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+}  // namespace
+}  // namespace autodrive
