@@ -267,8 +267,9 @@ json RunWorld::ToJson() const {
         {{"intersection", g.intersection}, {"group", g.group}, {"heads", g.heads}});
   }
   j["ingress"] = json::object();
-  for (const auto& [lane, r] : ingress) {
-    j["ingress"][std::to_string(lane)] = {{"intersection", r.intersection}, {"heads", r.heads}};
+  for (const auto& [key, r] : ingress) {
+    j["ingress"][fmt::format("{}:{}", key.first, key.second)] = {{"intersection", r.intersection},
+                                                                 {"heads", r.heads}};
   }
   return j;
 }
@@ -305,9 +306,10 @@ RunWorld RunWorld::FromJson(const json& j) {
     w.groups.push_back({g.at("intersection").get<int>(), g.at("group").get<int>(),
                         g.at("heads").get<std::vector<int>>()});
   }
-  for (const auto& [lane, r] : j.at("ingress").items()) {
-    w.ingress[std::stoi(lane)] = {r.at("intersection").get<int>(), std::stoi(lane),
-                                  r.at("heads").get<std::vector<int>>()};
+  for (const auto& [key, r] : j.at("ingress").items()) {
+    const int lane = std::stoi(key.substr(key.find(':') + 1));
+    w.ingress[{r.at("intersection").get<int>(), lane}] = {r.at("intersection").get<int>(), lane,
+                                                          r.at("heads").get<std::vector<int>>()};
   }
   return w;
 }
@@ -773,7 +775,10 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
     const auto key =
         std::pair{r.at("vehicle").get<std::string>(), r.at("request_id").get<std::uint32_t>()};
     if (r.at("kind") == "status") {
-      outcome[key] = r.at("status").get<int>();
+      // The first final answer (completed, rejected, cancelled) stands: an answer after it is
+      // to another message with the same id (a cancel of a request already served).
+      const auto it = outcome.find(key);
+      if (it == outcome.end() || it->second < 3) outcome[key] = r.at("status").get<int>();
       continue;
     }
     const int type = r.at("type").get<int>();
@@ -781,7 +786,8 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
     ++n_requests;
     const double t = r.at("t_s").get<double>();
     double green = kInf;
-    const auto in = world.ingress.find(r.at("in_lane").get<int>());
+    const auto in =
+        world.ingress.find({r.at("intersection").get<int>(), r.at("in_lane").get<int>()});
     if (in != world.ingress.end()) {
       for (int h : in->second.heads) {
         if (LampAt(lamps[h], t) == 3) green = t;

@@ -64,8 +64,9 @@ struct RunWorld {
   std::vector<StopLine> stop_lines;
   std::vector<Lane> lanes;
   std::vector<GroupHeads> groups;
-  /// For each MAP lane id of an ingress lane: its intersection and heads.
-  std::map<int, Request> ingress;
+  /// Each ingress lane by (intersection id, its lane id in the intersection's MAP message):
+  /// the heads facing it.
+  std::map<std::pair<int, int>, Request> ingress;
   double end_s = 0.0;  ///< the run's last step
 
   [[nodiscard]] nlohmann::json ToJson() const;

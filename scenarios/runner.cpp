@@ -81,6 +81,23 @@ std::vector<RunWorld::GroupHeads> GroupHeads(const YAML::Node& city, const maps:
   return out;
 }
 
+// The lane's id in the intersection's MAP message (docs/messaging.md): per approach, in the
+// map's order, its ingress lanes then its egress lanes, from 1; 0 when not one of them.
+std::uint32_t MapLaneId(const maps::Intersection& x, LaneId lane) {
+  std::uint32_t i = 0;
+  for (const maps::Approach& a : x.approaches) {
+    for (const LaneId l : a.ingress) {
+      ++i;
+      if (l == lane) return i;
+    }
+    for (const LaneId l : a.egress) {
+      ++i;
+      if (l == lane) return i;
+    }
+  }
+  return 0;
+}
+
 std::vector<int> HeadsFacing(const maps::Map& map, const maps::Lane& lane) {
   std::vector<int> heads;
   if (!lane.ingress_of) return heads;
@@ -142,8 +159,9 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
     w.stop_lines.push_back({lane.name, x.name,
                             x.control == maps::Control::kSignal ? "signal" : "stop", heads,
                             lane.stop_line->left, lane.stop_line->right, dir});
-    w.ingress[static_cast<int>(lane.id.value())] = {static_cast<int>(x.id.value()),
-                                                    static_cast<int>(lane.id.value()), heads};
+    const auto msg_lane = static_cast<int>(MapLaneId(x, lane.id));
+    w.ingress[{static_cast<int>(x.id.value()), msg_lane}] = {static_cast<int>(x.id.value()),
+                                                             msg_lane, heads};
   }
   for (const maps::Movement& m : map.movements) {
     w.lanes.push_back({m.name, map.lane(m.from).width_m, m.path});
@@ -200,8 +218,8 @@ class EventPlayer {
         for (std::size_t i = 0; i < v->route.size(); ++i) {
           const maps::Lane* lane = map_.FindLane(v->route[i]);
           if (lane->ingress_of == x->id) {
-            in = lane->id.value();
-            if (i + 1 < v->route.size()) out = map_.FindLane(v->route[i + 1])->id.value();
+            in = MapLaneId(*x, lane->id);
+            if (i + 1 < v->route.size()) out = MapLaneId(*x, map_.FindLane(v->route[i + 1])->id);
           }
         }
         dds::Message<msg::SignalRequest> m;

@@ -66,6 +66,13 @@ int main(int argc, char** argv) {
   sweep_cmd->add_flag("--resume", sweep.resume,
                       "finish a sweep in --out: keep its finished runs, run the rest");
   sweep_cmd->add_flag("--quiet", quiet, "no progress bar");
+  sweep_cmd->add_flag("--slurm", sweep.slurm,
+                      "submit the runs as a Slurm array job (one run per task; --out on storage "
+                      "every node sees), follow it and summarise; with --resume, only the runs "
+                      "not finished are submitted");
+  sweep_cmd->add_option("--slurm-arg", sweep.slurm_args,
+                        "an argument for sbatch (repeat: --slurm-arg=--partition=lab "
+                        "--slurm-arg=--time=30)");
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -61,6 +61,54 @@ void ProgressBar(int done, int failed, int left, int running, int total) {
   std::fflush(stderr);
 }
 
+// A word for a bash script, single-quoted.
+std::string Quote(const std::string& word) {
+  std::string out = "'";
+  for (char c : word) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+// Runs a command, returning its exit code and standard output.
+std::pair<int, std::string> Capture(const std::vector<std::string>& argv) {
+  ChildProcess p(argv);
+  std::string out;
+  while (auto line = p.ReadLine(std::chrono::milliseconds(120'000))) out += *line + "\n";
+  return {p.Wait(std::chrono::milliseconds(60'000)).value_or(-1), out};
+}
+
+// The Slurm array job of the runs `todo` (indices into `runs`): its script in OUT/slurm/.
+std::string ArrayScript(const SweepSpec& sweep, const std::vector<SweepRun>& runs,
+                        const std::vector<std::size_t>& todo, const fs::path& out,
+                        const fs::path& bin) {
+  std::string ids, variants, seeds, indices;
+  for (const SweepRun& r : runs) {
+    ids += " " + Quote(r.id);
+    variants += " " + Quote(r.variant);
+    seeds += " " + std::to_string(r.seed);
+  }
+  for (const std::size_t i : todo) indices += (indices.empty() ? "" : ",") + std::to_string(i);
+  return fmt::format(
+      "#!/bin/bash\n"
+      "# Sweep {name}: one scenario run per array task (autodrive-scenario sweep --slurm).\n"
+      "#SBATCH --job-name=autodrive-sweep-{name}\n"
+      "#SBATCH --output={out}/slurm/%A_%a.out\n"
+      "#SBATCH --array={indices}\n"
+      "#SBATCH --ntasks=1\n"
+      "set -euo pipefail\n"
+      "ids=({ids})\n"
+      "variants=({variants})\n"
+      "seeds=({seeds})\n"
+      "i=$SLURM_ARRAY_TASK_ID\n"
+      "mkdir -p {out_q}/runs/\"${{ids[$i]}}\"\n"
+      "exec {bin} run {out_q}/variants/\"${{variants[$i]}}.yaml\" --out "
+      "{out_q}/runs/\"${{ids[$i]}}\" "
+      "--seed \"${{seeds[$i]}}\" --quiet\n",
+      fmt::arg("name", sweep.name), fmt::arg("out", out.string()),
+      fmt::arg("out_q", Quote(out.string())), fmt::arg("indices", indices), fmt::arg("ids", ids),
+      fmt::arg("variants", variants), fmt::arg("seeds", seeds),
+      fmt::arg("bin", Quote((bin / "autodrive-scenario").string())));
+}
+
 }  // namespace
 
 void SweepSpec::Validate() const {
@@ -244,13 +292,61 @@ SweepResult RunSweep(const SweepOptions& options) {
       todo.push_back(&r);
     }
   }
+  const auto stopping = [&] { return options.stop != nullptr && options.stop->load(); };
+  if (options.slurm) {
+    std::vector<std::size_t> indices;
+    for (const SweepRun* r : todo) indices.push_back(static_cast<std::size_t>(r - runs.data()));
+    const auto count_done = [&] {
+      int n = 0;
+      for (const SweepRun& r : runs) n += Finished(out / "runs" / r.id) ? 1 : 0;
+      return n;
+    };
+    if (!indices.empty()) {
+      fs::create_directories(out / "slurm");
+      const fs::path script = out / "slurm" / "array.sh";
+      config::WriteFile(script, ArrayScript(sweep, runs, indices, out, options.bin_dir));
+      std::vector<std::string> argv{"sbatch", "--parsable"};
+      argv.insert(argv.end(), options.slurm_args.begin(), options.slurm_args.end());
+      argv.push_back(script.string());
+      const auto [code, said] = Capture(argv);
+      if (code != 0) {
+        throw InputError(
+            fmt::format("sbatch {} failed (exit code {}): {}", script.string(), code, said));
+      }
+      const std::string job = said.substr(0, said.find_first_of(";\n"));
+      config::WriteFile(out / "slurm" / "job_id", job + "\n");
+      if (options.progress)
+        std::fprintf(stderr, "submitted Slurm array job %s (%zu tasks)\n", job.c_str(),
+                     indices.size());
+      // Follow it: the runs' reports, until the job has left the queue.
+      while (true) {
+        const auto [qcode, queue] = Capture({"squeue", "-h", "-j", job, "-o", "%i"});
+        const int finished = count_done();
+        if (options.progress) {
+          ProgressBar(finished, 0, total - finished, 0, total);
+        }
+        if (stopping()) {
+          (void)Capture({"scancel", job});
+          break;
+        }
+        if (qcode == 0 && queue.find_first_not_of(" \n") == std::string::npos) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      }
+      if (options.progress) std::fprintf(stderr, "\n");
+    }
+    result.done = count_done();
+    result.left = total - result.done;
+    result.summary = SummariseSweep(sweep, options.sweep_file, out);
+    result.failed = result.summary["runs_failed"].get<int>();
+    config::WriteFile(out / "summary.json", result.summary.dump(2) + "\n");
+    return result;
+  }
   struct Running {
     const SweepRun* run;
     ChildProcess child;
   };
   std::vector<Running> running;
   std::size_t next = 0;
-  const auto stopping = [&] { return options.stop != nullptr && options.stop->load(); };
   const auto draw = [&] {
     if (options.progress) {
       ProgressBar(result.done, result.failed,

@@ -110,6 +110,10 @@ struct SweepOptions {
   bool resume = false;          ///< keep finished runs (otherwise a non-empty folder is refused)
   const std::atomic<bool>* stop = nullptr;
   bool progress = true;  ///< a progress bar on stderr
+  /// Submit the runs as a Slurm array job (one run per task) instead of running them here,
+  /// follow it with the same progress bar and summarise; `slurm_args` go to `sbatch`.
+  bool slurm = false;
+  std::vector<std::string> slurm_args;
 };
 
 struct SweepResult {
