@@ -213,6 +213,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   for (const std::string& c : out.controllers) controllers.push_back(c);
   service["controllers"] = controllers;
   service["duration_s"] = std::chrono::duration<double>(scenario.time_limit_s).count();
+  service["control_period_s"] = std::chrono::duration<double>(scenario.step_s).count();
   service.remove("real_time_factor");
   sim["service"] = service;
 

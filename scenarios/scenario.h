@@ -141,6 +141,9 @@ struct Scenario {
   std::uint64_t seed = 1;
   vehicle_sim::VariabilityPreset noise = vehicle_sim::VariabilityPreset::kNone;
   Duration time_limit_s = std::chrono::seconds(60);
+  /// The lockstep's step (the simulator's control period): every controller, the runner
+  /// included, answers once per step; the logs have a row per car per step.
+  Duration step_s = std::chrono::milliseconds(20);
   std::vector<VehicleSpec> vehicles;
   TrafficSpec traffic;
   /// Unmapped obstacles standing on the track from the start.
@@ -160,6 +163,9 @@ struct Scenario {
     a.Optional("noise", noise);
     a.Optional("time_limit_s", time_limit_s,
                config::Range<Duration>{std::chrono::milliseconds(100), std::chrono::hours(24)});
+    a.Optional(
+        "step_s", step_s,
+        config::Range<Duration>{std::chrono::milliseconds(5), std::chrono::milliseconds(100)});
     a.Required("vehicles", vehicles);
     a.Optional("traffic", traffic);
     a.Optional("obstacles", obstacles);

@@ -59,13 +59,15 @@ TEST_F(TutorialSerialLight, TheTutorialsEntryMakesAPhysicalHeadThatFollowsTheScm
   StartScm("small_town");
 
   // signal_5 is physical and ok, and the board shows what the SCM commands: green in its turn.
+  // (Waiting for signal_4's first report too: on a loaded machine it may come after signal_5's.)
   EXPECT_TRUE(WaitDevices(
       [](const auto& seen) {
         const auto it = seen.find("signal_5");
-        return it != seen.end() && it->second.backend == kPhysical && it->second.health == kOk;
+        return it != seen.end() && it->second.backend == kPhysical && it->second.health == kOk &&
+               seen.contains("signal_4");
       },
       seconds(60)))
-      << "signal_5 never physical and ok";
+      << "signal_5 never physical and ok, or signal_4 never reported";
   EXPECT_EQ(devices_seen_["signal_4"].backend, 1) << "the other heads stay simulated";
   std::string status;
   for (const auto end = SteadyClock::now() + seconds(180);
