@@ -12,6 +12,7 @@
 #include "scenarios/compose.h"
 #include "scenarios/metrics.h"
 #include "scenarios/recorder.h"
+#include "scenarios/report_html.h"
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
@@ -447,6 +448,7 @@ RunResult RunScenario(const RunOptions& options) {
       {"real_time_factor", wall_s > 0 ? std::round(world.end_s / wall_s * 1000) / 1000 : 0.0},
       {"launcher_exit", launcher_code ? *launcher_code : -1}};
   config::WriteFile(out / "report.json", report.dump(2) + "\n");
+  config::WriteFile(out / "report.html", ReportHtml(report, out));
   result.report = std::move(report);
   if (end_reason == "interrupted") {
     result.exit_code = 130;

@@ -4,7 +4,8 @@
 /// lockstep through `autodrive-city up` (the launcher's machinery: one process manager),
 /// takes part in the lockstep itself as the controller `scenario` (so that it records every
 /// step and applies each event at its step), ends the run, tears the city down on every exit,
-/// computes the metrics from the logs and writes `report.json` (docs/scenarios.md).
+/// computes the metrics from the logs and writes `report.json` and `report.html`
+/// (docs/scenarios.md).
 
 #include <atomic>
 #include <cstdint>
@@ -40,8 +41,8 @@ struct RunResult {
 };
 
 /// Runs the scenario and writes the run folder (city.yaml, launcher.log, run/, logs/,
-/// report.json). @throws ConfigError / InputError for a bad scenario or base city, before
-/// anything starts.
+/// report.json, report.html). @throws ConfigError / InputError for a bad scenario or base city,
+/// before anything starts.
 [[nodiscard]] RunResult RunScenario(const RunOptions& options);
 
 /// The keys of report.json that differ between two runs of the same scenario and seed (where

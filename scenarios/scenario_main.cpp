@@ -7,9 +7,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include "scenarios/report_html.h"
 #include "scenarios/runner.h"
 #include "scenarios/sweep.h"
 
+#include "common/config.h"
 #include "common/error.h"
 #include "common/logging.h"
 #include "common/process.h"
@@ -31,8 +33,8 @@ int main(int argc, char** argv) {
   CLI::App* run_cmd = app.add_subcommand(
       "run",
       "run one scenario: bring its city up in lockstep, record, apply its events, take it "
-      "down, and write report.json in --out. Exit code 0: every expectation held; 1: one "
-      "failed; 2: the run could not be made; 130: interrupted");
+      "down, and write report.json and report.html in --out. Exit code 0: every expectation "
+      "held; 1: one failed; 2: the run could not be made; 130: interrupted");
   std::string scenario_file, out_dir;
   run_cmd->add_option("scenario", scenario_file, "the scenario file (YAML)")
       ->required()
@@ -73,7 +75,49 @@ int main(int argc, char** argv) {
   sweep_cmd->add_option("--slurm-arg", sweep.slurm_args,
                         "an argument for sbatch (repeat: --slurm-arg=--partition=lab "
                         "--slurm-arg=--time=30)");
+
+  // Re-rendering the pages (e.g. after an update of the reports): from the files only.
+  std::string render_in, render_out;
+  CLI::App* report_cmd = app.add_subcommand(
+      "render-report", "write a run folder's report.html again from its report.json and logs/");
+  report_cmd->add_option("run", render_in, "the run folder")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  CLI::App* summary_cmd = app.add_subcommand(
+      "render-summary",
+      "write a sweep's summary.html from its summary.json (write it beside summary.json: the "
+      "links to the runs' reports are relative to it)");
+  summary_cmd->add_option("summary", render_in, "summary.json")
+      ->required()
+      ->check(CLI::ExistingFile);
+  summary_cmd->add_option("file", render_out, "the page to write")->required();
   CLI11_PARSE(app, argc, argv);
+
+  if (report_cmd->parsed() || summary_cmd->parsed()) {
+    const auto read_json = [](const std::filesystem::path& file) {
+      try {
+        return nlohmann::json::parse(config::ReadFile(file));
+      } catch (const nlohmann::json::exception& e) {
+        throw InputError(file.string() + ": " + e.what());
+      }
+    };
+    try {
+      if (report_cmd->parsed()) {
+        const std::filesystem::path dir = render_in;
+        const auto report = read_json(dir / "report.json");
+        config::WriteFile(dir / "report.html", scenarios::ReportHtml(report, dir));
+        std::printf("%s\n", (dir / "report.html").string().c_str());
+      } else {
+        const auto summary = read_json(render_in);
+        config::WriteFile(render_out, scenarios::SummaryHtml(summary));
+        std::printf("%s\n", render_out.c_str());
+      }
+      return 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "autodrive-scenario: %s\n", e.what());
+      return 2;
+    }
+  }
 
   try {
     InitLogging("autodrive-scenario", ParseLogLevel(log_level));
