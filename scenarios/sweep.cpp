@@ -12,6 +12,7 @@
 #include <set>
 #include <thread>
 
+#include "scenarios/report_html.h"
 #include "scenarios/scenario.h"
 
 #include "common/error.h"
@@ -339,6 +340,7 @@ SweepResult RunSweep(const SweepOptions& options) {
     result.summary = SummariseSweep(sweep, options.sweep_file, out);
     result.failed = result.summary["runs_failed"].get<int>();
     config::WriteFile(out / "summary.json", result.summary.dump(2) + "\n");
+    config::WriteFile(out / "summary.html", SummaryHtml(result.summary));
     return result;
   }
   struct Running {
@@ -400,6 +402,7 @@ SweepResult RunSweep(const SweepOptions& options) {
   }
   result.summary = SummariseSweep(sweep, options.sweep_file, out);
   config::WriteFile(out / "summary.json", result.summary.dump(2) + "\n");
+  config::WriteFile(out / "summary.html", SummaryHtml(result.summary));
   return result;
 }
 

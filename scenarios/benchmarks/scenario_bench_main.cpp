@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
       std::size_t at = 0;
       while (at <= cpus.size()) {
         const std::size_t comma = std::min(cpus.find(',', at), cpus.size());
-        CPU_SET(std::stoi(cpus.substr(at, comma - at)), &set);
+        CPU_SET(static_cast<std::size_t>(std::stoul(cpus.substr(at, comma - at))), &set);
         at = comma + 1;
       }
       if (sched_setaffinity(0, sizeof set, &set) != 0) throw InputError("--cpus: cannot set them");
