@@ -7,6 +7,8 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
+#include <mutex>
 #include <thread>
 
 #include "scenarios/compose.h"
@@ -320,9 +322,39 @@ RunResult RunScenario(const RunOptions& options) {
   std::atomic<bool> launcher_exited{false};
   std::atomic<bool> done{false};
   std::optional<int> launcher_code;
+  // A process of the city that exits on its own before the simulator ends the run (an agent
+  // that fails, or ends before it registered, which the simulator would wait for for good),
+  // from the launcher's status.json.
+  std::mutex exited_mutex;
+  std::string exited;
+  std::atomic<std::chrono::steady_clock::rep> last_step_wall{
+      std::chrono::steady_clock::now().time_since_epoch().count()};
+  const auto check_processes = [&] {
+    std::ifstream in(out / "run" / "status.json");
+    if (!in) return;
+    try {
+      const json status = json::parse(in);
+      for (const json& p : status.at("processes")) {
+        // At the run's end every process exits too: only a run that no longer steps (none
+        // for 5 s) is ended for it.
+        if (p.value("exits", 0) > 0 &&
+            std::chrono::steady_clock::now().time_since_epoch().count() - last_step_wall.load() >
+                std::chrono::steady_clock::duration(std::chrono::seconds(5)).count()) {
+          std::lock_guard lock(exited_mutex);
+          exited = fmt::format("{} {} (its log: {})", p.value("name", "?"),
+                               p.value("detail", "exited"), p.value("log", "?"));
+          stop.store(true);
+          return;
+        }
+      }
+    } catch (const std::exception&) {
+      // being replaced: read it again next time
+    }
+  };
   std::thread watcher([&] {
-    while (!done.load()) {
+    for (int tick = 0; !done.load(); ++tick) {
       if (options.stop != nullptr && options.stop->load()) stop.store(true);
+      if (tick % 10 == 9) check_processes();
       if (!launcher_exited.load()) {
         if (const auto code = launcher.Wait(std::chrono::milliseconds(100))) {
           launcher_code = code;
@@ -355,6 +387,7 @@ RunResult RunScenario(const RunOptions& options) {
         dds::RunLockstepController(participant, std::string(kRunnerController), stop, [&](Time t) {
           ++steps;
           last_step = t;
+          last_step_wall.store(std::chrono::steady_clock::now().time_since_epoch().count());
           recorder.Take(t);
           events.Apply(t);
           if (options.progress && (t - Time{}) % std::chrono::seconds(10) == Duration{0} &&
@@ -389,7 +422,9 @@ RunResult RunScenario(const RunOptions& options) {
       end_reason = "interrupted";
     } else if (!lockstep.ended) {
       end_reason = "failed";
-      failure = launcher_exited.load()
+      std::lock_guard lock(exited_mutex);
+      failure = !exited.empty() ? "the city's process " + exited + " before the run ended"
+                : launcher_exited.load()
                     ? fmt::format(
                           "the city ended before the simulator did (the launcher "
                           "exited with {}; see {})",

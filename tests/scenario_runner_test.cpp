@@ -191,6 +191,27 @@ TEST_F(ScenarioRunner, SameSeedSameReportAnotherSeedAnother) {
   EXPECT_TRUE(NoneLeft(tag_));
 }
 
+TEST_F(ScenarioRunner, AnAgentThatEndsBeforeTheRunFailsItNamingTheAgent) {
+  // An agent that exits at once never answers the simulator, which would wait for it for good.
+  const fs::path file = dir_.path() / "dead_agent.yaml";
+  config::WriteFile(
+      file, fmt::format(R"(name: dead_agent
+city: {}
+time_limit_s: 20
+vehicles:
+  - name: nigel_1
+    spawn: {{lane: "r2c0:N>E:0", along_m: 0.3}}
+    agent: {{command: ["true"]}}
+)",
+                        (test::SourceDir() / "config/cities/driving_school.yaml").string()));
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "dead").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("the city's process agent_nigel_1 exited with code 0"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.report["end"]["reason"], "failed");
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
 TEST_F(ScenarioRunner, CtrlCTakesTheCityDown) {
   const std::string out = (dir_.path() / "interrupted").string();
   ChildProcess p({Bin("autodrive-scenario"), "run", Shipped("crossing_clean"), "--out", out},
