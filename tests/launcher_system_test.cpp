@@ -539,6 +539,12 @@ TEST_F(Launcher, ACrashLoopIsReportedNotHidden) {
       seconds(120));
   ASSERT_FALSE(s.is_null()) << LauncherLog();
   EXPECT_EQ(Process(s, "failing")->value("starts", 0), 3);
+  // The launcher writes status.json, then its log line: wait for the line.
+  const auto end = SteadyClock::now() + seconds(30);
+  while (LauncherLog().find("failing is in a crash loop") == std::string::npos &&
+         SteadyClock::now() < end) {
+    std::this_thread::sleep_for(milliseconds(50));  // paces the reads of the log
+  }
   EXPECT_THAT(LauncherLog(), HasSubstr("failing is in a crash loop"));
   const Output status = RunCaptured({Bin("autodrive-city"), "status", city});
   EXPECT_THAT(status.text, HasSubstr("crash-loop"));
