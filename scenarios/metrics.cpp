@@ -11,6 +11,8 @@
 #include <set>
 #include <sstream>
 
+#include "scenarios/internal/logs.h"
+
 #include "common/error.h"
 
 namespace autodrive::scenarios {
@@ -40,44 +42,23 @@ struct Sample {
   double t = 0, x = 0, y = 0, yaw = 0, vx = 0, vy = 0, yaw_rate = 0;
 };
 
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  for (std::size_t i = 0; i <= line.size(); ++i) {
-    if (i == line.size() || line[i] == ',') {
-      out.push_back(line.substr(start, i - start));
-      start = i + 1;
-    }
-  }
-  return out;
-}
-
-double Number(const std::string& s, const std::filesystem::path& file, std::size_t line) {
-  try {
-    std::size_t used = 0;
-    const double x = std::stod(s, &used);
-    if (used == s.size()) return x;
-  } catch (const std::exception&) {
-  }
-  throw InputError(fmt::format("{}:{}: \"{}\" is not a number", file.string(), line, s));
-}
-
-// Rows of a CSV file after its header, each with at least `columns` fields.
-std::vector<std::vector<std::string>> ReadCsv(const std::filesystem::path& file,
-                                              std::size_t columns) {
+// Rows of a CSV file after its header, each with at least `columns` fields, with their line
+// numbers.
+std::vector<std::pair<std::size_t, std::vector<std::string>>> ReadCsv(
+    const std::filesystem::path& file, std::size_t columns) {
   std::ifstream in(file);
   if (!in) throw InputError(fmt::format("{}: cannot read the log", file.string()));
-  std::vector<std::vector<std::string>> rows;
+  std::vector<std::pair<std::size_t, std::vector<std::string>>> rows;
   std::string line;
   std::getline(in, line);  // header
   for (std::size_t n = 2; std::getline(in, line); ++n) {
     if (line.empty()) continue;
-    auto fields = SplitCsv(line);
+    auto fields = internal::SplitCsv(line);
     if (fields.size() < columns) {
       throw InputError(
           fmt::format("{}:{}: {} fields, expected {}", file.string(), n, fields.size(), columns));
     }
-    rows.push_back(std::move(fields));
+    rows.emplace_back(n, std::move(fields));
   }
   return rows;
 }
@@ -343,34 +324,37 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
                     const MetricConstants& k) {
   // Ground truth per car, in time order.
   std::map<std::string, std::vector<Sample>> truth;
-  for (const auto& row : ReadCsv(logs_dir / "ground_truth.csv", 8)) {
+  for (const auto& [line, row] : ReadCsv(logs_dir / "ground_truth.csv", 8)) {
     const auto file = logs_dir / "ground_truth.csv";
     Sample s;
-    s.t = Number(row[0], file, 0);
-    s.x = Number(row[2], file, 0);
-    s.y = Number(row[3], file, 0);
-    s.yaw = Number(row[4], file, 0);
-    s.vx = Number(row[5], file, 0);
-    s.vy = Number(row[6], file, 0);
-    s.yaw_rate = Number(row[7], file, 0);
+    s.t = internal::Number(row[0], file, line);
+    s.x = internal::Number(row[2], file, line);
+    s.y = internal::Number(row[3], file, line);
+    s.yaw = internal::Number(row[4], file, line);
+    s.vx = internal::Number(row[5], file, line);
+    s.vy = internal::Number(row[6], file, line);
+    s.yaw_rate = internal::Number(row[7], file, line);
     truth[row[1]].push_back(s);
   }
   std::map<int, LampTrack> lamps;
-  for (const auto& row : ReadCsv(logs_dir / "lamps.csv", 3)) {
+  for (const auto& [line, row] : ReadCsv(logs_dir / "lamps.csv", 3)) {
     const auto file = logs_dir / "lamps.csv";
-    lamps[static_cast<int>(Number(row[1], file, 0))].emplace_back(
-        Number(row[0], file, 0), static_cast<int>(Number(row[2], file, 0)));
+    lamps[static_cast<int>(internal::Number(row[1], file, line))].emplace_back(
+        internal::Number(row[0], file, line),
+        static_cast<int>(internal::Number(row[2], file, line)));
   }
   // SUMO's cars per stamp.
   std::map<double, std::vector<TrafficRow>> traffic;
   if (std::filesystem::exists(logs_dir / "traffic.csv")) {
     const auto file = logs_dir / "traffic.csv";
-    for (const auto& row : ReadCsv(file, 10)) {
-      const double yaw = Number(row[5], file, 0), v = Number(row[8], file, 0);
-      traffic[Number(row[0], file, 0)].push_back(
+    for (const auto& [line, row] : ReadCsv(file, 10)) {
+      const double yaw = internal::Number(row[5], file, line),
+                   v = internal::Number(row[8], file, line);
+      traffic[internal::Number(row[0], file, line)].push_back(
           {row[1],
-           Rectangle({Number(row[3], file, 0), Number(row[4], file, 0)}, yaw,
-                     Number(row[6], file, 0), Number(row[7], file, 0)),
+           Rectangle({internal::Number(row[3], file, line), internal::Number(row[4], file, line)},
+                     yaw, internal::Number(row[6], file, line),
+                     internal::Number(row[7], file, line)),
            v * Vector2d(std::cos(yaw), std::sin(yaw))});
     }
   }

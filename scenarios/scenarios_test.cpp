@@ -282,6 +282,22 @@ TEST(Metrics, LaneDepartureAndRouteCompletion) {
   EXPECT_EQ(ComputeMetrics(back, dir.path())["run"]["lane_departures"], 1);
 }
 
+TEST(Metrics, ALogEditedByHandIsRefusedNamingItsFileAndLine) {
+  test::TempDir dir("metrics_bad_log");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  config::WriteFile(dir.path() / "ground_truth.csv",
+                    "t_s,vehicle,x_m,y_m,yaw_rad,vx_mps,vy_mps,yaw_rate_radps\n"
+                    "0.000000,nigel_1,0,0,0,0,0,0\n0.010000,nigel_1,zero,0,0,0,0,0\n");
+  try {
+    (void)ComputeMetrics(Road(), dir.path());
+    ADD_FAILURE() << "a bad number was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("ground_truth.csv:3: \"zero\" is not a number"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Metrics, PolygonDistance) {
   const Points a = Rectangle({0, 0}, 0, 1, 1);
   EXPECT_NEAR(PolygonDistance(a, Rectangle({2, 0}, 0, 1, 1)), 1.0, 1e-12);

@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "scenarios/internal/logs.h"
 #include "scenarios/metrics.h"
 
 #include "common/dds/messages.h"
@@ -34,28 +35,6 @@ const json& ListOf(const json& metrics, const char* key) {
 }
 
 // ---- The logs ----
-
-std::vector<std::string> SplitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  for (std::size_t i = 0; i <= line.size(); ++i) {
-    if (i == line.size() || line[i] == ',') {
-      out.push_back(line.substr(start, i - start));
-      start = i + 1;
-    }
-  }
-  return out;
-}
-
-double Number(const std::string& s, const fs::path& file, std::size_t line) {
-  try {
-    std::size_t used = 0;
-    const double x = std::stod(s, &used);
-    if (used == s.size() && std::isfinite(x)) return x;
-  } catch (const std::exception&) {
-  }
-  throw InputError(fmt::format("{}:{}: \"{}\" is not a number", file.string(), line, s));
-}
 
 // A log the run writes: missing is noted (the page says so), not an error.
 std::optional<std::ifstream> OpenLog(const fs::path& file, json& notes) {
