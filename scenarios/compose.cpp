@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <set>
 
+#include "scenarios/metrics.h"
+
 #include "common/error.h"
 
 namespace autodrive::scenarios {
@@ -45,7 +47,7 @@ std::string AgentController(const std::string& vehicle) { return "agent_" + vehi
 
 ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file,
                          const maps::Map& map, const fs::path& city_file, const fs::path& run_dir,
-                         const fs::path& bin_dir) {
+                         const fs::path& logs_dir, const fs::path& bin_dir) {
   const fs::path base_file = fs::absolute(scenario.city);
   const fs::path base_dir = base_file.parent_path();
   YAML::Node city;
@@ -190,6 +192,16 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
     YAML::Node traffic = city["traffic"] ? city["traffic"] : YAML::Node(YAML::NodeType::Map);
     traffic["seed"] = scenario.seed;
     traffic["vehicles"] = scenario.traffic.vehicles;
+    // SUMO's own trip statistics of its cars (waiting time, time loss), written as it closes;
+    // those still driving then are written too, so that every car that departed counts.
+    YAML::Node sumo = traffic["sumo"] ? traffic["sumo"] : YAML::Node(YAML::NodeType::Map);
+    YAML::Node args = sumo["args"] ? sumo["args"] : YAML::Node(YAML::NodeType::Sequence);
+    args.push_back("--tripinfo-output");
+    args.push_back((fs::absolute(logs_dir) / kTripinfoFile).lexically_normal().string());
+    args.push_back("--tripinfo-output.write-unfinished");
+    args.push_back("true");
+    sumo["args"] = args;
+    traffic["sumo"] = sumo;
     city["traffic"] = traffic;
   } else {
     city.remove("traffic");

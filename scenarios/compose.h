@@ -31,7 +31,8 @@ struct ComposedCity {
   bool traffic = false;                  ///< SUMO runs
 };
 
-/// Composes the scenario's city, to be written as `city_file` with its run folder `run_dir`
+/// Composes the scenario's city, to be written as `city_file` with its run folder `run_dir`,
+/// the run's raw logs in `logs_dir` (SUMO writes its trip statistics there, `kTripinfoFile`)
 /// and the city's programs in `bin_dir`; `scenario_file` is the scenario's path (for
 /// `{scenario}`). Checks what the base city and its map must have for the scenario (its `sim`
 /// section, each route's lanes and their order, each event's intersection and plan).
@@ -40,6 +41,7 @@ struct ComposedCity {
                                        const std::filesystem::path& scenario_file,
                                        const maps::Map& map, const std::filesystem::path& city_file,
                                        const std::filesystem::path& run_dir,
+                                       const std::filesystem::path& logs_dir,
                                        const std::filesystem::path& bin_dir);
 
 }  // namespace autodrive::scenarios

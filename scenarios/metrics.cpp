@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -11,8 +12,11 @@
 #include <set>
 #include <sstream>
 
+#include <pugixml.hpp>
+
 #include "scenarios/internal/logs.h"
 
+#include "common/config.h"
 #include "common/error.h"
 
 namespace autodrive::scenarios {
@@ -301,6 +305,88 @@ Points Rectangle(const Eigen::Vector2d& centre, double yaw, double length, doubl
   const double hl = length / 2, hw = width / 2;
   return {centre - hl * f - hw * l, centre + hl * f - hw * l, centre + hl * f + hw * l,
           centre - hl * f + hw * l};
+}
+
+/// The line of byte `offset` of `file` (1 for the first).
+std::size_t LineOf(const std::filesystem::path& file, std::ptrdiff_t offset) {
+  std::ifstream in(file, std::ios::binary);
+  std::size_t line = 1;
+  char c = 0;
+  for (std::ptrdiff_t i = 0; i < offset && in.get(c); ++i) line += c == '\n' ? 1 : 0;
+  return line;
+}
+
+json SumoTripStatistics(const std::filesystem::path& tripinfo_file,
+                        const std::set<std::string>& lab_cars) {
+  if (!std::filesystem::exists(tripinfo_file)) return nullptr;
+  // SUMO closes the file as its process ends; a process killed leaves it without its end tag.
+  std::string text = config::ReadFile(tripinfo_file);
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  if (text.find("<tripinfos") != std::string::npos && !text.ends_with("</tripinfos>")) {
+    return {{"unfinished", "SUMO did not finish the file (its process was killed)"}};
+  }
+  pugi::xml_document doc;
+  const pugi::xml_parse_result parsed = doc.load_string(text.c_str());
+  if (!parsed) {
+    throw InputError(fmt::format("{}: not XML at byte {}: {}", tripinfo_file.string(),
+                                 parsed.offset, parsed.description()));
+  }
+  const pugi::xml_node root = doc.child("tripinfos");
+  if (!root) {
+    throw InputError(fmt::format("{}: no <tripinfos> element (not SUMO's --tripinfo-output)",
+                                 tripinfo_file.string()));
+  }
+  const auto attribute = [&](const pugi::xml_node& trip, const char* name) {
+    const std::string value_text = trip.attribute(name).as_string();
+    double v = 0.0;
+    const auto [end, error] =
+        std::from_chars(value_text.data(), value_text.data() + value_text.size(), v);
+    if (value_text.empty() || error != std::errc() ||
+        end != value_text.data() + value_text.size() || !std::isfinite(v)) {
+      throw InputError(fmt::format("{}: trip \"{}\" (line {}): {} is \"{}\", not a number",
+                                   tripinfo_file.string(), trip.attribute("id").as_string(),
+                                   LineOf(tripinfo_file, trip.offset_debug()), name, value_text));
+    }
+    return v;
+  };
+  json per_car = json::object();
+  int arrived = 0;
+  long waiting_count = 0;
+  std::vector<double> waiting, loss;
+  for (const pugi::xml_node trip : root.children("tripinfo")) {
+    const std::string id = trip.attribute("id").as_string();
+    if (lab_cars.contains(id)) continue;
+    const double arrival = attribute(trip, "arrival");
+    const double wait = attribute(trip, "waitingTime"), lost = attribute(trip, "timeLoss");
+    const auto count = static_cast<long>(attribute(trip, "waitingCount"));
+    // SUMO writes arrival -1 for a car it closed on while it drove (write-unfinished).
+    const bool done = arrival >= 0.0;
+    arrived += done ? 1 : 0;
+    waiting_count += count;
+    waiting.push_back(wait);
+    loss.push_back(lost);
+    per_car[id] = {{"depart_s", R(attribute(trip, "depart"))},
+                   {"arrived", done},
+                   {"duration_s", R(attribute(trip, "duration"))},
+                   {"waiting_time_s", R(wait)},
+                   {"waiting_count", count},
+                   {"time_loss_s", R(lost)}};
+  }
+  const auto mean = [](const std::vector<double>& v) {
+    double sum = 0.0;
+    for (const double x : v) sum += x;
+    return v.empty() ? std::numeric_limits<double>::quiet_NaN()
+                     : sum / static_cast<double>(v.size());
+  };
+  const auto max = [](const std::vector<double>& v) {
+    return v.empty() ? std::numeric_limits<double>::quiet_NaN() : *std::ranges::max_element(v);
+  };
+  return {{"trips", waiting.size()},
+          {"arrived", arrived},
+          {"waiting_time_s", {{"mean", R(mean(waiting))}, {"max", R(max(waiting))}}},
+          {"waiting_count", waiting_count},
+          {"time_loss_s", {{"mean", R(mean(loss))}, {"max", R(max(loss))}}},
+          {"per_car", per_car}};
 }
 
 double PolygonDistance(const Points& a, const Points& b) {
@@ -847,7 +933,16 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
   run["requests_granted"] = granted;
   run["request_to_green_max_s"] =
       std::isfinite(request_to_green_max) ? R(request_to_green_max) : json(nullptr);
-  return {{"vehicles", vehicles}, {"run", run}, {"v2i", v2i}};
+  // SUMO's background cars, as SUMO counts them.
+  std::set<std::string> lab_cars;
+  for (const RunWorld::Car& car : world.cars) lab_cars.insert(car.name);
+  const json background = SumoTripStatistics(logs_dir / kTripinfoFile, lab_cars);
+  if (background.contains("trips")) {
+    run["background_trips"] = background["trips"];
+    run["background_waiting_time_mean_s"] = background["waiting_time_s"]["mean"];
+    run["background_time_loss_mean_s"] = background["time_loss_s"]["mean"];
+  }
+  return {{"vehicles", vehicles}, {"run", run}, {"v2i", v2i}, {"background", background}};
 }
 
 }  // namespace autodrive::scenarios

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,20 @@ struct MetricConstants {
 [[nodiscard]] nlohmann::json ComputeMetrics(const RunWorld& world,
                                             const std::filesystem::path& logs_dir,
                                             const MetricConstants& k = {});
+
+/// SUMO's trip statistics of the background cars (its `--tripinfo-output`, every car that
+/// departed, those still driving at the end included), in a run's logs folder.
+inline constexpr std::string_view kTripinfoFile = "sumo_tripinfo.xml";
+
+/// SUMO's own trip statistics of the background cars, from its `--tripinfo-output` file (the
+/// lab's cars, which SUMO also drives as stand-ins, named in `lab_cars`, left out):
+/// `{"trips", "arrived", "waiting_time_s": {"mean", "max"}, "waiting_count", "time_loss_s":
+/// {"mean", "max"}, "per_car": {id: {...}}}` (SUMO's definitions, seconds of simulated time; a
+/// car still driving at the end counts with what it had so far). Null when the file is absent
+/// (no SUMO in the run); `{"unfinished": why}` when SUMO did not finish it (killed).
+/// @throws InputError for a file that is not SUMO's tripinfo XML (naming it and the fault).
+[[nodiscard]] nlohmann::json SumoTripStatistics(const std::filesystem::path& tripinfo_file,
+                                                const std::set<std::string>& lab_cars);
 
 /// The corners of a rectangle (counter-clockwise) of `length` along `yaw` and `width` across,
 /// centred at `centre`.

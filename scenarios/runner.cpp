@@ -289,8 +289,8 @@ RunResult RunScenario(const RunOptions& options) {
     fs::remove_all(out / stale);
   }
   const fs::path city_file = out / "city.yaml";
-  const ComposedCity composed =
-      ComposeCity(scenario, options.scenario_file, map, city_file, out / "run", options.bin_dir);
+  const ComposedCity composed = ComposeCity(scenario, options.scenario_file, map, city_file,
+                                            out / "run", out / "logs", options.bin_dir);
   config::WriteFile(city_file, composed.yaml);
   // The composed city as its programs will load it (refused here, before anything starts).
   const vehicle_sim::SimCity sim_city = vehicle_sim::LoadSimCity(city_file.string());

@@ -96,7 +96,8 @@ std::string ComposeRefusal(const std::string& body) {
   const maps::Map map =
       maps::LoadMapOrLayout((test::SourceDir() / "config/maps/driving_school.yaml").string());
   try {
-    (void)ComposeCity(s, file, map, dir.path() / "city.yaml", dir.path() / "run", dir.path());
+    (void)ComposeCity(s, file, map, dir.path() / "city.yaml", dir.path() / "run",
+                      dir.path() / "logs", dir.path());
   } catch (const ConfigError& e) {
     return e.what();
   }
@@ -134,8 +135,8 @@ TEST(ComposedCity, RunsInLockstepWithTheScenariosCarsAndAgents) {
   const Scenario s = LoadScenario(file);
   const maps::Map map =
       maps::LoadMapOrLayout((test::SourceDir() / "config/maps/driving_school.yaml").string());
-  const ComposedCity c =
-      ComposeCity(s, file, map, dir.path() / "city.yaml", dir.path() / "run", dir.path());
+  const ComposedCity c = ComposeCity(s, file, map, dir.path() / "city.yaml", dir.path() / "run",
+                                     dir.path() / "logs", dir.path());
   const YAML::Node city = YAML::Load(c.yaml);
   EXPECT_EQ(city["sim"]["seed"].as<int>(), 7);
   EXPECT_EQ(city["traffic"]["vehicles"].as<int>(), 5);
@@ -147,6 +148,12 @@ TEST(ComposedCity, RunsInLockstepWithTheScenariosCarsAndAgents) {
   EXPECT_EQ(city["launch"]["eye"]["mode"].as<std::string>(), "off");
   EXPECT_EQ(city["launch"]["agents"][0]["command"][4].as<std::string>(), "nigel_1");
   EXPECT_TRUE(fs::path(city["map"].as<std::string>()).is_absolute());
+  // SUMO writes its trip statistics into the run's logs, those of cars still driving included.
+  const YAML::Node args = city["traffic"]["sumo"]["args"];
+  ASSERT_EQ(args.size(), 4U);
+  EXPECT_EQ(args[0].as<std::string>(), "--tripinfo-output");
+  EXPECT_EQ(args[1].as<std::string>(), (dir.path() / "logs" / kTripinfoFile).string());
+  EXPECT_EQ(args[3].as<std::string>(), "true");
 }
 
 // ---- Metrics on logs written by hand ----
@@ -296,6 +303,57 @@ TEST(Metrics, ALogEditedByHandIsRefusedNamingItsFileAndLine) {
               std::string::npos)
         << e.what();
   }
+}
+
+// SUMO's tripinfo file as SUMO 1.x writes it (attributes trimmed to those read, and two more).
+constexpr const char* kTripinfo = R"(<?xml version="1.0" encoding="UTF-8"?>
+<!-- generated on a day by Eclipse SUMO sumo Version 1.18.0 -->
+<tripinfos xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">
+    <tripinfo id="nigel_1" depart="0.00" arrival="-1.00" duration="59.95" routeLength="13.81" waitingTime="49.50" waitingCount="8" timeLoss="55.95"/>
+    <tripinfo id="bg_0" depart="0.05" arrival="31.20" duration="31.15" routeLength="60.47" waitingTime="10.00" waitingCount="2" timeLoss="12.50"/>
+    <tripinfo id="bg_1" depart="0.05" arrival="-1.00" duration="59.90" routeLength="89.68" waitingTime="30.00" waitingCount="3" timeLoss="34.50"/>
+</tripinfos>
+)";
+
+TEST(Metrics, SumoTripStatisticsOfTheBackgroundCarsLeaveTheLabsCarsOut) {
+  test::TempDir dir("metrics_tripinfo");
+  const fs::path file = dir.path() / kTripinfoFile;
+  EXPECT_TRUE(SumoTripStatistics(file, {"nigel_1"}).is_null());  // no SUMO in the run
+  config::WriteFile(file, kTripinfo);
+  const json t = SumoTripStatistics(file, {"nigel_1"});
+  EXPECT_EQ(t["trips"], 2);
+  EXPECT_EQ(t["arrived"], 1);  // bg_1 still drove at the end (arrival -1)
+  EXPECT_EQ(t["waiting_count"], 5);
+  EXPECT_DOUBLE_EQ(t["waiting_time_s"]["mean"].get<double>(), 20.0);
+  EXPECT_DOUBLE_EQ(t["waiting_time_s"]["max"].get<double>(), 30.0);
+  EXPECT_DOUBLE_EQ(t["time_loss_s"]["mean"].get<double>(), 23.5);
+  EXPECT_DOUBLE_EQ(t["time_loss_s"]["max"].get<double>(), 34.5);
+  EXPECT_FALSE(t["per_car"].contains("nigel_1"));
+  EXPECT_EQ(t["per_car"]["bg_1"]["arrived"], false);
+  // The run's metrics carry them beside the lab's own.
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  WriteDrive(dir.path(), 0.2, 1.0);
+  const json m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["background_trips"], 2);
+  EXPECT_DOUBLE_EQ(m["run"]["background_time_loss_mean_s"].get<double>(), 23.5);
+  // A file edited by hand is refused naming the trip, its line and the attribute.
+  std::string text = kTripinfo;
+  text.replace(text.find("timeLoss=\"34.50\""), 16, "timeLoss=\"lots\"");
+  config::WriteFile(file, text);
+  try {
+    (void)SumoTripStatistics(file, {});
+    ADD_FAILURE() << "a bad number was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("trip \"bg_1\" (line 6): timeLoss is \"lots\""),
+              std::string::npos)
+        << e.what();
+  }
+  // SUMO killed before it closed the file: no statistics, said so.
+  config::WriteFile(file, std::string(kTripinfo).substr(
+                              0, std::string(kTripinfo).find("    <tripinfo id=\"bg_1\"")));
+  EXPECT_TRUE(SumoTripStatistics(file, {}).contains("unfinished"));
+  config::WriteFile(file, "<trips/>\n");
+  EXPECT_THROW((void)SumoTripStatistics(file, {}), InputError);
 }
 
 TEST(Metrics, PolygonDistance) {

@@ -183,6 +183,9 @@ TEST_F(ScenarioRunner, SameSeedSameReportAnotherSeedAnother) {
   ASSERT_TRUE(b.report.is_object()) << b.output;
   ASSERT_TRUE(c.report.is_object()) << c.output;
   EXPECT_EQ(a.report["end"]["reason"], "time_limit");
+  // SUMO's own statistics of its 10 cars (not of its stand-ins for the lab's four).
+  EXPECT_EQ(a.report["metrics"]["run"]["background_trips"], 10) << a.report["metrics"].dump();
+  EXPECT_EQ(a.report["metrics"]["background"]["per_car"].size(), 10U);
   EXPECT_EQ(stable(a.report), stable(b.report));
   EXPECT_EQ(config::ReadFile(dir_.path() / "a/logs/ground_truth.csv"),
             config::ReadFile(dir_.path() / "b/logs/ground_truth.csv"));

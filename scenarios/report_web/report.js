@@ -83,7 +83,9 @@
                     "time_to_goal_s", "score", "distance_m", "stops", "stopped_time_s",
                     "time_loss_s", "max_accel_mps2", "max_jerk_mps3", "energy_j_per_kg",
                     "spat_messages", "spat_windows_below_10hz", "spat_min_end_error_p95_s",
-                    "map_messages", "requests", "requests_granted", "request_to_green_max_s"];
+                    "map_messages", "requests", "requests_granted", "request_to_green_max_s",
+                    "background_trips", "background_waiting_time_mean_s",
+                    "background_time_loss_mean_s"];
   const run = M.run || {};
   const runKeys = runOrder.filter((k) => k in run)
     .concat(Object.keys(run).filter((k) => !runOrder.includes(k) && k !== "collision_list"));
