@@ -179,7 +179,8 @@ struct DeviceHost::Dds {
   std::unique_ptr<dds::Writer<msg::Heartbeat>> heartbeat;
   std::unique_ptr<dds::Writer<msg::Event>> events;
   std::unique_ptr<dds::Reader<msg::DeviceCommand>> device_commands;  // when monitors run here
-  dds::WriterParticipants writers;  // who wrote each sample (bounded cache)
+  std::unique_ptr<dds::Reader<msg::SimFault>> sim_faults;  // when a simulated head runs here
+  dds::WriterParticipants writers;                         // who wrote each sample (bounded cache)
 
   explicit Dds(const dds::Participant& p)
       : participant(p),
@@ -289,6 +290,11 @@ DeviceHost::DeviceHost(const InfraConfig& config, HostPlan plan,
           participant, dds::topics::DeviceCommands());
     }
   }
+  if (std::ranges::any_of(
+          heads_, [](const auto& h) { return h->backend->kind() == BackendKind::kSimulated; })) {
+    dds_->sim_faults =
+        std::make_unique<dds::Reader<msg::SimFault>>(participant, dds::topics::SimFaults());
+  }
   spdlog::info("{} serves city {}: it follows only the heartbeat of that city's SCM", source_,
                config_.city);
 }
@@ -341,6 +347,7 @@ void DeviceHost::Run(Clock& clock, Clock& pace) {
   dds::LoopWaitSet waitset(dds_->participant, pace);
   waitset.Attach(dds_->heartbeats);
   if (dds_->device_commands) waitset.Attach(*dds_->device_commands);
+  if (dds_->sim_faults) waitset.Attach(*dds_->sim_faults);
   std::unordered_map<dds_entity_t, Head*> by_reader;
   by_reader.reserve(heads_.size());
   for (const auto& h : heads_) {
@@ -420,6 +427,7 @@ void DeviceHost::Pass(const ClockReading& now, bool all_commands) {
   // light commands (a red taken in the same pass as the reset ends the heads' flash).
   TakeHeartbeats(now);
   TakeDeviceCommands(now);
+  TakeSimFaults(now);
   TakeCommands(now, all_commands);
   for (auto& h : heads_) {
     h->driven = false;
@@ -553,6 +561,62 @@ void DeviceHost::FollowScm(const ScmId& scm) {
   spdlog::info("{} follows the SCM of city {}: session {}, participant {}", source_, config_.city,
                Hex(scm.session), scm.participant.ToString());
   last_scm_ = scm;
+}
+
+void DeviceHost::TakeSimFaults(const ClockReading& now) {
+  if (!dds_->sim_faults) return;
+  dds::Message<msg::SimFault> m;
+  while (dds_->sim_faults->TakeOne(m)) {
+    const SignalHeadId id(m->head);
+    const auto it = std::ranges::find_if(heads_, [&](const auto& h) { return h->plan.id == id; });
+    if (it == heads_.end()) continue;  // another host's head
+    Head& h = **it;
+    const std::string sender(dds::View(m->header.frame_id));
+    const std::string reason(dds::View(m->reason));
+    auto* simulated = dynamic_cast<SimulatedBackend*>(h.backend.get());
+    const std::optional<Lamp> lamp =
+        m->lamp >= 1 && m->lamp <= 3 ? std::optional(kAllLamps[m->lamp - 1]) : std::nullopt;
+    const auto lamp_name = [&] { return std::string(ToString(*lamp)); };
+    std::string done;  // what was done; empty: refused
+    if (simulated == nullptr) {
+      // a physical head: refused below
+    } else if (m->action == autodrive_msgs_msg_SimFault_Constants_FAIL_LAMP && lamp) {
+      simulated->FailLamp(*lamp, reason.empty() ? "open_circuit" : reason);
+      done = lamp_name() + " lamp burnt out";
+    } else if (m->action == autodrive_msgs_msg_SimFault_Constants_STICK_LAMP && lamp) {
+      simulated->StickLamp(*lamp);
+      done = lamp_name() + " lamp stuck on";
+    } else if (m->action == autodrive_msgs_msg_SimFault_Constants_REPAIR_LAMP && lamp) {
+      simulated->RepairLamp(*lamp);
+      done = lamp_name() + " lamp repaired";
+    } else if (m->action == autodrive_msgs_msg_SimFault_Constants_UNPLUG_HEAD) {
+      simulated->SetOffline(reason.empty() ? "unplugged" : reason);
+      done = "unplugged";
+    } else if (m->action == autodrive_msgs_msg_SimFault_Constants_PLUG_HEAD) {
+      simulated->SetOffline(std::nullopt);
+      done = "plugged in again";
+    }
+    if (done.empty()) {
+      ++counters_.sim_faults_refused;
+      const std::string why =
+          simulated == nullptr
+              ? "it is a physical head (only simulated heads take faults)"
+              : fmt::format("action {} with lamp {} is not a fault", static_cast<int>(m->action),
+                            static_cast<int>(m->lamp));
+      spdlog::warn("{}: a fault for {} from '{}' refused: {}", source_, h.device.name(), sender,
+                   why);
+      PublishEvent(
+          now, Severity::kWarning, "sim_fault_refused",
+          fmt::format("{}: a fault injection from '{}' refused: {}", h.device.name(), sender, why),
+          h.plan.intersection.value(), h.device.name(), false);
+      continue;
+    }
+    ++counters_.sim_faults;
+    spdlog::warn("{}: injected fault from '{}': {} {}", source_, sender, h.device.name(), done);
+    PublishEvent(now, Severity::kWarning, "sim_fault",
+                 fmt::format("{}: {} (a fault injected by '{}')", h.device.name(), done, sender),
+                 h.plan.intersection.value(), h.device.name(), false);
+  }
 }
 
 void DeviceHost::TakeDeviceCommands(const ClockReading& now) {

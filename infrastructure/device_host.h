@@ -52,8 +52,11 @@ struct HostCounters {
   std::uint64_t monitor_resets = 0;            ///< device commands that cleared a latched monitor
   std::uint64_t unidentified_samples = 0;      ///< samples whose writer's participant is unknown
   std::uint64_t clock_restarts = 0;            ///< new sessions of the clock (simulator restarts)
-  std::uint64_t events_published = 0;          ///< events written
-  std::uint64_t publish_failures = 0;          ///< writes that failed (logged, never fatal)
+  std::uint64_t sim_faults = 0;          ///< faults injected into simulated heads here (SimFault)
+  std::uint64_t sim_faults_refused = 0;  ///< SimFault samples for a head here that is physical,
+                                         ///< or with an action or lamp that is not one
+  std::uint64_t events_published = 0;    ///< events written
+  std::uint64_t publish_failures = 0;    ///< writes that failed (logged, never fatal)
   std::uint64_t heads_driven = 0;  ///< times a head's lamps were shown and polled: the work of
                                    ///< the passes, which skip heads with nothing new
 };
@@ -68,7 +71,10 @@ struct HostCounters {
 /// DeviceStatus per head and per monitor (one writer each, every status period and on change),
 /// events, and its own heartbeat on the device hosts' topic (`/autodrive/infra/heartbeat`,
 /// sender "infra/<name>", every status period). Every writer is non-blocking: a write that would
-/// wait for slow readers fails at once and is counted.
+/// wait for slow readers fails at once and is counted. When it hosts a simulated head it also
+/// reads the twin's fault injection (`/autodrive/sim/fault`): a lamp of such a head burns out,
+/// sticks on or is repaired, the head is unplugged or plugged in, as the simulated backend does
+/// it, each with an event ("sim_fault"); faults for a physical head are refused and reported.
 ///
 /// Whom it obeys (docs/infrastructure.md): it follows the heartbeat of sender "scm" whose city
 /// is its own (others are ignored, counted and reported once per session: "foreign_scm"), and
@@ -179,6 +185,7 @@ class DeviceHost {
   void TakeHeartbeats(const ClockReading& now);
   void FollowScm(const ScmId& scm);
   void TakeDeviceCommands(const ClockReading& now);
+  void TakeSimFaults(const ClockReading& now);
   void CarryOut(Monitor& monitor, const ScmId& scm, std::uint64_t command_id,
                 const std::string& issued_by, std::uint64_t request_id, const ClockReading& now);
   void ReportIgnoredDeviceCommand(const ClockReading& now, const std::string& reason);

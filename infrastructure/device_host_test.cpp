@@ -376,6 +376,49 @@ TEST_F(DeviceHostTest, ABurntOutLampIsReportedAsAFault) {
   EXPECT_TRUE(TickUntil([&] { return status_["signal_1"].health == kOk; }));
 }
 
+TEST_F(DeviceHostTest, TheTwinsFaultInjectionBurnsALampUnplugsAHeadAndRefusesWhatIsNotAFault) {
+  // A scenario's events, over DDS: what SimulatedBackend does in the tests above.
+  dds::Writer<msg::SimFault> faults(scm_side_, dds::topics::SimFaults());
+  ASSERT_TRUE(faults.WaitForReaders(1, kPatience)) << "the host reads faults: its heads simulate";
+  const auto inject = [&](std::uint32_t head, std::uint8_t action, std::uint8_t lamp,
+                          const std::string& reason = "") {
+    dds::Message<msg::SimFault> m;
+    dds::SetString(m->header.frame_id, "scenario");
+    m->head = head;
+    m->action = action;
+    m->lamp = lamp;
+    dds::SetString(m->reason, reason);
+    faults.Write(m);
+  };
+  Reach(1, {Aspect::kRed, Aspect::kGreen});
+  inject(1, autodrive_msgs_msg_SimFault_Constants_FAIL_LAMP,
+         autodrive_msgs_msg_SimFault_Constants_GREEN);
+  ASSERT_TRUE(TickUntil([&] { return status_["signal_1"].health == kFault; }));
+  EXPECT_EQ(status_["signal_1"].detail, "green lamp failed (open_circuit)");
+  ASSERT_TRUE(TickUntil([&] { return FindEvent("sim_fault", false, "signal_1") != nullptr; }));
+  EXPECT_NE(FindEvent("sim_fault", false)->message.find("green lamp burnt out"), std::string::npos)
+      << FindEvent("sim_fault", false)->message;
+  EXPECT_NE(FindEvent("sim_fault", false)->message.find("'scenario'"), std::string::npos);
+  inject(1, autodrive_msgs_msg_SimFault_Constants_REPAIR_LAMP,
+         autodrive_msgs_msg_SimFault_Constants_GREEN);
+  EXPECT_TRUE(TickUntil([&] { return status_["signal_1"].health == kOk; }));
+
+  inject(2, autodrive_msgs_msg_SimFault_Constants_UNPLUG_HEAD, 0, "cable pulled");
+  ASSERT_TRUE(TickUntil([&] { return status_["signal_2"].health == kOffline; }));
+  EXPECT_NE(FindEvent("device_offline", true, "signal_2"), nullptr);
+  inject(2, autodrive_msgs_msg_SimFault_Constants_PLUG_HEAD, 0);
+  EXPECT_TRUE(TickUntil([&] { return status_["signal_2"].health != kOffline; }));
+
+  // Not a fault: an unknown action, a lamp that is none. Another host's head: not ours.
+  inject(3, 9, 0);
+  inject(3, autodrive_msgs_msg_SimFault_Constants_FAIL_LAMP, 7);
+  inject(99, autodrive_msgs_msg_SimFault_Constants_UNPLUG_HEAD, 0);
+  ASSERT_TRUE(TickUntil([&] { return CountEvents("sim_fault_refused") == 2; }));
+  EXPECT_EQ(host_->counters().sim_faults_refused, 2U);
+  EXPECT_EQ(host_->counters().sim_faults, 4U);
+  EXPECT_EQ(host_->device(SignalHeadId(3)).health(), Health::kOk);
+}
+
 TEST_F(DeviceHostTest, APassDrivesOnlyTheHeadsWithSomethingNew) {
   // A host of thousands of heads must not show and poll every head at every pass.
   for (const auto& [id, writer] : commands_) Reach(id, {Aspect::kRed});

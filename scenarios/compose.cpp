@@ -111,6 +111,13 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   for (std::size_t i = 0; i < scenario.events.size(); ++i) {
     const EventSpec& e = scenario.events[i];
     const std::string ei = fmt::format("[{}]", i);
+    if (e.head != 0) {
+      if (!map.HasSignalHead(SignalHeadId(static_cast<std::uint32_t>(e.head)))) {
+        refuse({"events", ei, "head"},
+               fmt::format("map {} has no signal head {}", map.name, e.head));
+      }
+      continue;
+    }
     const auto x =
         std::find_if(map.intersections.begin(), map.intersections.end(),
                      [&](const maps::Intersection& y) { return y.name == e.intersection; });

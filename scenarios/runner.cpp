@@ -186,7 +186,14 @@ class EventPlayer {
     }
     requests_ = std::make_unique<dds::Writer<msg::SignalRequest>>(participant,
                                                                   dds::topics::SignalRequests());
+    if (std::ranges::any_of(scenario.events, [](const EventSpec& e) { return e.head != 0; })) {
+      faults_ = std::make_unique<dds::Writer<msg::SimFault>>(participant, dds::topics::SimFaults());
+    }
   }
+
+  // True once what the events are sent to listens: the light hosts' fault readers (volatile:
+  // a fault sent before would be lost).
+  [[nodiscard]] bool Ready() const { return !faults_ || faults_->matched_readers() > 0; }
 
   // Applies every event due at `t` (at or before it, not yet applied).
   void Apply(Time t) {
@@ -199,7 +206,26 @@ class EventPlayer {
                 {"at_s", ToSeconds(e.at_s)},
                 {"action", e.action},
                 {"intersection", e.intersection}};
-      if (e.action == "mode" || e.action == "plan") {
+      if (e.head != 0) {
+        dds::Message<msg::SimFault> m;
+        m->header.stamp = dds::ToMsg(t);
+        dds::SetString(m->header.frame_id, "autodrive-scenario/" + scenario_.name);
+        m->head = static_cast<std::uint32_t>(e.head);
+        m->action = e.action == "unplug"     ? autodrive_msgs_msg_SimFault_Constants_UNPLUG_HEAD
+                    : e.action == "plug"     ? autodrive_msgs_msg_SimFault_Constants_PLUG_HEAD
+                    : e.fault == "burnt_out" ? autodrive_msgs_msg_SimFault_Constants_FAIL_LAMP
+                    : e.fault == "stuck_on"  ? autodrive_msgs_msg_SimFault_Constants_STICK_LAMP
+                                             : autodrive_msgs_msg_SimFault_Constants_REPAIR_LAMP;
+        m->lamp = e.lamp == "red"      ? autodrive_msgs_msg_SimFault_Constants_RED
+                  : e.lamp == "yellow" ? autodrive_msgs_msg_SimFault_Constants_YELLOW
+                  : e.lamp == "green"  ? autodrive_msgs_msg_SimFault_Constants_GREEN
+                                       : 0;
+        faults_->Write(m);
+        line.erase("intersection");
+        line["head"] = e.head;
+        if (!e.lamp.empty()) line["lamp"] = e.lamp;
+        if (!e.fault.empty()) line["fault"] = e.fault;
+      } else if (e.action == "mode" || e.action == "plan") {
         dds::Message<msg::OperatorRequest> m;
         m->header.stamp = dds::ToMsg(t);
         dds::SetString(m->client_id, "autodrive-scenario/" + scenario_.name);
@@ -253,6 +279,7 @@ class EventPlayer {
   std::ofstream log_;
   std::unique_ptr<dds::Writer<msg::OperatorRequest>> operator_;
   std::unique_ptr<dds::Writer<msg::SignalRequest>> requests_;
+  std::unique_ptr<dds::Writer<msg::SimFault>> faults_;  // when an event faults a head
   std::size_t next_ = 0;
   std::uint64_t request_id_ = 0;
   std::map<std::string, std::uint32_t> request_ids_;
@@ -376,11 +403,14 @@ RunResult RunScenario(const RunOptions& options) {
     // The simulator's, the lights' and the SCM's writers matched before we register (the
     // simulator's first step waits for us): nothing of the first step is missed.
     const auto match_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-    while (!stop.load() && !recorder.WaitForWriters(std::chrono::milliseconds(500))) {
+    while (!stop.load() &&
+           !(recorder.WaitForWriters(std::chrono::milliseconds(500)) && events.Ready())) {
       if (std::chrono::steady_clock::now() > match_deadline) {
-        throw InputError(
-            fmt::format("the city's simulator, lights or SCM did not come up in 120 s (see {})",
-                        (out / "launcher.log").string()));
+        throw InputError(fmt::format(
+            "{} in 120 s (see {})",
+            events.Ready() ? "the city's simulator, lights or SCM did not come up"
+                           : "no light host reads the scenario's faults (are its heads simulated?)",
+            (out / "launcher.log").string()));
       }
     }
     const dds::LockstepRun lockstep =

@@ -46,6 +46,24 @@ void EventSpec::Validate() const {
   const auto refuse = [&](const std::string& value, const char* key) {
     if (!value.empty()) throw InputError(fmt::format("action {} takes no {}", action, key));
   };
+  if (action == "lamp" || action == "unplug" || action == "plug") {
+    if (head == 0) throw InputError(fmt::format("action {} needs head", action));
+    refuse(intersection, "intersection");
+    refuse(mode, "mode");
+    refuse(plan, "plan");
+    refuse(vehicle, "vehicle");
+    if (action == "lamp") {
+      need(lamp, "lamp");
+      need(fault, "fault");
+    } else {
+      refuse(lamp, "lamp");
+      refuse(fault, "fault");
+    }
+    return;
+  }
+  if (head != 0) throw InputError(fmt::format("action {} takes no head", action));
+  refuse(lamp, "lamp");
+  refuse(fault, "fault");
   need(intersection, "intersection");
   if (action == "mode") {
     need(mode, "mode");

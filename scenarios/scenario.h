@@ -89,21 +89,31 @@ struct EventSpec {
   /// `mode` (an intersection put into `flash`, `dark` or back to `auto`), `plan` (an
   /// intersection's plan chosen by name, or `auto` for its schedule), `preempt` or `priority`
   /// (a V2I request for `vehicle` at `intersection`, from the lane it is on), `cancel` (that
-  /// vehicle's request cancelled).
+  /// vehicle's request cancelled); on a simulated light head (`/autodrive/sim/fault`): `lamp`
+  /// (its `lamp` burns out, sticks on or is repaired: `fault`), `unplug` (the head goes
+  /// offline, its cable pulled), `plug` (back online).
   std::string action;
   std::string intersection;  ///< the map's intersection name
   std::string mode;          ///< action mode: flash | dark | auto
   std::string plan;          ///< action plan: a plan of the intersection, or auto
   std::string vehicle;       ///< actions preempt, priority, cancel
+  int head = 0;              ///< actions lamp, unplug, plug: the head (`signal_<head>`)
+  std::string lamp;          ///< action lamp: red | yellow | green
+  std::string fault;         ///< action lamp: burnt_out | stuck_on | repaired
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Required("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
-    a.Required("action", action, config::OneOf{{"mode", "plan", "preempt", "priority", "cancel"}});
+    a.Required(
+        "action", action,
+        config::OneOf{{"mode", "plan", "preempt", "priority", "cancel", "lamp", "unplug", "plug"}});
     a.Optional("intersection", intersection);
     a.Optional("mode", mode, config::OneOf{{"", "flash", "dark", "auto"}});
     a.Optional("plan", plan);
     a.Optional("vehicle", vehicle);
+    a.Optional("head", head, config::Range{1, 1000000});
+    a.Optional("lamp", lamp, config::OneOf{{"", "red", "yellow", "green"}});
+    a.Optional("fault", fault, config::OneOf{{"", "burnt_out", "stuck_on", "repaired"}});
   }
   /// The keys each action needs, and no other.
   void Validate() const;

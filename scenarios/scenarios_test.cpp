@@ -67,6 +67,18 @@ TEST(ScenarioFile, RefusalsNameTheFileLineAndKey) {
   refused(std::string(kCar) +
               "events: [{at_s: 3, action: preempt, intersection: x, vehicle: nigel_9}]\n",
           "vehicle nigel_9 is not one of the scenario's cars");
+  // Faults on a light head: the head, the lamp and the fault, and nothing of another action.
+  refused(std::string(kCar) + "events: [{at_s: 3, action: lamp, lamp: red, fault: burnt_out}]\n",
+          "events[0]: action lamp needs head");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: lamp, head: 2, lamp: red}]\n",
+          "events[0]: action lamp needs fault");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: unplug, head: 2, intersection: x}]\n",
+          "events[0]: action unplug takes no intersection");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: lamp, head: 2, lamp: blue}]\n",
+          "events[0].lamp");
+  refused(std::string(kCar) +
+              "events: [{at_s: 3, action: mode, intersection: x, mode: flash, head: 2}]\n",
+          "events[0]: action mode takes no head");
   refused("vehicles:\n  - {name: car_1, spawn: {lane: a}}\n",
           "vehicles[0]: name: \"car_1\" is not nigel_<n>");
   refused(std::string(kCar) + "  - name: nigel_1\n    spawn: {lane: a}\n",
@@ -122,6 +134,10 @@ TEST(ComposedCity, RoutesAndEventsAreCheckedAgainstTheMapAndCity) {
                            "events: [{at_s: 3, action: mode, intersection: x, mode: flash}]\n")
                 .find("events[0].intersection: map driving_school has no intersection \"x\""),
             std::string::npos);
+  EXPECT_NE(ComposeRefusal(std::string(kCar) + "events: [{at_s: 3, action: unplug, head: 9}]\n")
+                .find("events[0].head: map driving_school has no signal head 9"),
+            std::string::npos)
+      << ComposeRefusal(std::string(kCar) + "events: [{at_s: 3, action: unplug, head: 9}]\n");
   EXPECT_NE(ComposeRefusal(std::string(kCar) + "events: [{at_s: 3, action: plan, intersection: "
                                                "driving_school_crossing, plan: rush}]\n")
                 .find("has no plan \"rush\""),

@@ -72,6 +72,13 @@ bool NoneLeft(const std::string& tag) {
 
 json ReadJson(const fs::path& file) { return json::parse(config::ReadFile(file)); }
 
+std::vector<std::string> ReadLines(const fs::path& file) {
+  std::vector<std::string> lines;
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
 struct Outcome {
   int code = -1;
   std::string output;
@@ -212,6 +219,53 @@ vehicles:
   EXPECT_NE(r.output.find("the city's process agent_nigel_1 exited with code 0"), std::string::npos)
       << r.output;
   EXPECT_EQ(r.report["end"]["reason"], "failed");
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, ALampBurntOutMidRunIsReportedByItsHostAndTheCrossingFailsIntoFlash) {
+  // The shipped lamp_fault scenario cut to 25 s: its fault comes at 20 s, and then an unplugged
+  // head (a second event, added here) at 22 s.
+  std::string text = config::ReadFile(Shipped("lamp_fault"));
+  text.replace(text.find("city: ../cities/"), 16,
+               "city: " + (test::SourceDir() / "config/cities/").string());
+  text.replace(text.find("time_limit_s: 60"), 16, "time_limit_s: 25");
+  text.replace(text.find("expect:"), 7, "  - {at_s: 22, action: unplug, head: 4}\nexpect:");
+  const fs::path file = dir_.path() / "lamp_fault.yaml";
+  config::WriteFile(file, text);
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "fault").string());
+  ASSERT_EQ(r.code, 0) << r.output << text;
+  const fs::path logs = dir_.path() / "fault" / "logs";
+  // The light host carried both out (its events), the SCM saw the faults (its own).
+  std::string infra, scm;
+  for (const std::string& line : ReadLines(logs / "events.jsonl")) {
+    const json e = json::parse(line);
+    if (e["code"] == "sim_fault") infra += e["message"].get<std::string>() + "\n";
+    if (e["source"] == "scm" && e["active"] == true &&
+        (e["code"] == "device_fault" || e["code"] == "device_offline" ||
+         e["code"] == "device_lost")) {
+      scm += e["device"].get<std::string>() + " ";
+    }
+  }
+  EXPECT_NE(infra.find("signal_2: red lamp burnt out"), std::string::npos) << infra;
+  EXPECT_NE(infra.find("signal_4: unplugged"), std::string::npos) << infra;
+  EXPECT_NE(scm.find("signal_2"), std::string::npos) << scm;
+  // Before the fault the crossing runs its plan; from a step after it, SPaT says failure flash
+  // (J2735 IntersectionStatusObject bit 2) to the end.
+  bool flash_before = false, flash_after = true;
+  int after = 0;
+  for (const std::string& line : ReadLines(logs / "spat.jsonl")) {
+    const json s = json::parse(line);
+    const double t = s["t_s"].get<double>();
+    const bool flash = (s["status"].get<int>() & 4) != 0;
+    if (t > 3.0 && t < 20.0) flash_before = flash_before || flash;
+    if (t >= 20.2) {
+      flash_after = flash_after && flash;
+      ++after;
+    }
+  }
+  EXPECT_FALSE(flash_before);
+  EXPECT_TRUE(flash_after);
+  EXPECT_GT(after, 40);  // 10 Hz for the run's last 4.8 s
   EXPECT_TRUE(NoneLeft(tag_));
 }
 

@@ -30,6 +30,7 @@
 #include "autodrive_msgs/msg/SignalGroupState.h"
 #include "autodrive_msgs/msg/SignalRequest.h"
 #include "autodrive_msgs/msg/SignalRequestStatus.h"
+#include "autodrive_msgs/msg/SimFault.h"
 #include "autodrive_msgs/msg/Spat.h"
 #include "autodrive_msgs/msg/TrackedVehicle.h"
 #include "autodrive_msgs/msg/TrafficObject.h"
@@ -81,6 +82,7 @@
   X(autodrive_msgs_msg_dds__SignalGroupState_, SignalGroupState)       \
   X(autodrive_msgs_msg_dds__SignalRequest_, SignalRequest)             \
   X(autodrive_msgs_msg_dds__SignalRequestStatus_, SignalRequestStatus) \
+  X(autodrive_msgs_msg_dds__SimFault_, SimFault)                       \
   X(autodrive_msgs_msg_dds__Spat_, Spat)                               \
   X(autodrive_msgs_msg_dds__TrackedVehicle_, TrackedVehicle)           \
   X(autodrive_msgs_msg_dds__TrafficObject_, TrafficObject)             \

@@ -227,5 +227,8 @@ TopicSpec<msg::Header> SimStep() {
 TopicSpec<msg::Header> SimStepDone() {
   return Spec<msg::Header>("/autodrive/sim/step_done", Qos::Command());
 }
+TopicSpec<msg::SimFault> SimFaults() {
+  return Spec<msg::SimFault>("/autodrive/sim/fault", Qos::Command());
+}
 
 }  // namespace autodrive::dds::topics

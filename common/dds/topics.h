@@ -142,6 +142,10 @@ TopicSpec<msg::Header> SimStep();
 /// the controller's name, `stamp` the step it answers (any stamp before the first step
 /// registers it); its commands for that step were delivered before it. Reliable, keep all.
 TopicSpec<msg::Header> SimStepDone();
+/// Faults injected into the twin's simulated devices (`/autodrive/sim/fault`, SimFault): a
+/// lamp burnt out or stuck, a head unplugged; carried out by the light host of a simulated
+/// head only. No DDS Security role may write it. Reliable, keep all.
+TopicSpec<msg::SimFault> SimFaults();
 
 }  // namespace topics
 }  // namespace autodrive::dds

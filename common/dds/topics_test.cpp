@@ -116,7 +116,8 @@ TEST(TopicNames, EveryCatalogueTopicIsAValidRosTopicWithTheRightTypeAndQos) {
                                  ROW(DeviceCommands()),
                                  ROW(Clock()),
                                  ROW(SimStep()),
-                                 ROW(SimStepDone())};
+                                 ROW(SimStepDone()),
+                                 ROW(SimFaults())};
 #undef ROW
   const std::regex type_re("^[a-z][a-z0-9_]*::msg::dds_::[A-Z][A-Za-z0-9]*_$");
   for (const auto& row : rows) {
