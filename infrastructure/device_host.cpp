@@ -425,10 +425,15 @@ void DeviceHost::Pass(const ClockReading& now, bool all_commands) {
   if (now.session != clock_session_) RestartTimeBase(now);
   // Heartbeats first (who the SCM is), then device commands (a reset releases the heads), then
   // light commands (a red taken in the same pass as the reset ends the heads' flash).
-  TakeHeartbeats(now);
-  TakeDeviceCommands(now);
+  // The twin's faults first: they may cut or restore the link with the SCM.
   TakeSimFaults(now);
-  TakeCommands(now, all_commands);
+  if (link_cut_) {
+    DropLinkTraffic();
+  } else {
+    TakeHeartbeats(now);
+    TakeDeviceCommands(now);
+    TakeCommands(now, all_commands);
+  }
   for (auto& h : heads_) {
     h->driven = false;
     h->device.Update(now.mono);
@@ -567,6 +572,21 @@ void DeviceHost::TakeSimFaults(const ClockReading& now) {
   if (!dds_->sim_faults) return;
   dds::Message<msg::SimFault> m;
   while (dds_->sim_faults->TakeOne(m)) {
+    if (m->action == autodrive_msgs_msg_SimFault_Constants_LINK_CUT ||
+        m->action == autodrive_msgs_msg_SimFault_Constants_LINK_RESTORE) {
+      if (dds::View(m->host) != config_.name) continue;  // another host's link
+      const bool cut = m->action == autodrive_msgs_msg_SimFault_Constants_LINK_CUT;
+      if (cut == link_cut_) continue;
+      ++counters_.sim_faults;
+      const std::string message =
+          fmt::format("{}: the link with the SCM {} (a fault injected by '{}')", source_,
+                      cut ? "is cut" : "is back", dds::View(m->header.frame_id));
+      // Said while the link is up: before it is cut, once it is back.
+      if (cut) PublishEvent(now, Severity::kWarning, "sim_fault", message, 0, "", false);
+      link_cut_ = cut;
+      if (!cut) PublishEvent(now, Severity::kWarning, "sim_fault", message, 0, "", false);
+      continue;
+    }
     const SignalHeadId id(m->head);
     const auto it = std::ranges::find_if(heads_, [&](const auto& h) { return h->plan.id == id; });
     if (it == heads_.end()) continue;  // another host's head
@@ -840,7 +860,34 @@ void DeviceHost::PublishEvent(const ClockReading& now, Severity severity, const 
   e->intersection_id = intersection_id;
   dds::SetString(e->device_id, device_id);
   e->active = active;
+  if (link_cut_) return;  // the SCM would not hear it (the twin's link cut): logged only
   if (TryWrite(*dds_->events, e, counters_)) ++counters_.events_published;
+}
+
+void DeviceHost::DropLinkTraffic() {
+  // What the SCM sent is lost on a cut link: taken and dropped, as the network would.
+  // Counted as taken, and in `dropped_on_cut_link`.
+  dds::Message<msg::Heartbeat> heartbeat;
+  while (dds_->heartbeats.TakeOne(heartbeat)) {
+    if (dds::View(heartbeat->sender) != kScmSender) continue;
+    ++counters_.scm_heartbeats;
+    ++counters_.dropped_on_cut_link;
+  }
+  if (dds_->device_commands) {
+    dds::Message<msg::DeviceCommand> command;
+    while (dds_->device_commands->TakeOne(command)) {
+      ++counters_.device_commands;
+      ++counters_.dropped_on_cut_link;
+    }
+  }
+  dds::Message<msg::Int32> light;
+  for (auto& h : heads_) {
+    h->commands_waiting = false;
+    while (h->commands->TakeOne(light)) {
+      ++counters_.commands;
+      ++counters_.dropped_on_cut_link;
+    }
+  }
 }
 
 void DeviceHost::PublishStates() {
@@ -856,6 +903,7 @@ void DeviceHost::PublishStates() {
 }
 
 void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
+  if (link_cut_) return;  // the SCM would not hear them (the twin's link cut)
   // A periodic status goes out with any pass in the last tenth of its period.
   const Duration slack = config_.status_period_s / 10;
   const auto publish = [&](dds::Writer<msg::DeviceStatus>& writer, const std::string& device_id,
@@ -927,6 +975,7 @@ void DeviceHost::PublishStatuses(const ClockReading& now, bool stopping) {
 }
 
 void DeviceHost::PublishHeartbeat(const ClockReading& now, bool stopping) {
+  if (link_cut_) return;  // the SCM would not hear it (the twin's link cut)
   if (!stopping && next_heartbeat_ && now.mono < *next_heartbeat_) return;
   next_heartbeat_ = now.mono + config_.status_period_s;
   dds::Message<msg::Heartbeat> m;

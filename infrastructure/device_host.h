@@ -52,11 +52,13 @@ struct HostCounters {
   std::uint64_t monitor_resets = 0;            ///< device commands that cleared a latched monitor
   std::uint64_t unidentified_samples = 0;      ///< samples whose writer's participant is unknown
   std::uint64_t clock_restarts = 0;            ///< new sessions of the clock (simulator restarts)
-  std::uint64_t sim_faults = 0;          ///< faults injected into simulated heads here (SimFault)
-  std::uint64_t sim_faults_refused = 0;  ///< SimFault samples for a head here that is physical,
-                                         ///< or with an action or lamp that is not one
-  std::uint64_t events_published = 0;    ///< events written
-  std::uint64_t publish_failures = 0;    ///< writes that failed (logged, never fatal)
+  std::uint64_t dropped_on_cut_link = 0;  ///< of the SCM's heartbeats, light and device commands
+                                          ///< taken, those dropped on the twin's cut link
+  std::uint64_t sim_faults = 0;           ///< faults injected into simulated heads here (SimFault)
+  std::uint64_t sim_faults_refused = 0;   ///< SimFault samples for a head here that is physical,
+                                          ///< or with an action or lamp that is not one
+  std::uint64_t events_published = 0;     ///< events written
+  std::uint64_t publish_failures = 0;     ///< writes that failed (logged, never fatal)
   std::uint64_t heads_driven = 0;  ///< times a head's lamps were shown and polled: the work of
                                    ///< the passes, which skip heads with nothing new
 };
@@ -75,6 +77,10 @@ struct HostCounters {
 /// reads the twin's fault injection (`/autodrive/sim/fault`): a lamp of such a head burns out,
 /// sticks on or is repaired, the head is unplugged or plugged in, as the simulated backend does
 /// it, each with an event ("sim_fault"); faults for a physical head are refused and reported.
+/// A cut link (LINK_CUT for this host's name, until LINK_RESTORE) is the network between the
+/// host and the SCM failing: what the SCM sends (heartbeats, light and device commands) is
+/// dropped, and the host's statuses, events and heartbeat are not sent; the lamps go on (their
+/// states are the light the cars see) and the heads fall back to their own flash.
 ///
 /// Whom it obeys (docs/infrastructure.md): it follows the heartbeat of sender "scm" whose city
 /// is its own (others are ignored, counted and reported once per session: "foreign_scm"), and
@@ -186,6 +192,7 @@ class DeviceHost {
   void FollowScm(const ScmId& scm);
   void TakeDeviceCommands(const ClockReading& now);
   void TakeSimFaults(const ClockReading& now);
+  void DropLinkTraffic();
   void CarryOut(Monitor& monitor, const ScmId& scm, std::uint64_t command_id,
                 const std::string& issued_by, std::uint64_t request_id, const ClockReading& now);
   void ReportIgnoredDeviceCommand(const ClockReading& now, const std::string& reason);
@@ -223,6 +230,7 @@ class DeviceHost {
   std::uint64_t last_scm_sequence_ = 0;
   std::optional<MonoTime> next_heartbeat_;
   bool stopped_ = false;
+  bool link_cut_ = false;  // the twin's link with the SCM cut (SimFault LINK_CUT)
   HostCounters counters_;
 };
 

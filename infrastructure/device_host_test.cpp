@@ -419,6 +419,51 @@ TEST_F(DeviceHostTest, TheTwinsFaultInjectionBurnsALampUnplugsAHeadAndRefusesWha
   EXPECT_EQ(host_->device(SignalHeadId(3)).health(), Health::kOk);
 }
 
+TEST_F(DeviceHostTest, ACutLinkDropsTheScmsTrafficAndSilencesTheHostUntilItIsRestored) {
+  dds::Writer<msg::SimFault> faults(scm_side_, dds::topics::SimFaults());
+  ASSERT_TRUE(faults.WaitForReaders(1, kPatience));
+  const auto link = [&](const std::string& host, std::uint8_t action) {
+    dds::Message<msg::SimFault> m;
+    dds::SetString(m->header.frame_id, "scenario");
+    dds::SetString(m->host, host);
+    m->action = action;
+    faults.Write(m);
+  };
+  Reach(1, {Aspect::kRed, Aspect::kGreen});
+  // Another host's link: nothing happens here.
+  link("elsewhere", autodrive_msgs_msg_SimFault_Constants_LINK_CUT);
+  Tick();
+  link("test", autodrive_msgs_msg_SimFault_Constants_LINK_CUT);
+  ASSERT_TRUE(TickUntil([&] { return FindEvent("sim_fault", false) != nullptr; }))
+      << "said before the link goes";
+  EXPECT_NE(FindEvent("sim_fault", false)->message.find("the link with the SCM is cut"),
+            std::string::npos);
+  EXPECT_EQ(host_->counters().sim_faults, 1U);
+  const std::size_t beats = host_heartbeat_states_.size();
+  status_.clear();
+  // The SCM goes on beating and commanding: all of it is lost, so the head falls back to its
+  // own flash after the heartbeat time-out (1 s), and nothing of the host reaches the SCM.
+  Command(1, Aspect::kYellow);
+  ASSERT_TRUE(TickUntil([&] { return host_->device(SignalHeadId(1)).in_fail_safe(); }));
+  EXPECT_GT(host_->counters().dropped_on_cut_link, 5U);
+  EXPECT_EQ(host_->device(SignalHeadId(1)).aspect(), Aspect::kFlashingRed);
+  for (int i = 0; i < 100; ++i) Tick();  // 2 s: two status periods
+  EXPECT_EQ(host_heartbeat_states_.size(), beats);
+  EXPECT_TRUE(status_.empty());
+  EXPECT_EQ(FindEvent("local_flash", true, "signal_1"), nullptr) << "not heard: the link is cut";
+  // The lamps still light: the cars see the flash.
+  EXPECT_TRUE(TickUntil([&] { return state_[1] == 0; }));
+  EXPECT_TRUE(TickUntil([&] { return state_[1] == 1; }));
+  // Restored: the host is heard again and follows the SCM's next commands.
+  link("test", autodrive_msgs_msg_SimFault_Constants_LINK_RESTORE);
+  ASSERT_TRUE(TickUntil([&] { return host_heartbeat_states_.size() > beats; }));
+  EXPECT_TRUE(TickUntil([&] { return !status_.empty(); }));
+  EXPECT_EQ(host_->counters().sim_faults, 2U);
+  // A command counts once the SCM's heartbeat is heard again (the device's rule after a loss).
+  ASSERT_TRUE(TickUntil([&] { return host_->device(SignalHeadId(1)).scm_alive(); }));
+  Reach(1, {Aspect::kRed});
+}
+
 TEST_F(DeviceHostTest, APassDrivesOnlyTheHeadsWithSomethingNew) {
   // A host of thousands of heads must not show and poll every head at every pass.
   for (const auto& [id, writer] : commands_) Reach(id, {Aspect::kRed});

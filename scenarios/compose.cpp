@@ -111,6 +111,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   for (std::size_t i = 0; i < scenario.events.size(); ++i) {
     const EventSpec& e = scenario.events[i];
     const std::string ei = fmt::format("[{}]", i);
+    if (!e.host.empty()) continue;  // a light host's link: checked with the launch below
     if (e.head != 0) {
       if (!map.HasSignalHead(SignalHeadId(static_cast<std::uint32_t>(e.head)))) {
         refuse({"events", ei, "head"},
@@ -266,6 +267,23 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   std::string lights_config = Absolute(base_dir, "../infra/" + out.city_name + ".yaml");
   if (city["launch"] && city["launch"]["lights"] && city["launch"]["lights"]["config"]) {
     lights_config = Absolute(base_dir, city["launch"]["lights"]["config"].as<std::string>());
+  }
+  // A link event names the light host: the one the city runs (its configuration's `name`).
+  for (std::size_t i = 0; i < scenario.events.size(); ++i) {
+    const EventSpec& e = scenario.events[i];
+    if (e.host.empty()) continue;
+    std::string name;
+    try {
+      const YAML::Node lights = YAML::LoadFile(lights_config);
+      if (lights["name"]) name = lights["name"].as<std::string>();
+    } catch (const YAML::Exception& error) {
+      throw ConfigError(fmt::format("{}: {}", lights_config, error.what()));
+    }
+    if (e.host != name) {
+      refuse({"events", fmt::format("[{}]", i), "host"},
+             fmt::format("the city's light host is \"{}\" ({}), not \"{}\"", name, lights_config,
+                         e.host));
+    }
   }
   YAML::Node launch(YAML::NodeType::Map);
   launch["run_dir"] = fs::absolute(run_dir).lexically_normal().string();

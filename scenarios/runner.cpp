@@ -186,7 +186,8 @@ class EventPlayer {
     }
     requests_ = std::make_unique<dds::Writer<msg::SignalRequest>>(participant,
                                                                   dds::topics::SignalRequests());
-    if (std::ranges::any_of(scenario.events, [](const EventSpec& e) { return e.head != 0; })) {
+    if (std::ranges::any_of(scenario.events,
+                            [](const EventSpec& e) { return e.head != 0 || !e.host.empty(); })) {
       faults_ = std::make_unique<dds::Writer<msg::SimFault>>(participant, dds::topics::SimFaults());
     }
   }
@@ -206,7 +207,17 @@ class EventPlayer {
                 {"at_s", ToSeconds(e.at_s)},
                 {"action", e.action},
                 {"intersection", e.intersection}};
-      if (e.head != 0) {
+      if (!e.host.empty()) {
+        dds::Message<msg::SimFault> m;
+        m->header.stamp = dds::ToMsg(t);
+        dds::SetString(m->header.frame_id, "autodrive-scenario/" + scenario_.name);
+        dds::SetString(m->host, e.host);
+        m->action = e.action == "link_cut" ? autodrive_msgs_msg_SimFault_Constants_LINK_CUT
+                                           : autodrive_msgs_msg_SimFault_Constants_LINK_RESTORE;
+        faults_->Write(m);
+        line.erase("intersection");
+        line["host"] = e.host;
+      } else if (e.head != 0) {
         dds::Message<msg::SimFault> m;
         m->header.stamp = dds::ToMsg(t);
         dds::SetString(m->header.frame_id, "autodrive-scenario/" + scenario_.name);

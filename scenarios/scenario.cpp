@@ -46,6 +46,20 @@ void EventSpec::Validate() const {
   const auto refuse = [&](const std::string& value, const char* key) {
     if (!value.empty()) throw InputError(fmt::format("action {} takes no {}", action, key));
   };
+  if (action == "link_cut" || action == "link_restore") {
+    need(host, "host");
+    if (head != 0) throw InputError(fmt::format("action {} takes no head", action));
+    for (const auto& [value, key] : {std::pair{&intersection, "intersection"},
+                                     {&mode, "mode"},
+                                     {&plan, "plan"},
+                                     {&vehicle, "vehicle"},
+                                     {&lamp, "lamp"},
+                                     {&fault, "fault"}}) {
+      refuse(*value, key);
+    }
+    return;
+  }
+  refuse(host, "host");
   if (action == "lamp" || action == "unplug" || action == "plug") {
     if (head == 0) throw InputError(fmt::format("action {} needs head", action));
     refuse(intersection, "intersection");

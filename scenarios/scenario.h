@@ -91,7 +91,8 @@ struct EventSpec {
   /// (a V2I request for `vehicle` at `intersection`, from the lane it is on), `cancel` (that
   /// vehicle's request cancelled); on a simulated light head (`/autodrive/sim/fault`): `lamp`
   /// (its `lamp` burns out, sticks on or is repaired: `fault`), `unplug` (the head goes
-  /// offline, its cable pulled), `plug` (back online).
+  /// offline, its cable pulled), `plug` (back online); on a light host's DDS link with the SCM:
+  /// `link_cut`, `link_restore` (`host`).
   std::string action;
   std::string intersection;  ///< the map's intersection name
   std::string mode;          ///< action mode: flash | dark | auto
@@ -100,13 +101,14 @@ struct EventSpec {
   int head = 0;              ///< actions lamp, unplug, plug: the head (`signal_<head>`)
   std::string lamp;          ///< action lamp: red | yellow | green
   std::string fault;         ///< action lamp: burnt_out | stuck_on | repaired
+  std::string host;          ///< actions link_cut, link_restore: the light host's name
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Required("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
-    a.Required(
-        "action", action,
-        config::OneOf{{"mode", "plan", "preempt", "priority", "cancel", "lamp", "unplug", "plug"}});
+    a.Required("action", action,
+               config::OneOf{{"mode", "plan", "preempt", "priority", "cancel", "lamp", "unplug",
+                              "plug", "link_cut", "link_restore"}});
     a.Optional("intersection", intersection);
     a.Optional("mode", mode, config::OneOf{{"", "flash", "dark", "auto"}});
     a.Optional("plan", plan);
@@ -114,6 +116,7 @@ struct EventSpec {
     a.Optional("head", head, config::Range{1, 1000000});
     a.Optional("lamp", lamp, config::OneOf{{"", "red", "yellow", "green"}});
     a.Optional("fault", fault, config::OneOf{{"", "burnt_out", "stuck_on", "repaired"}});
+    a.Optional("host", host);
   }
   /// The keys each action needs, and no other.
   void Validate() const;

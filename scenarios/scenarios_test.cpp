@@ -79,6 +79,12 @@ TEST(ScenarioFile, RefusalsNameTheFileLineAndKey) {
   refused(std::string(kCar) +
               "events: [{at_s: 3, action: mode, intersection: x, mode: flash, head: 2}]\n",
           "events[0]: action mode takes no head");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: link_cut}]\n",
+          "events[0]: action link_cut needs host");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: link_cut, host: h, head: 2}]\n",
+          "events[0]: action link_cut takes no head");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: unplug, head: 2, host: h}]\n",
+          "events[0]: action unplug takes no host");
   refused("vehicles:\n  - {name: car_1, spawn: {lane: a}}\n",
           "vehicles[0]: name: \"car_1\" is not nigel_<n>");
   refused(std::string(kCar) + "  - name: nigel_1\n    spawn: {lane: a}\n",
@@ -134,6 +140,12 @@ TEST(ComposedCity, RoutesAndEventsAreCheckedAgainstTheMapAndCity) {
                            "events: [{at_s: 3, action: mode, intersection: x, mode: flash}]\n")
                 .find("events[0].intersection: map driving_school has no intersection \"x\""),
             std::string::npos);
+  EXPECT_NE(
+      ComposeRefusal(std::string(kCar) + "events: [{at_s: 3, action: link_cut, host: lights}]\n")
+          .find("events[0].host: the city's light host is \"driving_school_lights\""),
+      std::string::npos)
+      << ComposeRefusal(std::string(kCar) +
+                        "events: [{at_s: 3, action: link_cut, host: lights}]\n");
   EXPECT_NE(ComposeRefusal(std::string(kCar) + "events: [{at_s: 3, action: unplug, head: 9}]\n")
                 .find("events[0].head: map driving_school has no signal head 9"),
             std::string::npos)

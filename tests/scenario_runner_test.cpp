@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <thread>
 
@@ -102,6 +103,20 @@ class ScenarioRunner : public ::testing::Test {
     return r;
   }
 
+  // The shipped scenario `name` written into the test's folder (its city found from there),
+  // its 60 s time limit replaced by `limit` (which may carry further keys), `edit` applied.
+  fs::path Shortened(const std::string& name, const std::string& limit,
+                     const std::function<void(std::string&)>& edit = {}) {
+    std::string text = config::ReadFile(Shipped(name));
+    text.replace(text.find("city: ../cities/"), 16,
+                 "city: " + (test::SourceDir() / "config/cities/").string());
+    text.replace(text.find("time_limit_s: 60"), 16, limit);
+    if (edit) edit(text);
+    const fs::path file = dir_.path() / (name + ".yaml");
+    config::WriteFile(file, text);
+    return file;
+  }
+
   test::TempDir dir_{"scenario_runner"};
   std::string tag_;
 };
@@ -173,12 +188,7 @@ TEST_F(ScenarioRunner, FaultsOnPurposeFailNamingTheViolationAndTheCleanDrivePass
 TEST_F(ScenarioRunner, SameSeedSameReportAnotherSeedAnother) {
   // The small town's crossing with SUMO and four cars, with the paper's noise (which the seed
   // draws), 20 simulated seconds.
-  std::string text = config::ReadFile(Shipped("small_town_crossing"));
-  text.replace(text.find("city: ../cities/"), 16,
-               "city: " + (test::SourceDir() / "config/cities/").string());
-  text.replace(text.find("time_limit_s: 60"), 16, "time_limit_s: 20\nnoise: paper");
-  const fs::path file = dir_.path() / "noisy.yaml";
-  config::WriteFile(file, text);
+  const fs::path file = Shortened("small_town_crossing", "time_limit_s: 20\nnoise: paper");
   const auto stable = [](json report) {
     report.erase("invocation");
     return report.dump(2);
@@ -225,15 +235,11 @@ vehicles:
 TEST_F(ScenarioRunner, ALampBurntOutMidRunIsReportedByItsHostAndTheCrossingFailsIntoFlash) {
   // The shipped lamp_fault scenario cut to 25 s: its fault comes at 20 s, and then an unplugged
   // head (a second event, added here) at 22 s.
-  std::string text = config::ReadFile(Shipped("lamp_fault"));
-  text.replace(text.find("city: ../cities/"), 16,
-               "city: " + (test::SourceDir() / "config/cities/").string());
-  text.replace(text.find("time_limit_s: 60"), 16, "time_limit_s: 25");
-  text.replace(text.find("expect:"), 7, "  - {at_s: 22, action: unplug, head: 4}\nexpect:");
-  const fs::path file = dir_.path() / "lamp_fault.yaml";
-  config::WriteFile(file, text);
+  const fs::path file = Shortened("lamp_fault", "time_limit_s: 25", [](std::string& text) {
+    text.replace(text.find("expect:"), 7, "  - {at_s: 22, action: unplug, head: 4}\nexpect:");
+  });
   const Outcome r = RunScenario(file.string(), (dir_.path() / "fault").string());
-  ASSERT_EQ(r.code, 0) << r.output << text;
+  ASSERT_EQ(r.code, 0) << r.output;
   const fs::path logs = dir_.path() / "fault" / "logs";
   // The light host carried both out (its events), the SCM saw the faults (its own).
   std::string infra, scm;
@@ -266,6 +272,39 @@ TEST_F(ScenarioRunner, ALampBurntOutMidRunIsReportedByItsHostAndTheCrossingFails
   EXPECT_FALSE(flash_before);
   EXPECT_TRUE(flash_after);
   EXPECT_GT(after, 40);  // 10 Hz for the run's last 4.8 s
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, ALinkCutBetweenTheScmAndItsLightHostMakesBothSidesFailSafe) {
+  // The shipped link_cut scenario cut to 22 s: the link goes at 15 s and comes back at 25 s.
+  const fs::path file = Shortened("link_cut", "time_limit_s: 22");
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "cut").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const fs::path logs = dir_.path() / "cut" / "logs";
+  // The SCM loses all four heads (it no longer hears them) and flashes the crossing.
+  std::set<std::string> lost;
+  double failsafe_at = -1;
+  for (const std::string& line : ReadLines(logs / "events.jsonl")) {
+    const json e = json::parse(line);
+    if (e["source"] != "scm" || e["active"] != true) continue;
+    if (e["code"] == "device_lost") lost.insert(e["device"].get<std::string>());
+    if (e["code"] == "failsafe_flash" && failsafe_at < 0) failsafe_at = e["t_s"].get<double>();
+  }
+  EXPECT_EQ(lost.size(), 4U);
+  EXPECT_GT(failsafe_at, 15.0);
+  // The heads, no longer hearing the SCM, flash red on their own: head 2 shows red and dark in
+  // turn between the heartbeat's time-out and the end (the lamps still light for the cars).
+  int red = 0, dark = 0;
+  for (const std::string& line : ReadLines(logs / "lamps.csv")) {
+    double t = 0;
+    int head = 0, state = 0;
+    if (std::sscanf(line.c_str(), "%lf,%d,%d", &t, &head, &state) != 3) continue;
+    if (head != 2 || t < 16.5) continue;
+    red += state == 1 ? 1 : 0;
+    dark += state == 0 ? 1 : 0;
+  }
+  EXPECT_GE(red, 2);
+  EXPECT_GE(dark, 2);
   EXPECT_TRUE(NoneLeft(tag_));
 }
 
