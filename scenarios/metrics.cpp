@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -307,15 +306,6 @@ Points Rectangle(const Eigen::Vector2d& centre, double yaw, double length, doubl
           centre - hl * f + hw * l};
 }
 
-/// The line of byte `offset` of `file` (1 for the first).
-std::size_t LineOf(const std::filesystem::path& file, std::ptrdiff_t offset) {
-  std::ifstream in(file, std::ios::binary);
-  std::size_t line = 1;
-  char c = 0;
-  for (std::ptrdiff_t i = 0; i < offset && in.get(c); ++i) line += c == '\n' ? 1 : 0;
-  return line;
-}
-
 json SumoTripStatistics(const std::filesystem::path& tripinfo_file,
                         const std::set<std::string>& lab_cars) {
   if (!std::filesystem::exists(tripinfo_file)) return nullptr;
@@ -325,11 +315,15 @@ json SumoTripStatistics(const std::filesystem::path& tripinfo_file,
   if (text.find("<tripinfos") != std::string::npos && !text.ends_with("</tripinfos>")) {
     return {{"unfinished", "SUMO did not finish the file (its process was killed)"}};
   }
+  // The line of byte `offset` of the file (1 for the first), for refusals.
+  const auto line_at = [&](std::ptrdiff_t offset) {
+    return static_cast<std::size_t>(std::count(text.begin(), text.begin() + offset, '\n')) + 1;
+  };
   pugi::xml_document doc;
   const pugi::xml_parse_result parsed = doc.load_string(text.c_str());
   if (!parsed) {
-    throw InputError(fmt::format("{}: not XML at byte {}: {}", tripinfo_file.string(),
-                                 parsed.offset, parsed.description()));
+    throw InputError(fmt::format("{}:{}: not XML: {}", tripinfo_file.string(),
+                                 line_at(parsed.offset), parsed.description()));
   }
   const pugi::xml_node root = doc.child("tripinfos");
   if (!root) {
@@ -337,17 +331,14 @@ json SumoTripStatistics(const std::filesystem::path& tripinfo_file,
                                  tripinfo_file.string()));
   }
   const auto attribute = [&](const pugi::xml_node& trip, const char* name) {
-    const std::string value_text = trip.attribute(name).as_string();
-    double v = 0.0;
-    const auto [end, error] =
-        std::from_chars(value_text.data(), value_text.data() + value_text.size(), v);
-    if (value_text.empty() || error != std::errc() ||
-        end != value_text.data() + value_text.size() || !std::isfinite(v)) {
-      throw InputError(fmt::format("{}: trip \"{}\" (line {}): {} is \"{}\", not a number",
-                                   tripinfo_file.string(), trip.attribute("id").as_string(),
-                                   LineOf(tripinfo_file, trip.offset_debug()), name, value_text));
+    const std::string value = trip.attribute(name).as_string();
+    try {
+      return internal::Number(value, tripinfo_file, 0);
+    } catch (const InputError&) {
+      throw InputError(fmt::format("{}:{}: trip \"{}\": {} is \"{}\", not a number",
+                                   tripinfo_file.string(), line_at(trip.offset_debug()),
+                                   trip.attribute("id").as_string(), name, value));
     }
-    return v;
   };
   json per_car = json::object();
   int arrived = 0;
@@ -356,6 +347,10 @@ json SumoTripStatistics(const std::filesystem::path& tripinfo_file,
   for (const pugi::xml_node trip : root.children("tripinfo")) {
     const std::string id = trip.attribute("id").as_string();
     if (lab_cars.contains(id)) continue;
+    if (per_car.contains(id)) {
+      throw InputError(fmt::format("{}:{}: trip \"{}\" is there twice", tripinfo_file.string(),
+                                   line_at(trip.offset_debug()), id));
+    }
     const double arrival = attribute(trip, "arrival");
     const double wait = attribute(trip, "waitingTime"), lost = attribute(trip, "timeLoss");
     const auto count = static_cast<long>(attribute(trip, "waitingCount"));

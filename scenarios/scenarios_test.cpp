@@ -1,6 +1,7 @@
 // The scenario file's refusals (file, line and key), the composed city, and each metric on logs
 // written by hand, against values worked out by hand.
 #include <fmt/format.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
@@ -364,18 +365,24 @@ TEST(Metrics, SumoTripStatisticsOfTheBackgroundCarsLeaveTheLabsCarsOut) {
   const json m = ComputeMetrics(Road(), dir.path());
   EXPECT_EQ(m["run"]["background_trips"], 2);
   EXPECT_DOUBLE_EQ(m["run"]["background_time_loss_mean_s"].get<double>(), 23.5);
-  // A file edited by hand is refused naming the trip, its line and the attribute.
-  std::string text = kTripinfo;
-  text.replace(text.find("timeLoss=\"34.50\""), 16, "timeLoss=\"lots\"");
-  config::WriteFile(file, text);
-  try {
-    (void)SumoTripStatistics(file, {});
-    ADD_FAILURE() << "a bad number was read";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("trip \"bg_1\" (line 6): timeLoss is \"lots\""),
-              std::string::npos)
-        << e.what();
-  }
+  // Edited by hand: kTripinfo with `from` replaced by `to`, refused with what it says.
+  const auto refusal = [&](const std::string& from, const std::string& to) {
+    std::string text = kTripinfo;
+    text.replace(text.find(from), from.size(), to);
+    config::WriteFile(file, text);
+    try {
+      (void)SumoTripStatistics(file, {});
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(read)");
+  };
+  // A bad number names the trip, its line and the attribute; a trip twice (an id reused)
+  // would count twice.
+  EXPECT_THAT(refusal("timeLoss=\"34.50\"", "timeLoss=\"lots\""),
+              testing::HasSubstr(":6: trip \"bg_1\": timeLoss is \"lots\", not a number"));
+  EXPECT_THAT(refusal("id=\"bg_1\"", "id=\"bg_0\""),
+              testing::HasSubstr(":6: trip \"bg_0\" is there twice"));
   // SUMO killed before it closed the file: no statistics, said so.
   config::WriteFile(file, std::string(kTripinfo).substr(
                               0, std::string(kTripinfo).find("    <tripinfo id=\"bg_1\"")));
