@@ -111,7 +111,27 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   for (std::size_t i = 0; i < scenario.events.size(); ++i) {
     const EventSpec& e = scenario.events[i];
     const std::string ei = fmt::format("[{}]", i);
-    if (!e.host.empty()) continue;  // a light host's link: checked with the launch below
+    if (!e.host.empty()) continue;      // a light host's link: checked with the launch below
+    if (!e.obstacle.empty()) continue;  // one of the scenario's obstacles: checked on load
+    if (e.action == "surge") {
+      for (const auto& [lane, key] : {std::pair{&e.from, "from"}, {&e.to, "to"}}) {
+        if (!lane->empty() && map.FindLane(*lane) == nullptr) {
+          refuse({"events", ei, key},
+                 fmt::format("map {} has no lane \"{}\" (autodrive-map info lists them)", map.name,
+                             *lane));
+        }
+      }
+      const bool route_files = city["traffic"] && city["traffic"]["route_files"] &&
+                               city["traffic"]["route_files"].size() > 0;
+      if (!e.type.empty() && e.type != "nigel" && e.type != "bus" && e.type != "emergency" &&
+          !route_files) {
+        refuse({"events", ei, "type"},
+               fmt::format("SUMO type \"{}\" is not one of nigel, bus, emergency (and {} "
+                           "gives no route files with types of their own)",
+                           e.type, base_file.string()));
+      }
+      continue;
+    }
     if (e.head != 0) {
       if (!map.HasSignalHead(SignalHeadId(static_cast<std::uint32_t>(e.head)))) {
         refuse({"events", ei, "head"},
@@ -178,8 +198,11 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
       scenario.noise == vehicle_sim::VariabilityPreset::kPaper ? "paper" : "none";
   YAML::Node obstacles(YAML::NodeType::Sequence);
   if (variability["obstacles"]) obstacles = variability["obstacles"];
-  for (const auto& o : scenario.obstacles) {
+  for (const auto& o : scenario.TimedObstacles()) {
     YAML::Node n(YAML::NodeType::Map);
+    if (!o.name.empty()) n["name"] = o.name;
+    if (o.from_s > Duration{0}) n["from_s"] = ToSeconds(o.from_s);
+    if (o.until_s) n["until_s"] = ToSeconds(*o.until_s);
     n["x_m"] = o.x_m;
     n["y_m"] = o.y_m;
     n["yaw_rad"] = o.yaw_rad;
@@ -195,11 +218,28 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
       cam["lens"]["calibration"] = Absolute(base_dir, cam["lens"]["calibration"].as<std::string>());
     }
   }
-  out.traffic = scenario.traffic.vehicles > 0;
+  const bool surges =
+      std::ranges::any_of(scenario.events, [](const EventSpec& e) { return e.action == "surge"; });
+  out.traffic = scenario.traffic.vehicles > 0 || surges;
   if (out.traffic) {
     YAML::Node traffic = city["traffic"] ? city["traffic"] : YAML::Node(YAML::NodeType::Map);
     traffic["seed"] = scenario.seed;
     traffic["vehicles"] = scenario.traffic.vehicles;
+    // A surge is one more flow of SUMO's demand, from the event's time on: SUMO's own clock
+    // sends them, step by step with the rest.
+    YAML::Node flows = traffic["flows"] ? traffic["flows"] : YAML::Node(YAML::NodeType::Sequence);
+    for (const EventSpec& e : scenario.events) {
+      if (e.action != "surge") continue;
+      YAML::Node f(YAML::NodeType::Map);
+      f["from"] = e.from;
+      if (!e.to.empty()) f["to"] = e.to;
+      f["per_hour"] = e.per_hour;
+      f["count"] = e.count;
+      if (!e.type.empty()) f["type"] = e.type;
+      f["begin_s"] = ToSeconds(e.at_s);
+      flows.push_back(f);
+    }
+    if (flows.size() > 0) traffic["flows"] = flows;
     // SUMO's own trip statistics of its cars (waiting time, time loss), written as it closes;
     // those still driving then are written too, so that every car that departed counts.
     YAML::Node sumo = traffic["sumo"] ? traffic["sumo"] : YAML::Node(YAML::NodeType::Map);

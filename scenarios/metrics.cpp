@@ -227,8 +227,11 @@ json RunWorld::ToJson() const {
   }
   j["statics"] = json::array();
   for (const Static& s : statics) {
-    j["statics"].push_back(
-        {{"kind", s.kind}, {"name", s.name}, {"footprint", PointsToJson(s.footprint)}});
+    j["statics"].push_back({{"kind", s.kind},
+                            {"name", s.name},
+                            {"footprint", PointsToJson(s.footprint)},
+                            {"from_s", s.from_s},
+                            {"until_s", s.until_s ? json(*s.until_s) : json(nullptr)}});
   }
   j["stop_lines"] = json::array();
   for (const StopLine& s : stop_lines) {
@@ -273,8 +276,11 @@ RunWorld RunWorld::FromJson(const json& j) {
     w.cars.push_back(std::move(car));
   }
   for (const auto& s : j.at("statics")) {
-    w.statics.push_back({s.at("kind").get<std::string>(), s.at("name").get<std::string>(),
-                         PointsFromJson(s.at("footprint"))});
+    Static st{s.at("kind").get<std::string>(), s.at("name").get<std::string>(),
+              PointsFromJson(s.at("footprint"))};
+    st.from_s = s.at("from_s").get<double>();
+    if (!s.at("until_s").is_null()) st.until_s = s.at("until_s").get<double>();
+    w.statics.push_back(std::move(st));
   }
   for (const auto& s : j.at("stop_lines")) {
     w.stop_lines.push_back(
@@ -478,7 +484,8 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
       const Vector2d v_car = s.vx * Vector2d(std::cos(s.yaw), std::sin(s.yaw));
       for (std::size_t o = 0; o < world.statics.size(); ++o) {
         const std::string& key = static_keys[o];
-        if ((static_bounds[o].c - cb.c).norm() > static_bounds[o].r + cb.r + k.separation_m) {
+        if (!world.statics[o].StandsAt(s.t) ||
+            (static_bounds[o].c - cb.c).norm() > static_bounds[o].r + cb.r + k.separation_m) {
           const auto it = touching.find(key);
           if (it != touching.end() && it->second.first) {
             touch(key, world.statics[o].kind, kInf, s.t, 0, nullptr);

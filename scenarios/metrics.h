@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -35,6 +36,14 @@ struct RunWorld {
     std::string kind;  ///< "wall", "box" (the map's) or "obstacle" (unmapped)
     std::string name;
     Points footprint;  ///< counter-clockwise
+    /// It stands from `from_s` until `until_s` (simulated seconds; none: to the end): an
+    /// unmapped obstacle placed or removed by the scenario's events.
+    double from_s = 0.0;
+    std::optional<double> until_s{};
+    /// Whether it stands at `t` (to a nanosecond: the simulator's clock).
+    [[nodiscard]] bool StandsAt(double t) const {
+      return t + 1e-9 >= from_s && (!until_s || t + 1e-9 < *until_s);
+    }
   };
   struct StopLine {
     std::string lane;

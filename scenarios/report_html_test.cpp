@@ -98,9 +98,16 @@ class ReportRun : public ::testing::Test {
     }
     Write("logs/ground_truth.csv", truth);
     Write("logs/lamps.csv", "t_s,head,state\n0.0,3,3\n0.0,4,1\n5.0,3,2\n8.0,3,1\n");
-    Write("logs/scenario_events.jsonl",
-          R"({"t_s":2.0,"at_s":2.0,"action":"mode","intersection":"centre","mode":"flash"})"
-          "\n");
+    Write(
+        "logs/scenario_events.jsonl",
+        R"({"t_s":2.0,"at_s":2.0,"action":"mode","intersection":"centre","mode":"flash"})"
+        "\n"
+        R"({"t_s":3.0,"at_s":3.0,"action":"place","obstacle":"box"})"
+        "\n"
+        R"({"t_s":4.0,"at_s":4.0,"action":"lamp","head":2,"lamp":"red","fault":"burnt_out"})"
+        "\n"
+        R"({"t_s":5.0,"at_s":5.0,"action":"surge","from":"a","per_hour":600,"count":5,"type":"bus"})"
+        "\n");
     Write(
         "logs/spat.jsonl",
         R"({"t_s":0.1,"intersection":7,"name":"centre","status":32,"revision":1,"plan":"day","groups":[]})"
@@ -242,7 +249,9 @@ TEST_F(ReportRun, TheTimeLineHasEveryLogsEventsInRows) {
     labels[t["rows"][m["row"].get<std::size_t>()].get<std::string>()].push_back(
         m["label"].get<std::string>());
   }
-  EXPECT_EQ(labels["scenario"], std::vector<std::string>{"mode centre → flash"});
+  EXPECT_EQ(labels["scenario"],
+            (std::vector<std::string>{"mode centre → flash", "place obstacle box",
+                                      "lamp red of head 2 burnt_out", "surge of 5 bus from a"}));
   // SPaT: the first message, then the change to failure flash (not the repeat).
   EXPECT_EQ(labels["SPaT centre"],
             (std::vector<std::string>{"plan day +fixed_time", "+failure_flash −fixed_time"}));

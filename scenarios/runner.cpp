@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
+#include <numeric>
 #include <thread>
 
 #include "scenarios/compose.h"
@@ -149,8 +150,11 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
       vehicle_sim::UnmappedObstacles(sim, map, vehicle_sim::SpawnPoses(sim, map));
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     const auto& o = obstacles[i];
-    w.statics.push_back({"obstacle", std::to_string(i),
-                         Rectangle({o.x_m, o.y_m}, o.yaw_rad, o.length_m, o.width_m)});
+    RunWorld::Static st{"obstacle", o.name.empty() ? std::to_string(i) : o.name,
+                        Rectangle({o.x_m, o.y_m}, o.yaw_rad, o.length_m, o.width_m)};
+    st.from_s = ToSeconds(o.from_s);
+    if (o.until_s) st.until_s = ToSeconds(*o.until_s);
+    w.statics.push_back(std::move(st));
   }
   for (const maps::Lane& lane : map.lanes) {
     w.lanes.push_back({lane.name, lane.width_m, lane.centreline});
@@ -180,6 +184,9 @@ class EventPlayer {
   EventPlayer(const dds::Participant& participant, const Scenario& scenario, const maps::Map& map,
               const std::string& operator_name, const fs::path& log)
       : scenario_(scenario), map_(map), log_(log, std::ios::binary | std::ios::trunc) {
+    order_.resize(scenario.events.size());
+    std::iota(order_.begin(), order_.end(), std::size_t{0});
+    std::ranges::stable_sort(order_, {}, [&](std::size_t i) { return scenario.events[i].at_s; });
     if (!operator_name.empty()) {
       operator_ = std::make_unique<dds::Writer<msg::OperatorRequest>>(
           participant, dds::topics::OperatorRequests(operator_name));
@@ -196,10 +203,11 @@ class EventPlayer {
   // a fault sent before would be lost).
   [[nodiscard]] bool Ready() const { return !faults_ || faults_->matched_readers() > 0; }
 
-  // Applies every event due at `t` (at or before it, not yet applied).
+  // Applies every event due at `t` (at or before it, not yet applied), in time order (those
+  // of one time in the order listed).
   void Apply(Time t) {
-    for (; next_ < scenario_.events.size(); ++next_) {
-      const EventSpec& e = scenario_.events[next_];
+    for (; next_ < order_.size(); ++next_) {
+      const EventSpec& e = scenario_.events[order_[next_]];
       if (Time{} + e.at_s > t) break;
       const auto x = std::find_if(map_.intersections.begin(), map_.intersections.end(),
                                   [&](const auto& y) { return y.name == e.intersection; });
@@ -207,7 +215,20 @@ class EventPlayer {
                 {"at_s", ToSeconds(e.at_s)},
                 {"action", e.action},
                 {"intersection", e.intersection}};
-      if (!e.host.empty()) {
+      if (!e.obstacle.empty()) {
+        // The simulator places and removes it on its own clock (the composed city's
+        // `from_s`/`until_s`): the same step, whatever the network does.
+        line.erase("intersection");
+        line["obstacle"] = e.obstacle;
+      } else if (e.action == "surge") {
+        // SUMO sends them as a flow of its demand (the composed city's `traffic.flows`).
+        line.erase("intersection");
+        line["from"] = e.from;
+        if (!e.to.empty()) line["to"] = e.to;
+        line["per_hour"] = e.per_hour;
+        line["count"] = e.count;
+        line["type"] = e.type.empty() ? "nigel" : e.type;
+      } else if (!e.host.empty()) {
         dds::Message<msg::SimFault> m;
         m->header.stamp = dds::ToMsg(t);
         dds::SetString(m->header.frame_id, "autodrive-scenario/" + scenario_.name);
@@ -280,7 +301,8 @@ class EventPlayer {
         line["request_id"] = id;
         line["in_lane"] = in;
       }
-      log_ << line.dump() << '\n';
+      // Flushed at once: the report is made from the file before the player is gone.
+      log_ << line.dump() << '\n' << std::flush;
     }
   }
 
@@ -291,7 +313,8 @@ class EventPlayer {
   std::unique_ptr<dds::Writer<msg::OperatorRequest>> operator_;
   std::unique_ptr<dds::Writer<msg::SignalRequest>> requests_;
   std::unique_ptr<dds::Writer<msg::SimFault>> faults_;  // when an event faults a head
-  std::size_t next_ = 0;
+  std::vector<std::size_t> order_;                      // the events' indices in time order
+  std::size_t next_ = 0;                                // into order_
   std::uint64_t request_id_ = 0;
   std::map<std::string, std::uint32_t> request_ids_;
 };

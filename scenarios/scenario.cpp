@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "common/error.h"
@@ -40,57 +41,47 @@ void VehicleSpec::Validate() const {
 }
 
 void EventSpec::Validate() const {
-  const auto need = [&](const std::string& value, const char* key) {
-    if (value.empty()) throw InputError(fmt::format("action {} needs {}", action, key));
+  // Each action's keys; every other key is refused.
+  static const std::map<std::string, std::vector<std::string>> kKeys{
+      {"mode", {"intersection", "mode"}},
+      {"plan", {"intersection", "plan"}},
+      {"preempt", {"intersection", "vehicle"}},
+      {"priority", {"intersection", "vehicle"}},
+      {"cancel", {"intersection", "vehicle"}},
+      {"lamp", {"head", "lamp", "fault"}},
+      {"unplug", {"head"}},
+      {"plug", {"head"}},
+      {"link_cut", {"host"}},
+      {"link_restore", {"host"}},
+      {"place", {"obstacle"}},
+      {"remove", {"obstacle"}},
+      {"surge", {"from", "per_hour", "count"}},
   };
-  const auto refuse = [&](const std::string& value, const char* key) {
-    if (!value.empty()) throw InputError(fmt::format("action {} takes no {}", action, key));
+  static const std::set<std::string> kOptional{"to", "type"};  // surge's
+  const std::map<std::string, bool> given{
+      {"intersection", !intersection.empty()},
+      {"mode", !mode.empty()},
+      {"plan", !plan.empty()},
+      {"vehicle", !vehicle.empty()},
+      {"head", head != 0},
+      {"lamp", !lamp.empty()},
+      {"fault", !fault.empty()},
+      {"host", !host.empty()},
+      {"obstacle", !obstacle.empty()},
+      {"from", !from.empty()},
+      {"to", !to.empty()},
+      {"per_hour", per_hour != 0},
+      {"count", count != 0},
+      {"type", !type.empty()},
   };
-  if (action == "link_cut" || action == "link_restore") {
-    need(host, "host");
-    if (head != 0) throw InputError(fmt::format("action {} takes no head", action));
-    for (const auto& [value, key] : {std::pair{&intersection, "intersection"},
-                                     {&mode, "mode"},
-                                     {&plan, "plan"},
-                                     {&vehicle, "vehicle"},
-                                     {&lamp, "lamp"},
-                                     {&fault, "fault"}}) {
-      refuse(*value, key);
-    }
-    return;
+  const std::vector<std::string>& needed = kKeys.at(action);
+  for (const std::string& key : needed) {
+    if (!given.at(key)) throw InputError(fmt::format("action {} needs {}", action, key));
   }
-  refuse(host, "host");
-  if (action == "lamp" || action == "unplug" || action == "plug") {
-    if (head == 0) throw InputError(fmt::format("action {} needs head", action));
-    refuse(intersection, "intersection");
-    refuse(mode, "mode");
-    refuse(plan, "plan");
-    refuse(vehicle, "vehicle");
-    if (action == "lamp") {
-      need(lamp, "lamp");
-      need(fault, "fault");
-    } else {
-      refuse(lamp, "lamp");
-      refuse(fault, "fault");
-    }
-    return;
-  }
-  if (head != 0) throw InputError(fmt::format("action {} takes no head", action));
-  refuse(lamp, "lamp");
-  refuse(fault, "fault");
-  need(intersection, "intersection");
-  if (action == "mode") {
-    need(mode, "mode");
-    refuse(plan, "plan");
-    refuse(vehicle, "vehicle");
-  } else if (action == "plan") {
-    need(plan, "plan");
-    refuse(mode, "mode");
-    refuse(vehicle, "vehicle");
-  } else {
-    need(vehicle, "vehicle");
-    refuse(mode, "mode");
-    refuse(plan, "plan");
+  for (const auto& [key, present] : given) {
+    const bool takes = std::ranges::find(needed, key) != needed.end() ||
+                       (action == "surge" && kOptional.contains(key));
+    if (present && !takes) throw InputError(fmt::format("action {} takes no {}", action, key));
   }
 }
 
@@ -111,6 +102,18 @@ void Scenario::Validate() const {
                                    e.vehicle, fmt::join(names, ", ")));
     }
   }
+  std::set<std::string> obstacle_names;
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    const vehicle_sim::UnmappedObstacle& o = obstacles[i];
+    if (o.timed()) {
+      throw InputError(
+          fmt::format("obstacles[{}]: from_s and until_s are set by place and remove events", i));
+    }
+    if (!o.name.empty() && !obstacle_names.insert(o.name).second) {
+      throw InputError(fmt::format("obstacles: {} is listed twice", o.name));
+    }
+  }
+  (void)TimedObstacles();
   const auto& known = RunMetricNames();
   for (const auto& [metric, text] : expect) {
     if (std::find(known.begin(), known.end(), metric) == known.end()) {
@@ -123,6 +126,48 @@ void Scenario::Validate() const {
       throw InputError(fmt::format("expect.{}: {}", metric, e.what()));
     }
   }
+}
+
+std::vector<vehicle_sim::UnmappedObstacle> Scenario::TimedObstacles() const {
+  std::vector<vehicle_sim::UnmappedObstacle> out = obstacles;
+  std::vector<bool> placed(out.size()), removed(out.size());
+  for (const EventSpec& e : events) {
+    if (e.action != "place" && e.action != "remove") continue;
+    const auto it =
+        std::find_if(out.begin(), out.end(), [&](const auto& o) { return o.name == e.obstacle; });
+    if (it == out.end()) {
+      std::vector<std::string> known;
+      for (const auto& o : obstacles) {
+        if (!o.name.empty()) known.push_back(o.name);
+      }
+      throw InputError(fmt::format(
+          "events: obstacle {} is not one of the scenario's named "
+          "obstacles ({})",
+          e.obstacle, known.empty() ? "none" : fmt::format("{}", fmt::join(known, ", "))));
+    }
+    const auto k = static_cast<std::size_t>(it - out.begin());
+    if (e.action == "place") {
+      if (placed[k])
+        throw InputError(fmt::format("events: obstacle {} is placed twice", e.obstacle));
+      placed[k] = true;
+      it->from_s = e.at_s;
+    } else {
+      if (removed[k]) {
+        throw InputError(fmt::format("events: obstacle {} is removed twice", e.obstacle));
+      }
+      removed[k] = true;
+      it->until_s = e.at_s;
+    }
+  }
+  for (const auto& o : out) {
+    if (o.until_s && *o.until_s <= o.from_s) {
+      throw InputError(
+          fmt::format("events: obstacle {} is removed at {} s, not after it is "
+                      "placed at {} s",
+                      o.name, ToSeconds(*o.until_s), ToSeconds(o.from_s)));
+    }
+  }
+  return out;
 }
 
 bool Expectation::Holds(double x) const {
@@ -189,6 +234,9 @@ const std::vector<std::string_view>& RunMetricNames() {
       "requests",
       "requests_granted",
       "request_to_green_max_s",
+      "background_trips",
+      "background_waiting_time_mean_s",
+      "background_time_loss_mean_s",
   };
   return names;
 }

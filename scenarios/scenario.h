@@ -92,7 +92,9 @@ struct EventSpec {
   /// vehicle's request cancelled); on a simulated light head (`/autodrive/sim/fault`): `lamp`
   /// (its `lamp` burns out, sticks on or is repaired: `fault`), `unplug` (the head goes
   /// offline, its cable pulled), `plug` (back online); on a light host's DDS link with the SCM:
-  /// `link_cut`, `link_restore` (`host`).
+  /// `link_cut`, `link_restore` (`host`); in the simulator's world: `place`, `remove` (the
+  /// scenario's unmapped `obstacle` of that name); in SUMO's demand: `surge` (`count` more
+  /// vehicles entering at lane `from` at `per_hour`, to lane `to` or circulating, of `type`).
   std::string action;
   std::string intersection;  ///< the map's intersection name
   std::string mode;          ///< action mode: flash | dark | auto
@@ -102,13 +104,19 @@ struct EventSpec {
   std::string lamp;          ///< action lamp: red | yellow | green
   std::string fault;         ///< action lamp: burnt_out | stuck_on | repaired
   std::string host;          ///< actions link_cut, link_restore: the light host's name
+  std::string obstacle;      ///< actions place, remove: the name of one of `obstacles`
+  std::string from;          ///< action surge: the map lane they enter at
+  std::string to;            ///< action surge: the map lane they leave at (empty: circulate)
+  double per_hour = 0;       ///< action surge: the rate they enter at
+  int count = 0;             ///< action surge: how many
+  std::string type;          ///< action surge: SUMO type (traffic.mix's; empty: nigel)
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Required("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
     a.Required("action", action,
                config::OneOf{{"mode", "plan", "preempt", "priority", "cancel", "lamp", "unplug",
-                              "plug", "link_cut", "link_restore"}});
+                              "plug", "link_cut", "link_restore", "place", "remove", "surge"}});
     a.Optional("intersection", intersection);
     a.Optional("mode", mode, config::OneOf{{"", "flash", "dark", "auto"}});
     a.Optional("plan", plan);
@@ -117,6 +125,12 @@ struct EventSpec {
     a.Optional("lamp", lamp, config::OneOf{{"", "red", "yellow", "green"}});
     a.Optional("fault", fault, config::OneOf{{"", "burnt_out", "stuck_on", "repaired"}});
     a.Optional("host", host);
+    a.Optional("obstacle", obstacle);
+    a.Optional("from", from);
+    a.Optional("to", to);
+    a.Optional("per_hour", per_hour, config::Range{0.0, 1e6});
+    a.Optional("count", count, config::Range{0, 100000});
+    a.Optional("type", type);
   }
   /// The keys each action needs, and no other.
   void Validate() const;
@@ -159,7 +173,9 @@ struct Scenario {
   Duration step_s = std::chrono::milliseconds(20);
   std::vector<VehicleSpec> vehicles;
   TrafficSpec traffic;
-  /// Unmapped obstacles standing on the track from the start.
+  /// Unmapped obstacles on the track: from the start, or from a `place` event (those a
+  /// `place` event names) until a `remove` event names them. Their `from_s` and `until_s` are
+  /// the events' (refused here: the events say when).
   std::vector<vehicle_sim::UnmappedObstacle> obstacles;
   std::vector<EventSpec> events;
   EndSpec end;
@@ -186,10 +202,14 @@ struct Scenario {
     a.Optional("end", end);
     a.Optional("expect", expect);
   }
-  /// A name of letters, digits, '_' and '-'; cars named once, at least one; expectations
-  /// name known metrics with a valid comparison.
+  /// A name of letters, digits, '_' and '-'; cars named once, at least one; obstacles named
+  /// once where named, each placed and removed at most once, removed after it is placed;
+  /// expectations name known metrics with a valid comparison.
   void Validate() const;
   bool operator==(const Scenario&) const = default;
+
+  /// The obstacles as the simulator takes them: `from_s` and `until_s` from the events.
+  [[nodiscard]] std::vector<vehicle_sim::UnmappedObstacle> TimedObstacles() const;
 };
 
 /// A pass threshold: `<op> <number>` with op one of `<`, `<=`, `==`, `>=`, `>`, `!=`.

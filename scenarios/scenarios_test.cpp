@@ -12,6 +12,7 @@
 #include "scenarios/compose.h"
 #include "scenarios/metrics.h"
 #include "scenarios/scenario.h"
+#include "scenarios/sweep.h"
 
 #include "common/config.h"
 #include "common/error.h"
@@ -86,6 +87,37 @@ TEST(ScenarioFile, RefusalsNameTheFileLineAndKey) {
           "events[0]: action link_cut takes no head");
   refused(std::string(kCar) + "events: [{at_s: 3, action: unplug, head: 2, host: h}]\n",
           "events[0]: action unplug takes no host");
+  // Obstacles placed and removed: by name, once each, removed after placed; their times are
+  // the events'.
+  const std::string box = "obstacles: [{name: box, x_m: 1, y_m: 2}]\n";
+  refused(std::string(kCar) + box + "events: [{at_s: 3, action: place}]\n",
+          "events[0]: action place needs obstacle");
+  refused(std::string(kCar) + box + "events: [{at_s: 3, action: place, obstacle: bx}]\n",
+          "events: obstacle bx is not one of the scenario's named obstacles (box)");
+  refused(std::string(kCar) + box +
+              "events: [{at_s: 3, action: place, obstacle: box}, {at_s: 4, action: place, "
+              "obstacle: box}]\n",
+          "obstacle box is placed twice");
+  refused(std::string(kCar) + box +
+              "events: [{at_s: 3, action: place, obstacle: box}, {at_s: 2, action: remove, "
+              "obstacle: box}]\n",
+          "obstacle box is removed at 2 s, not after it is placed at 3 s");
+  refused(std::string(kCar) + "obstacles: [{name: box, x_m: 1, y_m: 2, from_s: 3}]\n",
+          "obstacles[0]: from_s and until_s are set by place and remove events");
+  refused(
+      std::string(kCar) + "obstacles: [{name: box, x_m: 1, y_m: 2}, {name: box, x_m: 2, y_m: 2}]\n",
+      "obstacles: box is listed twice");
+  refused(std::string(kCar) + box + "events: [{at_s: 3, action: remove, obstacle: box, head: 2}]\n",
+          "events[0]: action remove takes no head");
+  // A demand surge: where, how fast and how many; nothing of another action.
+  refused(std::string(kCar) + "events: [{at_s: 3, action: surge, from: a, per_hour: 600}]\n",
+          "events[0]: action surge needs count");
+  refused(std::string(kCar) +
+              "events: [{at_s: 3, action: surge, from: a, per_hour: 600, count: 5, vehicle: "
+              "nigel_1}]\n",
+          "events[0]: action surge takes no vehicle");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: place, obstacle: box, to: a}]\n",
+          "events[0]: action place takes no to");
   refused("vehicles:\n  - {name: car_1, spawn: {lane: a}}\n",
           "vehicles[0]: name: \"car_1\" is not nigel_<n>");
   refused(std::string(kCar) + "  - name: nigel_1\n    spawn: {lane: a}\n",
@@ -155,6 +187,46 @@ TEST(ComposedCity, RoutesAndEventsAreCheckedAgainstTheMapAndCity) {
                                                "driving_school_crossing, plan: rush}]\n")
                 .find("has no plan \"rush\""),
             std::string::npos);
+  const std::string surge = std::string(kCar) +
+                            "events: [{at_s: 3, action: surge, from: r9c9:W>E:0, per_hour: 600, "
+                            "count: 5}]\n";
+  EXPECT_NE(
+      ComposeRefusal(surge).find("events[0].from: map driving_school has no lane \"r9c9:W>E:0\""),
+      std::string::npos)
+      << ComposeRefusal(surge);
+  const std::string tram = std::string(kCar) +
+                           "events: [{at_s: 3, action: surge, from: r2c0:N>E:0, per_hour: 600, "
+                           "count: 5, type: tram}]\n";
+  EXPECT_NE(ComposeRefusal(tram).find("events[0].type: SUMO type \"tram\" is not one of"),
+            std::string::npos)
+      << ComposeRefusal(tram);
+  // Obstacle events name no intersection: they compose.
+  EXPECT_EQ(
+      ComposeRefusal(std::string(kCar) + "obstacles: [{name: box, x_m: 3.5, y_m: 2.35}]\n"
+                                         "events: [{at_s: 3, action: place, obstacle: box}]\n"),
+      "(composed)");
+}
+
+TEST(ComposedCity, EveryShippedScenarioLoadsAndComposes) {
+  int scenarios = 0;
+  for (const auto& e : fs::directory_iterator(test::SourceDir() / "config/scenarios")) {
+    if (e.path().extension() != ".yaml") continue;
+    SCOPED_TRACE(e.path().string());
+    const YAML::Node node = YAML::LoadFile(e.path().string());
+    if (node["variants"]) {
+      EXPECT_NO_THROW((void)LoadSweep(e.path()));  // a sweep
+      continue;
+    }
+    const Scenario s = LoadScenario(e.path());
+    const YAML::Node city = YAML::LoadFile(s.city);
+    const maps::Map map = maps::LoadMapOrLayout(
+        (fs::path(s.city).parent_path() / city["map"].as<std::string>()).string());
+    test::TempDir dir("scenario_shipped");
+    EXPECT_NO_THROW((void)ComposeCity(s, e.path(), map, dir.path() / "city.yaml",
+                                      dir.path() / "run", dir.path() / "logs", dir.path()));
+    ++scenarios;
+  }
+  EXPECT_GE(scenarios, 14);
 }
 
 TEST(ComposedCity, RunsInLockstepWithTheScenariosCarsAndAgents) {
@@ -270,6 +342,32 @@ TEST(Metrics, CollisionAtFirstContactWithItsSpeed) {
   // 0.1 m/s for 30 s: 3 m, front at 3.22977: no contact.
   WriteDrive(dir.path(), 0.1, 30);
   EXPECT_EQ(ComputeMetrics(Road(), dir.path())["run"]["collisions"], 0);
+}
+
+TEST(Metrics, AnObstaclePlacedOrRemovedCountsOnlyWhileItStands) {
+  test::TempDir dir("metrics_timed_obstacle");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  // The wall's box as an obstacle placed at 18.9 s: the first contact (18.83 s, as above) is
+  // before it stands; the car still overlaps it at 18.9 s (driving through): one contact then.
+  RunWorld w = Road();
+  w.statics[0].kind = "obstacle";
+  w.statics[0].from_s = 18.9;
+  WriteDrive(dir.path(), 0.2, 25);
+  json m = ComputeMetrics(w, dir.path());
+  ASSERT_EQ(m["vehicles"]["nigel_1"]["collisions"].size(), 1U);
+  EXPECT_NEAR(m["vehicles"]["nigel_1"]["collisions"][0]["t_s"].get<double>(), 18.9, 1e-6);
+  // Removed at 18.8 s, before the car came near it: none.
+  w.statics[0].from_s = 0;
+  w.statics[0].until_s = 18.8;
+  EXPECT_EQ(ComputeMetrics(w, dir.path())["run"]["collisions"], 0);
+  // Removed at 18.84 s: the contact at 18.83 s counts.
+  w.statics[0].until_s = 18.84;
+  EXPECT_EQ(ComputeMetrics(w, dir.path())["run"]["collisions"], 1);
+  // world.json keeps the times.
+  const RunWorld back = RunWorld::FromJson(w.ToJson());
+  EXPECT_EQ(back.statics[0].from_s, 0.0);
+  EXPECT_EQ(back.statics[0].until_s, 18.84);
+  EXPECT_FALSE(RunWorld::FromJson(Road().ToJson()).statics[0].until_s.has_value());
 }
 
 TEST(Metrics, StopSignNeedsAFullStopWithinTheZone) {

@@ -34,9 +34,9 @@ bool IsPlainName(const std::string& s) {
 
 // Metrics where a larger value is better (the worst is the smallest).
 bool HigherIsBetter(const std::string& metric) {
-  static const std::set<std::string> higher{"route_completion", "goals_reached", "score",
-                                            "spat_messages",    "map_messages",  "requests_granted",
-                                            "distance_m"};
+  static const std::set<std::string> higher{
+      "route_completion", "goals_reached",    "score",      "spat_messages",
+      "map_messages",     "requests_granted", "distance_m", "background_trips"};
   return higher.contains(metric);
 }
 

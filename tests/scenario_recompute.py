@@ -179,7 +179,12 @@ def recompute(run):
             cy = sum(p[1] for p in poly) / len(poly)
             r = max(math.hypot(p[0] - cx, p[1] - cy) for p in poly) + 0.3
 
-            def d_static(i, s, poly=poly, cx=cx, cy=cy, r=r):
+            until = math.inf if st['until_s'] is None else st['until_s']
+
+            def d_static(i, s, poly=poly, cx=cx, cy=cy, r=r, since=st['from_s'], until=until):
+                # An obstacle placed or removed by an event stands from_s <= t < until_s.
+                if not since <= s['t'] + 1e-9 < until:
+                    return math.inf
                 if math.hypot(s['x'] - cx, s['y'] - cy) > r + 0.1:
                     return math.inf
                 return polygon_distance(footprint(car, s), poly)

@@ -104,13 +104,14 @@ class ScenarioRunner : public ::testing::Test {
   }
 
   // The shipped scenario `name` written into the test's folder (its city found from there),
-  // its 60 s time limit replaced by `limit` (which may carry further keys), `edit` applied.
+  // its time limit replaced by `limit` (which may carry further keys), `edit` applied.
   fs::path Shortened(const std::string& name, const std::string& limit,
                      const std::function<void(std::string&)>& edit = {}) {
     std::string text = config::ReadFile(Shipped(name));
     text.replace(text.find("city: ../cities/"), 16,
                  "city: " + (test::SourceDir() / "config/cities/").string());
-    text.replace(text.find("time_limit_s: 60"), 16, limit);
+    const auto at = text.find("time_limit_s: ");
+    text.replace(at, text.find('\n', at) - at, limit);
     if (edit) edit(text);
     const fs::path file = dir_.path() / (name + ".yaml");
     config::WriteFile(file, text);
@@ -305,6 +306,104 @@ TEST_F(ScenarioRunner, ALinkCutBetweenTheScmAndItsLightHostMakesBothSidesFailSaf
   }
   EXPECT_GE(red, 2);
   EXPECT_GE(dark, 2);
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, AnObstaclePlacedMidRunStopsTheCarUntilItIsRemoved) {
+  // The shipped obstacle_mid_run: a box at x in [3.45, 3.55] on the car's lane from 5 s to
+  // 45 s. The example driver stops short of it (its LIDAR sees it), stands until it is gone,
+  // then reaches its goal past where it stood.
+  const fs::path file = Shortened("obstacle_mid_run", "time_limit_s: 70");
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "mid").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.report["metrics"]["run"]["collisions"], 0);
+  EXPECT_EQ(r.report["metrics"]["run"]["goals_reached"], 1);
+  // Nigel's front is 0.22977 m ahead of its rear axle.
+  constexpr double kFront = 0.22977, kFace = 3.45;
+  double stood_from = -1, moved_again = -1, last_x = 0;
+  for (const std::string& line : ReadLines(dir_.path() / "mid" / "logs" / "ground_truth.csv")) {
+    double t = 0, x = 0, y = 0, yaw = 0, vx = 0;
+    char car[32];
+    if (std::sscanf(line.c_str(), "%lf,%31[^,],%lf,%lf,%lf,%lf", &t, car, &x, &y, &yaw, &vx) != 6) {
+      continue;
+    }
+    last_x = x;
+    if (x + kFront > 2.9 && x + kFront < kFace && std::abs(vx) < 1e-3 && stood_from < 0) {
+      stood_from = t;
+    }
+    if (stood_from >= 0 && moved_again < 0 && std::abs(vx) > 0.05) moved_again = t;
+  }
+  EXPECT_GT(stood_from, 5.0) << "it stood short of the box while the box stood";
+  EXPECT_LT(stood_from, 45.0);
+  EXPECT_GE(moved_again, 45.0) << "and went on only once it was removed";
+  EXPECT_GT(last_x, kFace) << "past where the box stood";
+  // The box's times are in the world the metrics read.
+  const json world = ReadJson(dir_.path() / "mid" / "logs" / "world.json");
+  bool found = false;
+  for (const json& st : world["statics"]) {
+    if (st["name"] != "box") continue;
+    found = true;
+    EXPECT_EQ(st["from_s"], 5.0);
+    EXPECT_EQ(st["until_s"], 45.0);
+  }
+  EXPECT_TRUE(found);
+
+  // A driver that ignores its LIDAR runs into it while it stands: the physics stops the car,
+  // the metrics count the obstacle.
+  const fs::path blind = Shortened("obstacle_mid_run", "time_limit_s: 40", [](std::string& text) {
+    const std::string clean = "agent: {driver: []}";
+    text.replace(text.find(clean), clean.size(), "agent: {driver: [--ignore-obstacles]}");
+  });
+  const Outcome b = RunScenario(blind.string(), (dir_.path() / "blind").string());
+  ASSERT_EQ(b.code, 1) << b.output;
+  const json& c = b.report["metrics"]["vehicles"]["nigel_1"]["collisions"];
+  ASSERT_EQ(c.size(), 1U) << c;
+  EXPECT_EQ(c[0]["kind"], "obstacle");
+  EXPECT_GT(c[0]["t_s"].get<double>(), 5.0);
+  double furthest = 0;
+  for (const std::string& line : ReadLines(dir_.path() / "blind" / "logs" / "ground_truth.csv")) {
+    double t = 0, x = 0;
+    char car[32];
+    if (std::sscanf(line.c_str(), "%lf,%31[^,],%lf", &t, car, &x) == 3) {
+      furthest = std::max(furthest, x);
+    }
+  }
+  EXPECT_LT(furthest + kFront, kFace + 0.01) << "the box held the car";
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
+TEST_F(ScenarioRunner, ADemandSurgeSendsItsCarsFromItsTimeAtItsRate) {
+  // The shipped demand_surge cut to 30 s: 10 cars at 1200 an hour (one every 3 s) entering
+  // at the centre's north approach from 10 s on, beside 4 background cars. SUMO's own trip
+  // statistics (its tripinfo file, read here with a plain search) show when each departed.
+  const fs::path file = Shortened("demand_surge", "time_limit_s: 30");
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "surge").string());
+  ASSERT_EQ(r.code, 1) << r.output;  // 30 s let too few in for its ">= 12"
+  EXPECT_NE(r.output.find("failed: background_trips >= 12"), std::string::npos) << r.output;
+  const std::string trips = config::ReadFile(dir_.path() / "surge" / "logs" / "sumo_tripinfo.xml");
+  std::vector<double> departs;
+  int background = 0;
+  for (std::size_t at = trips.find("<tripinfo "); at != std::string::npos;
+       at = trips.find("<tripinfo ", at + 1)) {
+    const std::string id = trips.substr(trips.find("id=\"", at) + 4, 12);
+    const double depart = std::stod(trips.substr(trips.find("depart=\"", at) + 8));
+    if (id.rfind("flow0_", 0) == 0) {
+      departs.push_back(depart);
+    } else if (id.rfind("bg_", 0) == 0) {
+      ++background;
+    }
+  }
+  EXPECT_EQ(background, 4);
+  ASSERT_GE(departs.size(), 2U) << trips;
+  EXPECT_LE(departs.size(), 10U);
+  std::sort(departs.begin(), departs.end());
+  EXPECT_NEAR(departs[0], 10.0, 0.051) << "the first at the event's time";
+  // The k-th is due at 10 + 3k s; SUMO holds one back while there is no room to insert it,
+  // then sends it as soon as there is (so two may come closer than 3 s), never before.
+  for (std::size_t k = 0; k < departs.size(); ++k) {
+    EXPECT_GE(departs[k], 10.0 + 3.0 * static_cast<double>(k) - 0.051) << k;
+  }
+  EXPECT_EQ(r.report["metrics"]["run"]["background_trips"], 4 + static_cast<int>(departs.size()));
   EXPECT_TRUE(NoneLeft(tag_));
 }
 

@@ -60,7 +60,7 @@ SimCameras::SimCameras(const SimConfig& sim, const maps::Map& map, const World& 
   options.ground_texel_m = sim.render.ground_texel_m;
   options.scene = sim.world.scene;
   options.ground_tags = sim.ground_tags;
-  world_ = std::make_shared<const RenderWorld>(map, world.Scene().geometry(), options);
+  world_ = std::make_shared<const RenderWorld>(map, world.PermanentGeometry(), options);
   for (std::size_t i = 0; i < sim.vehicles.size(); ++i) {
     looks_.push_back(EffectiveLook(sim, i));
     if (looks_.back().tag) (void)world_->Tag(*looks_.back().tag);  // an unknown family fails here
@@ -112,6 +112,18 @@ void SimCameras::Snapshot(const World& world, std::span<const CarLights> lights,
   }
   lamps_.assign(lamps.begin(), lamps.end());
   traffic_.assign(traffic.begin(), traffic.end());
+  // The unmapped obstacles standing for a while, as blocks among the traffic.
+  for (const TimedBox& t : world.TimedBoxes()) {
+    if (!t.StandsAt(world.time())) continue;
+    RenderTraffic box;
+    const Eigen::Vector2d c = t.box.X_MB.translation();
+    box.X_MO = Eigen::Translation3d(c.x(), c.y(), world.GroundHeight(c.x(), c.y())) *
+               Eigen::AngleAxisd(t.box.X_MB.yaw(), Eigen::Vector3d::UnitZ());
+    box.size_m = t.box.size_m;
+    box.shape = TrafficShape::kBlock;
+    box.body = box.roof = kUnmappedObstacleColour;
+    traffic_.push_back(box);
+  }
 }
 
 Eigen::Isometry3d SimCameras::CameraPose(std::size_t k) const {

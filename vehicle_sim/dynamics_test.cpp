@@ -11,6 +11,7 @@
 #include "maps/builder.h"
 #include "maps/layout.h"
 #include "maps/map.h"
+#include "vehicle_sim/raycast.h"
 #include "vehicle_sim/world.h"
 
 namespace autodrive::vehicle_sim {
@@ -334,6 +335,44 @@ TEST(Dynamics, ACarAtTopSpeedStopsAtAWallWithoutPassingThroughIt) {
   EXPECT_LT(furthest_front, wall_x + 0.005);  // contact, at most a few mm of penetration
   EXPECT_GT(furthest_front, wall_x - 0.01);   // it did reach the wall
   EXPECT_LT(std::abs(s.v_V_mps.x()), 0.02);   // pushing against it, not through it
+}
+
+TEST(Dynamics, ATimedBoxStopsTheCarAndIsSeenOnlyWhileItStands) {
+  World world;
+  const double wall_x = 1.0;  // near face of a 2 cm wall, placed at 1 s, removed at 6 s
+  world.AddTimedBox({{RigidTransform2::FromXyYaw(wall_x + 0.01, 0, 0), {0.02, 1.0, 0.2}},
+                     seconds(1),
+                     seconds(6)});
+  ASSERT_EQ(world.TimedBoxes().size(), 1u);
+  world.AddVehicle(VehicleParams{}, RigidTransform2::FromXyYaw(0, 0, 0));
+  const auto seen = [&] {
+    const Hit h = Cast(world.Scene(), {}, Ray{{0.5, 0, 0.1}, {1, 0, 0}}, 5.0);
+    return h.what == Hit::What::kStatic;
+  };
+  EXPECT_FALSE(seen()) << "not yet placed";
+  world.StepUntil(seconds(1) - milliseconds(2));
+  EXPECT_FALSE(seen());
+  world.Step();
+  EXPECT_TRUE(seen()) << "placed at 1 s";
+  // The car drives into it and is held there while it stands.
+  const VehicleParams p;
+  const double front_overhang = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
+  double furthest_front = 0;
+  Drive(world, {1.0, 0.0}, seconds(4), [&](const VehicleState& s) {
+    furthest_front = std::max(furthest_front, s.X_MV.translation().x() + front_overhang);
+  });
+  EXPECT_LT(furthest_front, wall_x + 0.005);
+  EXPECT_GT(furthest_front, wall_x - 0.01);
+  EXPECT_TRUE(seen());
+  world.StepUntil(seconds(6));
+  EXPECT_FALSE(seen()) << "removed at 6 s";
+  // Removed: the car drives on through where it stood.
+  Drive(world, {1.0, 0.0}, seconds(3));
+  EXPECT_GT(world.State(0).X_MV.translation().x(), wall_x + 0.1);
+  EXPECT_THROW(
+      world.AddTimedBox(
+          {{RigidTransform2::FromXyYaw(3, 0, 0), {0.1, 0.1, 0.1}}, seconds(2), seconds(2)}),
+      InputError);
 }
 
 TEST(Dynamics, ACarDrivingIntoAStandingOnePushesItWithoutPassingThroughIt) {

@@ -84,6 +84,10 @@ enum class TrafficShape : std::uint8_t {
   kBlock,  ///< one block of the whole size (two-wheelers, pedestrians)
 };
 
+/// The colour the cameras paint an unmapped obstacle (cardboard brown), standing from the start
+/// (part of the static world) or for a while (drawn as a `TrafficShape::kBlock`).
+inline constexpr Rgb kUnmappedObstacleColour{170, 120, 70};
+
 /// A background traffic object (a SUMO vehicle) as the cameras see it, now: a box-ish body
 /// that fills its size, standing on the ground.
 struct RenderTraffic {

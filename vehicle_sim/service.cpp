@@ -80,8 +80,14 @@ struct SimService::Impl {
     const std::vector<UnmappedObstacle> obstacles = UnmappedObstacles(sim, map, poses);
     AddObstacles(obstacles, world);
     for (const UnmappedObstacle& ob : obstacles) {
-      spdlog::info("unmapped obstacle: {:.2f} x {:.2f} x {:.2f} m at ({:.3f}, {:.3f}), {:.3f} rad",
-                   ob.length_m, ob.width_m, ob.height_m, ob.x_m, ob.y_m, ob.yaw_rad);
+      std::string when;
+      if (ob.from_s > Duration{0})
+        when += fmt::format(", placed at {:.3f} s", ToSeconds(ob.from_s));
+      if (ob.until_s) when += fmt::format(", removed at {:.3f} s", ToSeconds(*ob.until_s));
+      spdlog::info(
+          "unmapped obstacle {}: {:.2f} x {:.2f} x {:.2f} m at ({:.3f}, {:.3f}), {:.3f} rad{}",
+          ob.name.empty() ? "(unnamed)" : ob.name, ob.length_m, ob.width_m, ob.height_m, ob.x_m,
+          ob.y_m, ob.yaw_rad, when);
     }
     for (std::size_t i = 0; i < sim.vehicles.size(); ++i) {
       const SimVehicleConfig& c = sim.vehicles[i];

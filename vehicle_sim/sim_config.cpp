@@ -23,6 +23,13 @@ void SpawnConfig::Validate() const {
                          "a pose needs all of x_m, y_m and yaw_rad");
 }
 
+void UnmappedObstacle::Validate() const {
+  AUTODRIVE_THROW_UNLESS(!until_s || *until_s > from_s,
+                         "until_s (" << ToSeconds(until_s.value_or(Duration{}))
+                                     << " s) must come after from_s (" << ToSeconds(from_s)
+                                     << " s)");
+}
+
 void SimVehicleConfig::Validate() const { (void)ParseVehicleName(name); }
 
 void ServiceOptions::Validate() const {
@@ -83,6 +90,11 @@ void SimConfig::Validate() const {
   for (const OverheadCameraConfig& c : cameras) {
     AUTODRIVE_THROW_UNLESS(camera_names.insert(c.name).second,
                            "cameras: " << c.name << " is listed twice");
+  }
+  std::set<std::string> obstacle_names;
+  for (const UnmappedObstacle& o : variability.obstacles) {
+    AUTODRIVE_THROW_UNLESS(o.name.empty() || obstacle_names.insert(o.name).second,
+                           "variability.obstacles: " << o.name << " is listed twice");
   }
   // A tag id seen twice would make the Eye see one car (or reference) in two places.
   std::map<std::pair<std::string, int>, std::string> tags;

@@ -127,24 +127,36 @@ struct ServiceOptions {
 };
 
 /// An obstacle that is not on the map (the paper's "unmapped obstacles"): a box standing on
-/// the ground.
+/// the ground, from the start or for a while (placed at `from_s`, removed at `until_s`).
 struct UnmappedObstacle {
+  std::string name;  ///< for the logs and the scenarios' events; may be empty
   double x_m = 0.0;  ///< centre of its footprint, map frame
   double y_m = 0.0;
   double yaw_rad = 0.0;
   double length_m = 0.1;
   double width_m = 0.1;
   double height_m = 0.1;
+  Duration from_s{0};               ///< simulated time it is placed at (0: from the start)
+  std::optional<Duration> until_s;  ///< simulated time it is removed at (none: it stays)
 
   template <typename Archive>
   void Serialize(Archive& a) {
+    a.Optional("name", name);
     a.Required("x_m", x_m, config::Range{-1e4, 1e4});
     a.Required("y_m", y_m, config::Range{-1e4, 1e4});
     a.Optional("yaw_rad", yaw_rad, config::Range{-10.0, 10.0});
     a.Optional("length_m", length_m, config::Range{0.001, 100.0});
     a.Optional("width_m", width_m, config::Range{0.001, 100.0});
     a.Optional("height_m", height_m, config::Range{0.001, 100.0});
+    a.Optional("from_s", from_s,
+               config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
+    a.Optional("until_s", until_s,
+               config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
   }
+  /// `until_s` after `from_s`.
+  void Validate() const;
+  /// Whether it stands for a while only (placed after the start or removed).
+  [[nodiscard]] bool timed() const { return from_s > Duration{0} || until_s.has_value(); }
   bool operator==(const UnmappedObstacle&) const = default;
 };
 
@@ -227,8 +239,8 @@ struct SimConfig {
     a.Optional("ground_tags", ground_tags);
     a.Optional("render", render);
   }
-  /// Names unique (cars, cameras); at least one car; tag ids unique within a family (roof and
-  /// ground tags).
+  /// Names unique (cars, cameras, named obstacles); at least one car; tag ids unique within a
+  /// family (roof and ground tags).
   void Validate() const;
   bool operator==(const SimConfig&) const = default;
 };

@@ -100,7 +100,12 @@ std::vector<UnmappedObstacle> UnmappedObstacles(const SimConfig& sim, const maps
         }
       }
       if (!clear) continue;
-      out.push_back(UnmappedObstacle{p.x(), p.y(), heading, kSize, kSize, kSize});
+      UnmappedObstacle cube;
+      cube.x_m = p.x();
+      cube.y_m = p.y();
+      cube.yaw_rad = heading;
+      cube.length_m = cube.width_m = cube.height_m = kSize;
+      out.push_back(cube);
       placed = true;
     }
     AUTODRIVE_THROW_UNLESS(placed, "variability: found no place for random obstacle "
@@ -111,8 +116,13 @@ std::vector<UnmappedObstacle> UnmappedObstacles(const SimConfig& sim, const maps
 
 void AddObstacles(std::span<const UnmappedObstacle> obstacles, World& world) {
   for (const UnmappedObstacle& o : obstacles) {
-    world.AddStaticBox(StaticBox{RigidTransform2::FromXyYaw(o.x_m, o.y_m, o.yaw_rad),
-                                 Eigen::Vector3d(o.length_m, o.width_m, o.height_m)});
+    const StaticBox box{RigidTransform2::FromXyYaw(o.x_m, o.y_m, o.yaw_rad),
+                        Eigen::Vector3d(o.length_m, o.width_m, o.height_m)};
+    if (o.timed()) {
+      world.AddTimedBox(TimedBox{box, o.from_s, o.until_s});
+    } else {
+      world.AddStaticBox(box);
+    }
   }
 }
 

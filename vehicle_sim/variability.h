@@ -31,7 +31,8 @@ namespace autodrive::vehicle_sim {
 [[nodiscard]] std::vector<UnmappedObstacle> UnmappedObstacles(
     const SimConfig& sim, const maps::Map& map, std::span<const RigidTransform2> spawns);
 
-/// Adds `obstacles` to `world`.
+/// Adds `obstacles` to `world`: static boxes, or timed boxes for those placed after the start
+/// or removed (`UnmappedObstacle::timed`).
 void AddObstacles(std::span<const UnmappedObstacle> obstacles, World& world);
 
 /// Car `vehicle`'s sensors with the variability's LIDAR range noise where the car sets none.

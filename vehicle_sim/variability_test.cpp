@@ -177,7 +177,10 @@ TEST(Variability, ThePaperPresetScattersThreeSmallObstaclesAwayFromTheCarsAndThe
   EXPECT_NE(UnmappedObstacles(sim, map, spawns), a);
   // Given ones come first and a count overrides the preset's.
   sim.variability.random_obstacles = 0;
-  sim.variability.obstacles = {UnmappedObstacle{1, 1, 0, 0.2, 0.2, 0.2}};
+  UnmappedObstacle box;
+  box.x_m = box.y_m = 1;
+  box.length_m = box.width_m = box.height_m = 0.2;
+  sim.variability.obstacles = {box};
   EXPECT_EQ(UnmappedObstacles(sim, map, spawns).size(), 1u);
 }
 

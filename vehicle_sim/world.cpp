@@ -101,6 +101,11 @@ struct World::Impl {
   std::vector<TrafficContact> traffic_contacts;    // of the last step
   StaticGeometry geometry;                         // what is static: the ODE geoms and the scene
   mutable std::optional<StaticScene> scene;        // built from `geometry` on demand
+  // Timed boxes (`AddTimedBox`): each with its prism and ODE geom (enabled while it stands).
+  std::vector<TimedBox> timed;
+  std::vector<Prism> timed_prisms;
+  std::vector<dGeomID> timed_geoms;
+  std::vector<bool> timed_standing;
   std::int64_t steps = 0;
   std::string failure;  // set when a step went non-finite
 
@@ -140,7 +145,7 @@ struct World::Impl {
 
   // A static prism as an ODE box: the simulator takes rectangular footprints (every wall and
   // box maps/ builds, and the unmapped boxes).
-  void AddPrism(const Prism& prism) {
+  dGeomID AddPrism(const Prism& prism) {
     const maps::Polyline& f = prism.footprint_M;
     AUTODRIVE_THROW_UNLESS(f.size() == 4, "a static obstacle with "
                                               << f.size()
@@ -161,6 +166,33 @@ struct World::Impl {
     dRFromAxisAndAngle(R, 0, 0, 1, std::atan2(along.y(), along.x()));
     dGeomSetRotation(box, R);
     Tag(box, &obstacle_tag, internal::kObstacleBit, internal::kChassisBit);
+    return box;
+  }
+
+  // Places and removes the timed boxes for the world's time; the scene is built again when
+  // one changed.
+  void UpdateTimed() {
+    const Duration t = steps * options.step;
+    for (std::size_t i = 0; i < timed.size(); ++i) {
+      const bool stands = timed[i].StandsAt(t);
+      if (stands == timed_standing[i]) continue;
+      timed_standing[i] = stands;
+      if (stands) {
+        dGeomEnable(timed_geoms[i]);
+      } else {
+        dGeomDisable(timed_geoms[i]);
+      }
+      scene.reset();
+    }
+  }
+
+  // The scene's geometry: the permanent one, and the timed boxes standing now.
+  StaticGeometry SceneGeometry() const {
+    StaticGeometry g = geometry;
+    for (std::size_t i = 0; i < timed.size(); ++i) {
+      if (timed_standing[i]) g.prisms.push_back(timed_prisms[i]);
+    }
+    return g;
   }
 
   void AddCylinder(const Cylinder& c) {
@@ -359,19 +391,41 @@ World::World(const maps::Map& map, const WorldOptions& options)
 
 World::~World() = default;
 
-void World::AddStaticBox(const StaticBox& box) {
+namespace {
+Prism BoxPrism(const TerrainModel& terrain, const StaticBox& box) {
   AUTODRIVE_THROW_UNLESS(box.size_m.allFinite() && box.size_m.minCoeff() > 0,
                          "a static box needs a positive size, got " << box.size_m.transpose());
   const Eigen::Vector2d c = box.X_MB.translation();
   const Eigen::Matrix2d R = box.X_MB.rotation_matrix();
   const Eigen::Vector2d u = R.col(0) * (box.size_m.x() / 2);
   const Eigen::Vector2d v = R.col(1) * (box.size_m.y() / 2);
-  const Prism prism = PrismOnGround(impl_->geometry.terrain,
-                                    {c - u - v, c + u - v, c + u + v, c - u + v}, box.size_m.z());
+  return PrismOnGround(terrain, {c - u - v, c + u - v, c + u + v, c - u + v}, box.size_m.z());
+}
+}  // namespace
+
+void World::AddStaticBox(const StaticBox& box) {
+  const Prism prism = BoxPrism(impl_->geometry.terrain, box);
   impl_->AddPrism(prism);
   impl_->geometry.prisms.push_back(prism);
   impl_->scene.reset();
 }
+
+void World::AddTimedBox(const TimedBox& box) {
+  AUTODRIVE_THROW_UNLESS(!box.until || *box.until > box.from,
+                         "a timed box is removed at " << ToSeconds(box.until.value_or(Duration{}))
+                                                      << " s, not after it is placed at "
+                                                      << ToSeconds(box.from) << " s");
+  const Prism prism = BoxPrism(impl_->geometry.terrain, box.box);
+  Impl& w = *impl_;
+  w.timed.push_back(box);
+  w.timed_prisms.push_back(prism);
+  w.timed_geoms.push_back(w.AddPrism(prism));
+  dGeomDisable(w.timed_geoms.back());
+  w.timed_standing.push_back(false);
+  w.UpdateTimed();
+}
+
+std::span<const TimedBox> World::TimedBoxes() const { return impl_->timed; }
 
 void World::SetTraffic(std::span<const DynamicBox> boxes) {
   for (const DynamicBox& b : boxes) {
@@ -447,6 +501,7 @@ void World::Step() {
   }
   dJointGroupEmpty(w.contacts);
   if (!w.failure.empty()) throw NumericalError(w.failure);
+  w.UpdateTimed();
 }
 
 void World::StepUntil(Duration until) {
@@ -479,8 +534,10 @@ double World::GroundHeight(double x_m, double y_m) const {
 }
 
 const StaticScene& World::Scene() const {
-  if (!impl_->scene) impl_->scene.emplace(impl_->geometry, impl_->options.scene.cell_size_m);
+  if (!impl_->scene) impl_->scene.emplace(impl_->SceneGeometry(), impl_->options.scene.cell_size_m);
   return *impl_->scene;
 }
+
+const StaticGeometry& World::PermanentGeometry() const { return impl_->geometry; }
 
 }  // namespace autodrive::vehicle_sim

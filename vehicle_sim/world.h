@@ -74,6 +74,15 @@ struct StaticBox {
   Eigen::Vector3d size_m{0.1, 0.1, 0.1};  ///< length (along B's x), width, height
 };
 
+/// An unmapped obstacle that stands only for a while: placed at `from`, removed at `until`.
+struct TimedBox {
+  StaticBox box;
+  Duration from{0};
+  std::optional<Duration> until{};  ///< none: it stays
+  /// Whether it stands at `t`: from <= t < until.
+  [[nodiscard]] bool StandsAt(Duration t) const { return from <= t && (!until || t < *until); }
+};
+
 /// A car's body touching a background object in a step.
 struct TrafficContact {
   int vehicle = 0;  ///< the car's index
@@ -97,6 +106,14 @@ class World {
 
   /// Adds an unmapped obstacle (standing at z = 0 on flat ground, or on the terrain).
   void AddStaticBox(const StaticBox& box);
+  /// Adds an unmapped obstacle that stands only while `TimedBox::StandsAt(time())`: from the
+  /// step that reaches `from` to the step that reaches `until`, it is in the physics (a static
+  /// box, as `AddStaticBox`) and in `Scene()`; otherwise neither. A box placed where a car
+  /// stands pushes it out (as a wall would): the caller keeps it clear. @throws InputError for
+  /// a size that is not positive, or `until` not after `from`.
+  void AddTimedBox(const TimedBox& box);
+  /// The timed boxes in the order added.
+  [[nodiscard]] std::span<const TimedBox> TimedBoxes() const;
 
   /// The background traffic from the next step on, replacing the last call's: each box (map
   /// frame: centre, axes, half extents, as the LIDAR takes it) a fixed obstacle for the cars'
@@ -140,9 +157,13 @@ class World {
   [[nodiscard]] const WorldOptions& options() const;
   /// Height of the ground at (x, y) as the world has it (0 off the map).
   [[nodiscard]] double GroundHeight(double x_m, double y_m) const;
-  /// The static world (terrain, obstacles, poles, unmapped boxes) indexed for ray casting:
-  /// what the LIDAR and cameras see. Built on first use and again after `AddStaticBox`.
+  /// The static world (terrain, obstacles, poles, unmapped boxes, the timed boxes standing now)
+  /// indexed for ray casting: what the LIDAR sees. Built on first use and again after
+  /// `AddStaticBox` and whenever a timed box is placed or removed (about a millisecond).
   [[nodiscard]] const StaticScene& Scene() const;
+  /// What stands for the whole run: `Scene()`'s geometry without the timed boxes (the cameras'
+  /// ground and solid objects are built from it once; they draw the timed boxes as they stand).
+  [[nodiscard]] const StaticGeometry& PermanentGeometry() const;
 
  private:
   struct Impl;

@@ -327,6 +327,7 @@ json WorldData(const RunWorld& world) {
     json shape = Xy(s.footprint);
     shape["kind"] = s.kind;
     shape["name"] = s.name;
+    shape["timed"] = s.from_s > 0 || s.until_s.has_value();
     statics.push_back(std::move(shape));
     // The map's outer walls are its frame: they bound the picture, as the lanes do.
     grow(s.footprint);
@@ -377,6 +378,17 @@ void ScenarioEvents(const std::vector<json>& events, Timeline& timeline) {
     std::string label = action;
     if (action == "mode" || action == "plan") {
       label = fmt::format("{} {} → {}", action, Str(e, "intersection"), Str(e, action.c_str()));
+    } else if (action == "lamp") {
+      label = fmt::format("lamp {} of head {} {}", Str(e, "lamp"), Num(e, "head"), Str(e, "fault"));
+    } else if (action == "unplug" || action == "plug") {
+      label = fmt::format("{} head {}", action, Num(e, "head"));
+    } else if (action == "link_cut" || action == "link_restore") {
+      label = fmt::format("{} {}", action, Str(e, "host"));
+    } else if (action == "place" || action == "remove") {
+      label = fmt::format("{} obstacle {}", action, Str(e, "obstacle"));
+    } else if (action == "surge") {
+      label =
+          fmt::format("surge of {} {} from {}", Num(e, "count"), Str(e, "type"), Str(e, "from"));
     } else {
       label = fmt::format("{} {} at {}", action, Str(e, "vehicle"), Str(e, "intersection"));
     }

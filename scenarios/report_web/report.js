@@ -257,7 +257,8 @@
       for (const l of W.lanes) polyline(u, p, l.x, l.y);
       return {stroke: p, fill: null, clip: null, flags: 0};
     }}, pointsOf(W.lanes));
-    const obstacles = W.statics.filter((s) => s.kind === "obstacle");
+    const obstacles = W.statics.filter((s) => s.kind === "obstacle" && !s.timed);
+    const timed = W.statics.filter((s) => s.kind === "obstacle" && s.timed);
     const walls = W.statics.filter((s) => s.kind !== "obstacle");
     const shapes = (list) => (u) => {
       const p = new Path2D();
@@ -271,6 +272,10 @@
     if (obstacles.length) {
       add({label: "unmapped obstacles", stroke: "#9a3412", fill: "#fb923c", width: 1.5,
            paths: shapes(obstacles)}, pointsOf(obstacles));
+    }
+    if (timed.length) {
+      add({label: "obstacles placed or removed mid-run", stroke: "#9a3412", fill: "#fed7aa",
+           width: 1.5, dash: [4, 3], paths: shapes(timed)}, pointsOf(timed));
     }
     add({label: "stop lines", stroke: "#1f2933", width: 3, paths: (u) => {
       const signal = new Path2D(), stop = new Path2D();

@@ -19,7 +19,6 @@ namespace {
 
 constexpr Rgb kWallColour{128, 128, 128};
 constexpr Rgb kBoxColour{255, 140, 0};
-constexpr Rgb kUnmappedColour{170, 120, 70};
 constexpr Rgb kPoleColour{90, 90, 95};
 constexpr Rgb kHeadColour{25, 25, 25};
 constexpr Rgb kWheelColour{20, 20, 20};
@@ -216,7 +215,7 @@ void StaticScene::AddObstacles(const maps::Map& map, const StaticGeometry& geome
     if (i < map.obstacles.size()) {
       part.colour = map.obstacles[i].kind == "wall" ? kWallColour : kBoxColour;
     } else {
-      part.colour = kUnmappedColour;
+      part.colour = kUnmappedObstacleColour;
     }
     parts_.push_back(part);
   }
