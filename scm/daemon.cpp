@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <ctime>
 #include <random>
 
@@ -96,6 +97,10 @@ struct Scm::Impl final : EventSink, ConfigService {
   /// answers a few requests first and then fills SPaT afresh without stopping. A request thus
   /// waits for a slice, not for the whole city's SPaT. True when SPaT was handed to its sender.
   bool PublishSpatUnlessAsked(const CityBundle& c, const ClockReading& now);
+  /// The launchers' timeline, on which the process watch judges their silence: they report
+  /// on the wall clock whatever the SCM runs on, so under a simulated clock (which may run
+  /// many times faster or stand still in lockstep) it is this computer's steady clock.
+  [[nodiscard]] MonoTime LauncherTime(const ClockReading& now) const;
   void HandleOperatorRequests(const ClockReading& now, const DayClock& day);
   void HandleOperatorRequest(const ScmInbox::OperatorRequestIn& in, const ClockReading& now,
                              const DayClock& day);
@@ -360,10 +365,16 @@ void Scm::Impl::TakeDeviceStatuses() {
   figures.malformed_inputs += inbox->TakeDeviceRefusals();
 }
 
+MonoTime Scm::Impl::LauncherTime(const ClockReading& now) const {
+  if (clock.kind() == ClockKind::kWall) return now.mono;
+  return MonoTime{std::chrono::steady_clock::now().time_since_epoch()};
+}
+
 void Scm::Impl::TakeProcessTables(const ClockReading& now) {
   const std::uint64_t refused = inbox->process_table_refusals();
+  const MonoTime launcher_now = LauncherTime(now);
   while (const std::optional<ProcessTableView> table = inbox->TakeProcessTable()) {
-    processes->Report(*table, now.mono, *this);
+    processes->Report(*table, launcher_now, *this);
   }
   figures.malformed_inputs += inbox->process_table_refusals() - refused;
 }
@@ -378,7 +389,7 @@ void Scm::Impl::NoteStall(const ClockReading& now) {
   ++figures.stalls;
   figures.longest_stall = std::max(figures.longest_stall, stall);
   bundle->supervisor->OnStall(now.mono);
-  processes->OnStall(now.mono);
+  processes->OnStall(LauncherTime(now));
   if (figures.stalls <= 20 || figures.stalls % 100 == 0) {
     spdlog::warn(
         "the SCM's loop stalled: this pass began {:.0f} ms after its deadline ({} "
@@ -511,7 +522,7 @@ void Scm::Impl::Pass() {
   figures.reply_write_refusals = replies->write_failures();
   HandleSignalRequests(now, day);
   c.supervisor->Check(now.mono, c.lights->sent(), *c.runtime, *this);
-  processes->Check(now.mono, *this);
+  processes->Check(LauncherTime(now), *this);
   const StepReport report = c.runtime->Step(now, day, c.fleet.get(), *this);
   counters.controller_steps += report.stepped;
   counters.monitor_violations += report.monitor_violations;
@@ -532,8 +543,14 @@ void Scm::Impl::Pass() {
 }
 
 OtherDeadlines Scm::Impl::Deadlines() const {
-  return {bundle->runtime->next_wake(),
-          std::min(bundle->supervisor->next_deadline(), processes->next_deadline()),
+  // The process watch's deadline on the launchers' timeline, put on the control timeline (a
+  // simulation that runs fast only wakes the loop early).
+  MonoTime watch = processes->next_deadline();
+  if (clock.kind() != ClockKind::kWall && watch != MonoTime::max()) {
+    const MonoTime launcher_now = LauncherTime(current);
+    watch = current.mono + std::max(Duration{0}, watch - launcher_now);
+  }
+  return {bundle->runtime->next_wake(), std::min(bundle->supervisor->next_deadline(), watch),
           bundle->devices->next_deadline()};
 }
 

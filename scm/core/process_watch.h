@@ -9,7 +9,10 @@
 /// was itself killed logs its own death once it is back, from the launcher's last table, and
 /// nothing twice. A launcher that falls silent without saying it stops raises `launcher_lost`.
 /// No DDS: tables come in as views, with an explicit time, so the rules are tested in-process
-/// on a simulated clock.
+/// on a simulated clock. The times are the launchers' timeline: the SCM's control timeline on
+/// the wall clock, and this computer's steady clock when the SCM runs on a simulated clock
+/// (the launchers report on the wall clock; a simulation run faster than real time would make
+/// every launcher look lost). scm/daemon.cpp, `LauncherTime`.
 
 #include <cstdint>
 #include <map>
