@@ -6,9 +6,11 @@
 #include <chrono>
 #include <csignal>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 
+#include "common/dds/lockstep.h"
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
 #include "common/logging.h"
@@ -17,6 +19,33 @@
 #include "eye/service.h"
 
 namespace autodrive::eye::cli {
+
+namespace {
+
+// A controller of the simulator's lockstep (common/dds/lockstep.h): each step's frames
+// searched and fused, the fleet and events acknowledged, then the answer.
+void RunLockstep(const dds::Participant& participant, const std::string& name, EyeService& service,
+                 const std::atomic<bool>& stop) {
+  dds::LockstepClient lockstep(participant, name);
+  if (!lockstep.WaitForSimulator(stop) || !lockstep.Register(stop)) return;
+  spdlog::info("lockstep: registered as {}", name);
+  while (const std::optional<Time> t = lockstep.NextStep(stop)) {
+    service.Step(*t);
+    if (!service.WaitForAcks(dds::kLockstepAckTimeout)) {
+      spdlog::warn(
+          "lockstep: the fleet or events were not acknowledged in {} s: this step may "
+          "not be reproducible",
+          dds::kLockstepAckTimeout.count());
+    }
+    lockstep.Answer();
+  }
+  const ServiceCounters c = service.counters();
+  spdlog::info("lockstep: {} after {} steps: {} frames, {} fleet messages, {} refused",
+               lockstep.ended() ? "the simulator ended" : "stopped", lockstep.answered(), c.frames,
+               c.fleet_messages, c.bad_frames);
+}
+
+}  // namespace
 
 void AddRun(CLI::App& app) {
   auto* cmd = app.add_subcommand(
@@ -30,6 +59,7 @@ void AddRun(CLI::App& app) {
     std::string config;
     std::string log_level = "info";
     double duration_s = 0.0;
+    std::string lockstep;
     dds::ProgramOptions dds{"/autodrive/eye"};
   };
   auto o = std::make_shared<Options>();
@@ -41,6 +71,10 @@ void AddRun(CLI::App& app) {
       ->check(CLI::Range(0.0, 1e9));
   cmd->add_option("--log-level", o->log_level, "trace|debug|info|warn|error|critical|off")
       ->capture_default_str();
+  cmd->add_option("--lockstep", o->lockstep,
+                  "take part in the simulator's lockstep as the controller of this name: at each "
+                  "step search and fuse the frames the simulated cameras sent, publish, answer "
+                  "(docs/vehicle_sim.md, \"Lockstep\"); the cameras must be topic: ones");
   o->dds.Add(*cmd);
   cmd->callback([o] {
     // SIGHUP: register every camera again (after a camera_moved event, when the operator says
@@ -55,6 +89,11 @@ void AddRun(CLI::App& app) {
     InitLogging("autodrive-eye", ParseLogLevel(o->log_level));
     const EyeConfig config = LoadEyeConfig(o->config);
     dds::Participant participant(o->dds.Participant());
+    if (!o->lockstep.empty()) {
+      EyeService service(config, participant, EyeMode::kLockstep);
+      RunLockstep(participant, o->lockstep, service, stop);
+      return;
+    }
     EyeService service(config, participant);
     spdlog::info("running: {} camera(s), {} car(s)", config.cameras.size(), config.vehicles.size());
     const auto start = std::chrono::steady_clock::now();

@@ -1,5 +1,6 @@
 #include "eye/service.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <thread>
 #include <vector>
@@ -60,7 +62,18 @@ struct EyeService::Impl {
   dds::Message<msg::FleetState> fleet_message;
   std::vector<std::jthread> threads;
 
-  Impl(const EyeConfig& config, const dds::Participant& p)
+  // Lockstep: each camera's reader, and what its silence was last judged on.
+  struct SteppedCamera {
+    std::unique_ptr<dds::Reader<msg::Image>> reader;
+    dds::Message<msg::Image> sample;
+    std::optional<Time> last_frame;
+    bool lost = false;
+  };
+  std::vector<SteppedCamera> stepped;
+  std::vector<FrameDetections> step_frames;  // scratch
+  std::vector<EyeEvent> fuse_events;         // scratch of `Fuse` (one thread: the fusing one)
+
+  Impl(const EyeConfig& config, const dds::Participant& p, EyeMode mode)
       : participant(p),
         localizer(config),
         fleet_writer(p, dds::topics::EyeFleet()),
@@ -78,6 +91,19 @@ struct EyeService::Impl {
       }
     }
     debug_last.assign(config.cameras.size(), SteadyClock::time_point{});
+    if (mode == EyeMode::kLockstep) {
+      for (const CameraConfig& cam : config.cameras) {
+        AUTODRIVE_THROW_UNLESS(cam.source.rfind("topic:", 0) == 0,
+                               "camera " << cam.name << ": in lockstep the Eye reads simulated "
+                                         << "cameras only (source topic:NAME), not " << cam.source);
+        stepped.push_back({std::make_unique<dds::Reader<msg::Image>>(
+                               p, dds::topics::OverheadCamera(cam.source.substr(6))),
+                           {},
+                           std::nullopt,
+                           false});
+      }
+      return;
+    }
     for (std::size_t c = 0; c < config.cameras.size(); ++c) {
       const CameraConfig& cam = config.cameras[c];
       if (cam.source.rfind("topic:", 0) == 0) {
@@ -174,7 +200,9 @@ struct EyeService::Impl {
     debug_writers[camera]->Write(m);
   }
 
-  void Detect(std::size_t camera, Time stamp, const cv::Mat& image) {
+  // Searches one frame; nothing when it cannot be searched (bad size, OpenCV refusing it):
+  // counted, never fatal.
+  std::optional<FrameDetections> Search(std::size_t camera, Time stamp, const cv::Mat& image) {
     try {
       FrameDetections d = localizer.Detect(camera, stamp, image);
       if (!debug_writers.empty()) {
@@ -185,14 +213,52 @@ struct EyeService::Impl {
           PublishDebugImage(camera, stamp, image, d);
         }
       }
-      Push(std::move(d));
       const std::lock_guard lock(counters_mutex);
       ++counters.frames;
+      return d;
     } catch (const std::exception& e) {
-      // A frame that cannot be searched (bad size, OpenCV refusing it) is counted, never fatal.
       const std::lock_guard lock(counters_mutex);
       if (counters.bad_frames++ % 100 == 0) spdlog::warn("camera {}: {}", camera, e.what());
+      return std::nullopt;
     }
+  }
+
+  void Detect(std::size_t camera, Time stamp, const cv::Mat& image) {
+    if (std::optional<FrameDetections> d = Search(camera, stamp, image)) Push(std::move(*d));
+  }
+
+  // A frame of an image topic as a grey image (a view when it is mono8); nothing when its
+  // encoding or size is refused (counted, logged every 100).
+  std::optional<cv::Mat> Grey(std::size_t camera, const msg::Image& m) {
+    const std::string_view encoding = dds::View(m.encoding);
+    const bool rgb = encoding == "rgb8", bgr = encoding == "bgr8", mono = encoding == "mono8";
+    const std::size_t channels = mono ? 1 : 3;
+    if (!(rgb || bgr || mono) || m.step < m.width * channels ||
+        m.data._length < static_cast<std::size_t>(m.step) * m.height) {
+      const std::lock_guard lock(counters_mutex);
+      if (counters.bad_frames++ % 100 == 0) {
+        spdlog::warn("camera {}: refused a {}x{} frame of encoding \"{}\" (rgb8, bgr8 or mono8)",
+                     localizer.config().cameras[camera].name, m.width, m.height, encoding);
+      }
+      return std::nullopt;
+    }
+    const cv::Mat view(static_cast<int>(m.height), static_cast<int>(m.width),
+                       mono ? CV_8UC1 : CV_8UC3, m.data._buffer, m.step);
+    if (mono) return view;
+    cv::Mat grey;
+    cv::cvtColor(view, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
+    return grey;
+  }
+
+  // A camera's frames stopped (`lost`) or came again after `silent` (published as the lost
+  // event cleared).
+  void CameraSilence(std::size_t camera, Time at, bool lost, Duration silent) {
+    const std::string& name = localizer.config().cameras[camera].name;
+    EyeEvent e{EyeEvent::Kind::kCameraLost, at, name,
+               lost ? fmt::format("no frame for {:.0f} s", ToSeconds(kCameraLostAfter))
+                    : fmt::format("frames again after {:.1f} s", ToSeconds(silent))};
+    e.cleared = !lost;
+    Publish(e);
   }
 
   // A simulated (or ROS) camera's image topic: the newest frame each time, older ones dropped.
@@ -205,7 +271,7 @@ struct EyeService::Impl {
       if (!reader.WaitForData(std::chrono::milliseconds(100))) {
         if (had_frames && !lost && SteadyClock::now() - last_frame > kCameraLostAfter) {
           lost = true;
-          Publish({EyeEvent::Kind::kCameraLost, SystemNow(), name, "no frame for 2 s"});
+          CameraSilence(camera, SystemNow(), true, {});
         }
         continue;
       }
@@ -216,32 +282,58 @@ struct EyeService::Impl {
         const std::lock_guard lock(counters_mutex);
         counters.dropped_frames += static_cast<std::uint64_t>(taken - 1);
       }
-      last_frame = SteadyClock::now();
+      const auto now = SteadyClock::now();
+      if (lost) {
+        CameraSilence(camera, SystemNow(), false,
+                      std::chrono::duration_cast<Duration>(now - last_frame));
+      }
+      last_frame = now;
       had_frames = true;
       lost = false;
-      const msg::Image& m = *sample;
-      const std::string_view encoding = dds::View(m.encoding);
-      const bool rgb = encoding == "rgb8", bgr = encoding == "bgr8", mono = encoding == "mono8";
-      const std::size_t channels = mono ? 1 : 3;
-      if (!(rgb || bgr || mono) || m.step < m.width * channels ||
-          m.data._length < static_cast<std::size_t>(m.step) * m.height) {
-        const std::lock_guard lock(counters_mutex);
-        if (counters.bad_frames++ % 100 == 0) {
-          spdlog::warn("camera {}: refused a {}x{} frame of encoding \"{}\" (rgb8, bgr8 or mono8)",
-                       name, m.width, m.height, encoding);
-        }
-        continue;
+      if (const std::optional<cv::Mat> grey = Grey(camera, *sample)) {
+        Detect(camera, dds::FromMsg(sample->header.stamp), *grey);
       }
-      const cv::Mat view(static_cast<int>(m.height), static_cast<int>(m.width),
-                         mono ? CV_8UC1 : CV_8UC3, m.data._buffer, m.step);
-      cv::Mat grey;
-      if (mono) {
-        grey = view;
-      } else {
-        cv::cvtColor(view, grey, rgb ? cv::COLOR_RGB2GRAY : cv::COLOR_BGR2GRAY);
-      }
-      Detect(camera, dds::FromMsg(m.header.stamp), grey);
     }
+  }
+
+  // Lockstep: every frame that came, searched camera by camera, fused in stamp order.
+  void Step(Time now) {
+    step_frames.clear();
+    for (std::size_t c = 0; c < stepped.size(); ++c) {
+      SteppedCamera& cam = stepped[c];
+      while (cam.reader->TakeOne(cam.sample)) {
+        Time stamp;
+        try {
+          stamp = dds::FromMsg(cam.sample->header.stamp);
+        } catch (const InputError&) {
+          const std::lock_guard lock(counters_mutex);
+          ++counters.bad_frames;
+          continue;
+        }
+        if (cam.lost) CameraSilence(c, now, false, stamp - *cam.last_frame);
+        cam.lost = false;
+        cam.last_frame = stamp;
+        const std::optional<cv::Mat> grey = Grey(c, *cam.sample);
+        if (!grey) continue;
+        if (std::optional<FrameDetections> d = Search(c, stamp, *grey)) {
+          step_frames.push_back(std::move(*d));
+        }
+      }
+      if (cam.last_frame && !cam.lost && now - *cam.last_frame > kCameraLostAfter) {
+        cam.lost = true;
+        CameraSilence(c, now, true, {});
+      }
+    }
+    std::stable_sort(
+        step_frames.begin(), step_frames.end(),
+        [](const FrameDetections& a, const FrameDetections& b) { return a.stamp < b.stamp; });
+    for (const FrameDetections& frame : step_frames) Fuse(frame);
+  }
+
+  bool WaitForAcks(std::chrono::steady_clock::duration timeout) const {
+    bool all = fleet_writer.WaitForAcks(timeout) && event_writer.WaitForAcks(timeout);
+    for (const auto& w : ips_writers) all = w->WaitForAcks(timeout) && all;
+    return all;
   }
 
   // Files, a device or a stream. Files are paced at the camera's rate and stamped from the
@@ -283,7 +375,6 @@ struct EyeService::Impl {
   }
 
   void FuseLoop() {
-    std::vector<EyeEvent> events;
     while (true) {
       FrameDetections frame;
       {
@@ -293,15 +384,19 @@ struct EyeService::Impl {
         frame = std::move(queue.front());
         queue.pop_front();
       }
-      events.clear();
-      try {
-        const std::vector<LocalizedVehicle> cars = localizer.Fuse(frame, &events);
-        for (const EyeEvent& e : events) Publish(e);
-        if (!cars.empty()) PublishFleet(frame.stamp, cars);
-      } catch (const std::exception& e) {
-        // E.g. OpenCV refusing a degenerate registration: logged, the next frame goes on.
-        spdlog::error("fusing a frame of camera {}: {}", frame.camera, e.what());
-      }
+      Fuse(frame);
+    }
+  }
+
+  void Fuse(const FrameDetections& frame) {
+    fuse_events.clear();
+    try {
+      const std::vector<LocalizedVehicle> cars = localizer.Fuse(frame, &fuse_events);
+      for (const EyeEvent& e : fuse_events) Publish(e);
+      if (!cars.empty()) PublishFleet(frame.stamp, cars);
+    } catch (const std::exception& e) {
+      // E.g. OpenCV refusing a degenerate registration: logged, the next frame goes on.
+      spdlog::error("fusing a frame of camera {}: {}", frame.camera, e.what());
     }
   }
 
@@ -356,12 +451,22 @@ struct EyeService::Impl {
   }
 };
 
-EyeService::EyeService(const EyeConfig& config, const dds::Participant& participant)
-    : impl_(std::make_unique<Impl>(config, participant)) {}
+EyeService::EyeService(const EyeConfig& config, const dds::Participant& participant, EyeMode mode)
+    : impl_(std::make_unique<Impl>(config, participant, mode)) {}
 
 EyeService::~EyeService() = default;
 
 void EyeService::Stop() { impl_->StopThreads(); }
+
+void EyeService::Step(Time now) {
+  AUTODRIVE_THROW_UNLESS(!impl_->stepped.empty() || impl_->threads.empty(),
+                         "EyeService::Step: the service runs on threads, not in lockstep");
+  impl_->Step(now);
+}
+
+bool EyeService::WaitForAcks(std::chrono::steady_clock::duration timeout) const {
+  return impl_->WaitForAcks(timeout);
+}
 
 void EyeService::Reregister() {
   for (std::size_t c = 0; c < impl_->localizer.camera_count(); ++c) {

@@ -6,10 +6,12 @@
 /// pose and twist with covariances), the devkit's `ips` per car when configured, and events.
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 
 #include "common/dds/participant.h"
+#include "common/time.h"
 #include "eye/eye_config.h"
 
 namespace autodrive::eye {
@@ -25,19 +27,38 @@ struct ServiceCounters {
   double latency_p99_ms = 0.0;
 };
 
+/// How the service runs.
+enum class EyeMode {
+  kThreads,   ///< each camera on its own thread, as frames come (the lab, a real-time twin)
+  kLockstep,  ///< no threads: `Step` searches and fuses what came, on the simulator's steps
+};
+
 /// The service. Starts its threads on construction and stops them on destruction (or `Stop`).
 /// Not copyable or movable.
+///
+/// In lockstep (`EyeMode::kLockstep`, the simulator's lockstep: common/dds/lockstep.h) the
+/// cameras must be simulated ones (`topic:`): at each step the caller calls `Step` with the
+/// step's time, which takes every frame each camera's topic brought (the simulator waited
+/// for their acknowledgements before it announced the step), searches them one after the
+/// other, fuses them in stamp order and publishes, then `WaitForAcks`; a camera is lost after
+/// 2 s of simulated time without a frame. The same frames give the same fleet every run.
 class EyeService {
  public:
   /// @throws ConfigError / InputError for a bad configuration or calibration file,
-  /// InputError when a source cannot be opened.
-  EyeService(const EyeConfig& config, const dds::Participant& participant);
+  /// InputError when a source cannot be opened (or, in lockstep, is not a `topic:` camera).
+  EyeService(const EyeConfig& config, const dds::Participant& participant,
+             EyeMode mode = EyeMode::kThreads);
   ~EyeService();
   EyeService(const EyeService&) = delete;
   EyeService& operator=(const EyeService&) = delete;
 
   /// Stops the threads (idempotent).
   void Stop();
+  /// Lockstep only: searches and fuses the frames that came, publishes, judges the cameras'
+  /// silence at `now` (the step's simulated time).
+  void Step(Time now);
+  /// Lockstep only: whether every reader acknowledged what `Step` wrote, within `timeout`.
+  [[nodiscard]] bool WaitForAcks(std::chrono::steady_clock::duration timeout) const;
   /// Every camera registers again from its next frames (`Localizer::Reregister`).
   void Reregister();
   /// True once every file source has ended (a service on files only is then done).

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <set>
+#include <string_view>
 
 #include "scenarios/metrics.h"
 
@@ -113,6 +114,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
     const std::string ei = fmt::format("[{}]", i);
     if (!e.host.empty()) continue;      // a light host's link: checked with the launch below
     if (!e.obstacle.empty()) continue;  // one of the scenario's obstacles: checked on load
+    if (!e.camera.empty()) continue;    // a simulated camera: checked with the sim section
     if (e.action == "surge") {
       for (const auto& [lane, key] : {std::pair{&e.from, "from"}, {&e.to, "to"}}) {
         if (!lane->empty() && map.FindLane(*lane) == nullptr) {
@@ -218,6 +220,33 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
       cam["lens"]["calibration"] = Absolute(base_dir, cam["lens"]["calibration"].as<std::string>());
     }
   }
+  // A camera lost: the simulator sends no frame of it from..until (its own clock).
+  const auto outages = scenario.CameraOutages();
+  for (std::size_t i = 0; i < scenario.events.size(); ++i) {
+    const EventSpec& e = scenario.events[i];
+    if (e.camera.empty()) continue;
+    std::vector<std::string> names;
+    bool found = false;
+    for (auto cam : sim["cameras"]) {
+      const std::string name = cam["name"] ? cam["name"].as<std::string>() : "";
+      names.push_back(name);
+      if (name != e.camera) continue;
+      found = true;
+      const auto& [from, until] = outages.at(name);
+      cam["lost_from_s"] = ToSeconds(from);
+      if (until) cam["lost_until_s"] = ToSeconds(*until);
+    }
+    if (!found) {
+      refuse({"events", fmt::format("[{}]", i), "camera"},
+             fmt::format("{}'s simulator has no overhead camera \"{}\" (it has: {})",
+                         base_file.string(), e.camera,
+                         names.empty() ? "none" : fmt::format("{}", fmt::join(names, ", "))));
+    }
+  }
+  if (scenario.eye && !city["eye"]) {
+    refuse({"eye"},
+           fmt::format("{} has no eye section: there is no Eye to run", base_file.string()));
+  }
   const bool surges =
       std::ranges::any_of(scenario.events, [](const EventSpec& e) { return e.action == "surge"; });
   out.traffic = scenario.traffic.vehicles > 0 || surges;
@@ -262,9 +291,11 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   YAML::Node service = sim["service"] ? sim["service"] : YAML::Node(YAML::NodeType::Map);
   service["mode"] = "lockstep";
   YAML::Node stages(YAML::NodeType::Sequence);
+  // The lights and the Eye first (the SCM decides on what they said), then the SCM.
   for (const char* stage : {"lights", "scm"}) {
     YAML::Node s(YAML::NodeType::Sequence);
     s.push_back(stage);
+    if (scenario.eye && std::string_view(stage) == "lights") s.push_back("eye");
     s.SetStyle(YAML::EmitterStyle::Flow);
     stages.push_back(s);
   }
@@ -302,8 +333,8 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
     }
   }
 
-  // The launch: the lights, the SCM, the simulator, SUMO and the agents; no Eye (it has no
-  // lockstep mode), no dashboard, no example driver for the whole city.
+  // The launch: the lights, the SCM, the simulator, SUMO, the Eye when asked for, and the
+  // agents; no dashboard, no example driver for the whole city.
   std::string lights_config = Absolute(base_dir, "../infra/" + out.city_name + ".yaml");
   if (city["launch"] && city["launch"]["lights"] && city["launch"]["lights"]["config"]) {
     lights_config = Absolute(base_dir, city["launch"]["lights"]["config"].as<std::string>());
@@ -328,7 +359,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   YAML::Node launch(YAML::NodeType::Map);
   launch["run_dir"] = fs::absolute(run_dir).lexically_normal().string();
   launch["lights"]["config"] = lights_config;
-  launch["eye"]["mode"] = "off";
+  launch["eye"]["mode"] = scenario.eye ? "on" : "off";
   launch["driver"]["mode"] = "off";
   launch["dashboard"]["mode"] = "off";
   launch["stop_grace_s"] = 10.0;

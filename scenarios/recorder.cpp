@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 
 #include <nlohmann/json.hpp>
 
@@ -47,15 +48,23 @@ struct Recorder::Impl {
   std::unique_ptr<dds::Reader<msg::Spat>> spat;
   std::unique_ptr<dds::Reader<msg::MapData>> map;
   std::unique_ptr<dds::Reader<msg::TrafficObjects>> traffic;
-  std::unique_ptr<dds::Reader<msg::Event>> events;
+  std::unique_ptr<dds::Reader<msg::Event>> events, eye_events;  // the SCM's and others', the Eye's
   std::unique_ptr<dds::Reader<msg::SignalRequest>> requests;
   std::unique_ptr<dds::Reader<msg::SignalRequestStatus>> statuses;
   std::ofstream truth_csv, lamps_csv, traffic_csv, spat_jsonl, map_jsonl, events_jsonl,
       requests_jsonl;
   // Events and V2I messages come from several processes, some of them in the runner's own
   // stage, so a message may come one step early or late: they are written at the end, in the
-  // order of their stamps.
-  std::vector<std::pair<double, std::string>> event_lines, request_lines;
+  // order of their stamps. Events of one stamp go by their source's name, and in the order
+  // their source sent them (one writer's order is kept: a car lost, then found again); V2I
+  // messages of one stamp by their text.
+  struct EventLine {
+    double t = 0;
+    std::string source;
+    std::string line;
+  };
+  std::vector<EventLine> event_lines;
+  std::vector<std::pair<double, std::string>> request_lines;
   std::filesystem::path dir;
 };
 
@@ -79,6 +88,7 @@ Recorder::Recorder(const dds::Participant& participant, const std::vector<std::s
   m.map = KeepAll(participant, topics::Map());
   if (traffic) m.traffic = KeepAll(participant, topics::Traffic());
   m.events = KeepAll(participant, topics::Events());
+  m.eye_events = KeepAll(participant, topics::EyeEvents());
   m.requests = KeepAll(participant, topics::SignalRequests());
   m.statuses = KeepAll(participant, topics::SignalRequestStatus());
   const auto open = [&](std::ofstream& f, const char* name, const char* header) {
@@ -187,17 +197,20 @@ void Recorder::Take(Time step) {
       }
     }
   }
-  while (auto s = m.events->TakeOne()) {
-    const msg::Event& e = **s;
-    m.event_lines.emplace_back(Seconds(e.header.stamp), json{{"t_s", Seconds(e.header.stamp)},
-                                                             {"severity", e.severity},
-                                                             {"source", Str(e.source)},
-                                                             {"code", Str(e.code)},
-                                                             {"message", Str(e.message)},
-                                                             {"intersection", e.intersection_id},
-                                                             {"device", Str(e.device_id)},
-                                                             {"active", e.active}}
-                                                            .dump());
+  for (auto* reader : {m.events.get(), m.eye_events.get()}) {
+    while (auto s = reader->TakeOne()) {
+      const msg::Event& e = **s;
+      m.event_lines.push_back({Seconds(e.header.stamp), Str(e.source),
+                               json{{"t_s", Seconds(e.header.stamp)},
+                                    {"severity", e.severity},
+                                    {"source", Str(e.source)},
+                                    {"code", Str(e.code)},
+                                    {"message", Str(e.message)},
+                                    {"intersection", e.intersection_id},
+                                    {"device", Str(e.device_id)},
+                                    {"active", e.active}}
+                                   .dump()});
+    }
   }
   while (auto s = m.requests->TakeOne()) {
     const msg::SignalRequest& r = **s;
@@ -225,12 +238,15 @@ void Recorder::Take(Time step) {
 
 void Recorder::Close() {
   Impl& m = *impl_;
-  for (auto [lines, file] : {std::pair{&m.event_lines, &m.events_jsonl},
-                             std::pair{&m.request_lines, &m.requests_jsonl}}) {
-    std::stable_sort(lines->begin(), lines->end());
-    for (const auto& [t, line] : *lines) *file << line << '\n';
-    lines->clear();
-  }
+  std::stable_sort(m.event_lines.begin(), m.event_lines.end(),
+                   [](const Impl::EventLine& a, const Impl::EventLine& b) {
+                     return std::tie(a.t, a.source) < std::tie(b.t, b.source);
+                   });
+  for (const Impl::EventLine& e : m.event_lines) m.events_jsonl << e.line << '\n';
+  m.event_lines.clear();
+  std::stable_sort(m.request_lines.begin(), m.request_lines.end());
+  for (const auto& [t, line] : m.request_lines) m.requests_jsonl << line << '\n';
+  m.request_lines.clear();
   for (std::ofstream* f : {&m.truth_csv, &m.lamps_csv, &m.traffic_csv, &m.spat_jsonl, &m.map_jsonl,
                            &m.events_jsonl, &m.requests_jsonl}) {
     if (!f->is_open()) continue;

@@ -215,7 +215,12 @@ class EventPlayer {
                 {"at_s", ToSeconds(e.at_s)},
                 {"action", e.action},
                 {"intersection", e.intersection}};
-      if (!e.obstacle.empty()) {
+      if (!e.camera.empty()) {
+        // The simulator stops and starts its frames on its own clock (the composed city's
+        // `lost_from_s`/`lost_until_s`).
+        line.erase("intersection");
+        line["camera"] = e.camera;
+      } else if (!e.obstacle.empty()) {
         // The simulator places and removes it on its own clock (the composed city's
         // `from_s`/`until_s`): the same step, whatever the network does.
         line.erase("intersection");

@@ -55,6 +55,8 @@ void EventSpec::Validate() const {
       {"link_restore", {"host"}},
       {"place", {"obstacle"}},
       {"remove", {"obstacle"}},
+      {"camera_lost", {"camera"}},
+      {"camera_back", {"camera"}},
       {"surge", {"from", "per_hour", "count"}},
   };
   static const std::set<std::string> kOptional{"to", "type"};  // surge's
@@ -68,6 +70,7 @@ void EventSpec::Validate() const {
       {"fault", !fault.empty()},
       {"host", !host.empty()},
       {"obstacle", !obstacle.empty()},
+      {"camera", !camera.empty()},
       {"from", !from.empty()},
       {"to", !to.empty()},
       {"per_hour", per_hour != 0},
@@ -114,6 +117,7 @@ void Scenario::Validate() const {
     }
   }
   (void)TimedObstacles();
+  (void)CameraOutages();
   const auto& known = RunMetricNames();
   for (const auto& [metric, text] : expect) {
     if (std::find(known.begin(), known.end(), metric) == known.end()) {
@@ -166,6 +170,37 @@ std::vector<vehicle_sim::UnmappedObstacle> Scenario::TimedObstacles() const {
                       "placed at {} s",
                       o.name, ToSeconds(*o.until_s), ToSeconds(o.from_s)));
     }
+  }
+  return out;
+}
+
+std::map<std::string, std::pair<Duration, std::optional<Duration>>> Scenario::CameraOutages()
+    const {
+  std::map<std::string, std::pair<Duration, std::optional<Duration>>> out;
+  std::vector<const EventSpec*> backs;
+  for (const EventSpec& e : events) {
+    if (e.action == "camera_back") backs.push_back(&e);
+    if (e.action != "camera_lost") continue;
+    if (!out.emplace(e.camera, std::pair{e.at_s, std::optional<Duration>{}}).second) {
+      throw InputError(fmt::format("events: camera {} is lost twice", e.camera));
+    }
+  }
+  std::set<std::string> back;
+  for (const EventSpec* e : backs) {
+    const auto it = out.find(e->camera);
+    if (it == out.end()) {
+      throw InputError(fmt::format("events: camera {} comes back but is never lost", e->camera));
+    }
+    if (!back.insert(e->camera).second) {
+      throw InputError(fmt::format("events: camera {} comes back twice", e->camera));
+    }
+    if (e->at_s <= it->second.first) {
+      throw InputError(
+          fmt::format("events: camera {} comes back at {} s, not after it is lost "
+                      "at {} s",
+                      e->camera, ToSeconds(e->at_s), ToSeconds(it->second.first)));
+    }
+    it->second.second = e->at_s;
   }
   return out;
 }

@@ -93,8 +93,10 @@ struct EventSpec {
   /// (its `lamp` burns out, sticks on or is repaired: `fault`), `unplug` (the head goes
   /// offline, its cable pulled), `plug` (back online); on a light host's DDS link with the SCM:
   /// `link_cut`, `link_restore` (`host`); in the simulator's world: `place`, `remove` (the
-  /// scenario's unmapped `obstacle` of that name); in SUMO's demand: `surge` (`count` more
-  /// vehicles entering at lane `from` at `per_hour`, to lane `to` or circulating, of `type`).
+  /// scenario's unmapped `obstacle` of that name), `camera_lost`, `camera_back` (the overhead
+  /// `camera` of that name sends no frame between them); in SUMO's demand: `surge` (`count`
+  /// more vehicles entering at lane `from` at `per_hour`, to lane `to` or circulating, of
+  /// `type`).
   std::string action;
   std::string intersection;  ///< the map's intersection name
   std::string mode;          ///< action mode: flash | dark | auto
@@ -105,6 +107,7 @@ struct EventSpec {
   std::string fault;         ///< action lamp: burnt_out | stuck_on | repaired
   std::string host;          ///< actions link_cut, link_restore: the light host's name
   std::string obstacle;      ///< actions place, remove: the name of one of `obstacles`
+  std::string camera;        ///< actions camera_lost, camera_back: an overhead camera's name
   std::string from;          ///< action surge: the map lane they enter at
   std::string to;            ///< action surge: the map lane they leave at (empty: circulate)
   double per_hour = 0;       ///< action surge: the rate they enter at
@@ -116,7 +119,8 @@ struct EventSpec {
     a.Required("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
     a.Required("action", action,
                config::OneOf{{"mode", "plan", "preempt", "priority", "cancel", "lamp", "unplug",
-                              "plug", "link_cut", "link_restore", "place", "remove", "surge"}});
+                              "plug", "link_cut", "link_restore", "place", "remove", "camera_lost",
+                              "camera_back", "surge"}});
     a.Optional("intersection", intersection);
     a.Optional("mode", mode, config::OneOf{{"", "flash", "dark", "auto"}});
     a.Optional("plan", plan);
@@ -126,6 +130,7 @@ struct EventSpec {
     a.Optional("fault", fault, config::OneOf{{"", "burnt_out", "stuck_on", "repaired"}});
     a.Optional("host", host);
     a.Optional("obstacle", obstacle);
+    a.Optional("camera", camera);
     a.Optional("from", from);
     a.Optional("to", to);
     a.Optional("per_hour", per_hour, config::Range{0.0, 1e6});
@@ -173,6 +178,9 @@ struct Scenario {
   Duration step_s = std::chrono::milliseconds(20);
   std::vector<VehicleSpec> vehicles;
   TrafficSpec traffic;
+  /// The Eye in the loop: the base city's `eye` section runs, in lockstep, on the simulator's
+  /// overhead cameras, and the SCM's fleet takes its poses (the cars' `ips` the fall-back).
+  bool eye = false;
   /// Unmapped obstacles on the track: from the start, or from a `place` event (those a
   /// `place` event names) until a `remove` event names them. Their `from_s` and `until_s` are
   /// the events' (refused here: the events say when).
@@ -197,6 +205,7 @@ struct Scenario {
         config::Range<Duration>{std::chrono::milliseconds(5), std::chrono::milliseconds(100)});
     a.Required("vehicles", vehicles);
     a.Optional("traffic", traffic);
+    a.Optional("eye", eye);
     a.Optional("obstacles", obstacles);
     a.Optional("events", events);
     a.Optional("end", end);
@@ -210,6 +219,10 @@ struct Scenario {
 
   /// The obstacles as the simulator takes them: `from_s` and `until_s` from the events.
   [[nodiscard]] std::vector<vehicle_sim::UnmappedObstacle> TimedObstacles() const;
+  /// Each camera that `camera_lost` names: lost from that time until its `camera_back` (none:
+  /// to the end). @throws InputError for a camera lost or back twice, back before it is lost.
+  [[nodiscard]] std::map<std::string, std::pair<Duration, std::optional<Duration>>> CameraOutages()
+      const;
 };
 
 /// A pass threshold: `<op> <number>` with op one of `<`, `<=`, `==`, `>=`, `>`, `!=`.

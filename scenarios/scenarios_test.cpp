@@ -118,6 +118,19 @@ TEST(ScenarioFile, RefusalsNameTheFileLineAndKey) {
           "events[0]: action surge takes no vehicle");
   refused(std::string(kCar) + "events: [{at_s: 3, action: place, obstacle: box, to: a}]\n",
           "events[0]: action place takes no to");
+  // A camera lost and back: once each, back after lost.
+  refused(std::string(kCar) + "events: [{at_s: 3, action: camera_lost}]\n",
+          "events[0]: action camera_lost needs camera");
+  refused(std::string(kCar) +
+              "events: [{at_s: 3, action: camera_lost, camera: o}, {at_s: 5, action: "
+              "camera_lost, camera: o}]\n",
+          "events: camera o is lost twice");
+  refused(std::string(kCar) +
+              "events: [{at_s: 3, action: camera_lost, camera: o}, {at_s: 2, action: "
+              "camera_back, camera: o}]\n",
+          "events: camera o comes back at 2 s, not after it is lost at 3 s");
+  refused(std::string(kCar) + "events: [{at_s: 3, action: camera_back, camera: o}]\n",
+          "events: camera o comes back but is never lost");
   refused("vehicles:\n  - {name: car_1, spawn: {lane: a}}\n",
           "vehicles[0]: name: \"car_1\" is not nigel_<n>");
   refused(std::string(kCar) + "  - name: nigel_1\n    spawn: {lane: a}\n",
@@ -200,6 +213,18 @@ TEST(ComposedCity, RoutesAndEventsAreCheckedAgainstTheMapAndCity) {
   EXPECT_NE(ComposeRefusal(tram).find("events[0].type: SUMO type \"tram\" is not one of"),
             std::string::npos)
       << ComposeRefusal(tram);
+  const std::string camera =
+      std::string(kCar) + "events: [{at_s: 3, action: camera_lost, camera: top}]\n";
+  EXPECT_NE(ComposeRefusal(camera).find("events[0].camera:"), std::string::npos)
+      << ComposeRefusal(camera);
+  EXPECT_NE(ComposeRefusal(camera).find("has no overhead camera \"top\" (it has: overhead)"),
+            std::string::npos)
+      << ComposeRefusal(camera);
+  EXPECT_EQ(ComposeRefusal(std::string(kCar) + "eye: true\n"
+                                               "events: [{at_s: 3, action: camera_lost, camera: "
+                                               "overhead}, {at_s: 5, action: camera_back, camera: "
+                                               "overhead}]\n"),
+            "(composed)");
   // Obstacle events name no intersection: they compose.
   EXPECT_EQ(
       ComposeRefusal(std::string(kCar) + "obstacles: [{name: box, x_m: 3.5, y_m: 2.35}]\n"
@@ -227,6 +252,29 @@ TEST(ComposedCity, EveryShippedScenarioLoadsAndComposes) {
     ++scenarios;
   }
   EXPECT_GE(scenarios, 14);
+}
+
+TEST(ComposedCity, TheEyeInTheLoopAndACameraLost) {
+  test::TempDir dir("scenario_eye");
+  const fs::path file = Write(dir.path(), std::string(kCar) +
+                                              "eye: true\n"
+                                              "events: [{at_s: 3, action: camera_lost, camera: "
+                                              "overhead}, {at_s: 5.5, action: camera_back, "
+                                              "camera: overhead}]\n");
+  const maps::Map map =
+      maps::LoadMapOrLayout((test::SourceDir() / "config/maps/driving_school.yaml").string());
+  const ComposedCity c = ComposeCity(LoadScenario(file), file, map, dir.path() / "city.yaml",
+                                     dir.path() / "run", dir.path() / "logs", dir.path());
+  const YAML::Node city = YAML::Load(c.yaml);
+  // The Eye runs, in the first stage with the lights (its fleet reaches the SCM's stage).
+  EXPECT_EQ(city["launch"]["eye"]["mode"].as<std::string>(), "on");
+  const YAML::Node stages = city["sim"]["service"]["stages"];
+  ASSERT_EQ(stages.size(), 2U);
+  EXPECT_EQ(stages[0][0].as<std::string>(), "lights");
+  EXPECT_EQ(stages[0][1].as<std::string>(), "eye");
+  EXPECT_EQ(stages[1][0].as<std::string>(), "scm");
+  EXPECT_EQ(city["sim"]["cameras"][0]["lost_from_s"].as<double>(), 3.0);
+  EXPECT_EQ(city["sim"]["cameras"][0]["lost_until_s"].as<double>(), 5.5);
 }
 
 TEST(ComposedCity, RunsInLockstepWithTheScenariosCarsAndAgents) {

@@ -414,6 +414,47 @@ TEST_F(ScenarioRunner, ADemandSurgeSendsItsCarsFromItsTimeAtItsRate) {
   EXPECT_TRUE(NoneLeft(tag_));
 }
 
+TEST_F(ScenarioRunner, ACameraLostIsReportedByTheEyeInTheLoopAndItsReturnToo) {
+  // The shipped camera_lost: the Eye in lockstep on the overhead camera (30 Hz), which sends
+  // nothing from 10 s to 18 s. Its last frame before is at 9.967 s (frame 299), so the Eye
+  // reports it lost 2 s of simulated time later, at the step of 11.98 s, and back at 18 s;
+  // the same in two runs.
+  const fs::path file = Shortened("camera_lost", "time_limit_s: 22");
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "lost").string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::vector<json> eye;
+  for (const std::string& line : ReadLines(dir_.path() / "lost" / "logs" / "events.jsonl")) {
+    const json e = json::parse(line);
+    if (e["source"] == "eye") eye.push_back(e);
+  }
+  const auto find = [&](const std::string& code, bool active) -> const json* {
+    for (const json& e : eye) {
+      if (e["code"] == code && e["active"] == active) return &e;
+    }
+    return nullptr;
+  };
+  ASSERT_NE(find("camera_registered", false), nullptr) << json(eye).dump(1);
+  ASSERT_NE(find("vehicle_found", false), nullptr);
+  const json* lost = find("camera_lost", true);
+  const json* back = find("camera_lost", false);
+  ASSERT_NE(lost, nullptr) << json(eye).dump(1);
+  ASSERT_NE(back, nullptr) << json(eye).dump(1);
+  EXPECT_NEAR((*lost)["t_s"].get<double>(), 11.98, 1e-6);
+  EXPECT_EQ((*lost)["device"], "overhead");
+  EXPECT_NEAR((*back)["t_s"].get<double>(), 18.0, 1e-6);
+  // The car was tracked again after the camera came back.
+  bool found_again = false;
+  for (const json& e : eye) {
+    found_again = found_again || (e["code"] == "vehicle_found" && e["t_s"].get<double>() >= 18.0);
+  }
+  EXPECT_TRUE(found_again);
+  const Outcome again = RunScenario(file.string(), (dir_.path() / "again").string());
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_EQ(config::ReadFile(dir_.path() / "lost" / "logs" / "events.jsonl"),
+            config::ReadFile(dir_.path() / "again" / "logs" / "events.jsonl"));
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
 TEST_F(ScenarioRunner, CtrlCTakesTheCityDown) {
   const std::string out = (dir_.path() / "interrupted").string();
   ChildProcess p({Bin("autodrive-scenario"), "run", Shipped("crossing_clean"), "--out", out},

@@ -88,6 +88,8 @@ void OverheadCameraConfig::Validate() const {
   }
   AUTODRIVE_THROW_UNLESS(
       ok, "name: a camera's name is [a-z][a-z0-9_]* (at most 64), got \"" << name << "\"");
+  AUTODRIVE_THROW_UNLESS(!lost_until_s || (lost_from_s && *lost_until_s > *lost_from_s),
+                         "lost_until_s needs lost_from_s before it");
 }
 
 camera::Intrinsics OverheadCameraConfig::Intrinsics() const {

@@ -18,6 +18,7 @@
 #include "common/camera/roof_tag.h"
 #include "common/config.h"
 #include "common/geometry.h"
+#include "common/time.h"
 
 namespace autodrive::vehicle_sim {
 
@@ -209,6 +210,10 @@ struct OverheadCameraConfig {
   LensConfig lens;
   MountConfig mount{0.0, 0.0, 3.0, 0.0, kPi / 2, kPi / 2};
   FilmOptions film;
+  /// A camera lost for a while (its cable pulled, its computer down): no frame from
+  /// `lost_from_s` until `lost_until_s` (simulated time; none: to the end).
+  std::optional<Duration> lost_from_s;
+  std::optional<Duration> lost_until_s;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -217,8 +222,12 @@ struct OverheadCameraConfig {
     a.Optional("lens", lens);
     a.Optional("mount", mount);
     a.Optional("film", film);
+    a.Optional("lost_from_s", lost_from_s,
+               config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
+    a.Optional("lost_until_s", lost_until_s,
+               config::Range<Duration>{Duration{0}, std::chrono::hours(24 * 365)});
   }
-  /// The name is a valid topic segment.
+  /// The name is a valid topic segment; `lost_until_s` comes with `lost_from_s`, after it.
   void Validate() const;
   /// The lens's intrinsics, 1920 x 1080 unless the lens gives a size or a calibration.
   [[nodiscard]] camera::Intrinsics Intrinsics() const;

@@ -53,6 +53,8 @@ SimCameras::SimCameras(const SimConfig& sim, const maps::Map& map, const World& 
     cam.intrinsics = Named(cam.name, [&] { return c.Intrinsics(); });
     cam.film = c.film;
     cam.period = Period(c.rate_hz);
+    cam.lost_from = c.lost_from_s;
+    cam.lost_until = c.lost_until_s;
     cameras_.push_back(cam);
   }
   if (cameras_.empty()) return;
@@ -84,7 +86,7 @@ void SimCameras::Due(Duration now, std::vector<std::size_t>& due) {
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     SimCamera& cam = cameras_[k];
     if (cam.next_due > now) continue;
-    due.push_back(k);
+    if (!cam.LostAt(now)) due.push_back(k);
     // The next multiple of the period after now (a frame is never owed twice).
     while (cam.next_due <= now) cam.next_due += cam.period;
   }

@@ -61,6 +61,12 @@ struct SimCamera {
   FilmOptions film;
   Duration period{};
   Duration next_due{0};
+  /// Lost (no frame) from..until (overhead cameras' `lost_from_s`, `lost_until_s`).
+  std::optional<Duration> lost_from;
+  std::optional<Duration> lost_until;
+  [[nodiscard]] bool LostAt(Duration t) const {
+    return lost_from && *lost_from <= t && (!lost_until || t < *lost_until);
+  }
 };
 
 class SimCameras {
@@ -81,7 +87,7 @@ class SimCameras {
   [[nodiscard]] std::optional<std::size_t> Find(const std::string& name) const;
 
   /// The cameras whose frame is due at `now` (their due time passed), each moved to its next
-  /// due time; `due` is cleared first.
+  /// due time; `due` is cleared first. A camera lost at `now` moves on with none due.
   void Due(Duration now, std::vector<std::size_t>& due);
 
   /// The world's moving parts now, for `Render`: every car with its look, velocity and lights

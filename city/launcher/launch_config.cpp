@@ -62,7 +62,7 @@ void PlanLockstep(LaunchPlan& plan, const vehicle_sim::ServiceOptions& service,
   std::set<std::string> waited(service.controllers.begin(), service.controllers.end());
   for (const auto& stage : service.stages) waited.insert(stage.begin(), stage.end());
   for (const std::string& name : external) waited.erase(name);
-  const std::set<std::string> controllers{"lights", "scm", "traffic", "driver"};
+  const std::set<std::string> controllers{"lights", "scm", "traffic", "driver", "eye"};
   for (ProcessPlan& p : plan.processes) {
     if (p.name == "dashboard") continue;
     p.ready = {};

@@ -386,6 +386,8 @@ void ScenarioEvents(const std::vector<json>& events, Timeline& timeline) {
       label = fmt::format("{} {}", action, Str(e, "host"));
     } else if (action == "place" || action == "remove") {
       label = fmt::format("{} obstacle {}", action, Str(e, "obstacle"));
+    } else if (action == "camera_lost" || action == "camera_back") {
+      label = fmt::format("{} {}", action, Str(e, "camera"));
     } else if (action == "surge") {
       label =
           fmt::format("surge of {} {} from {}", Num(e, "count"), Str(e, "type"), Str(e, "from"));
