@@ -13,6 +13,7 @@
 
 #include <pugixml.hpp>
 
+#include "scenarios/internal/lamp_bands.h"
 #include "scenarios/internal/logs.h"
 
 #include "common/config.h"
@@ -430,6 +431,12 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         internal::Number(row[0], file, line),
         static_cast<int>(internal::Number(row[2], file, line)));
   }
+  // What each head showed over time: steady aspects, and flashing ones told from their
+  // alternation (a flashing red is judged by the stop-sign rule).
+  std::map<int, std::vector<internal::LampBand>> bands;
+  for (const auto& [head, track] : lamps) {
+    bands[head] = internal::LampBands(track, std::max(world.end_s, track.back().first));
+  }
   // SUMO's cars per stamp.
   std::map<double, std::vector<TrafficRow>> traffic;
   if (std::filesystem::exists(logs_dir / "traffic.csv")) {
@@ -600,15 +607,29 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         const Vector2d p = Vector2d(s.x, s.y) + ahead * Vector2d(std::cos(s.yaw), std::sin(s.yaw));
         return std::pair{(p - mid).dot(line.direction), std::abs((p - mid).dot(across))};
       };
+      // The aspect of the first facing head that has one at `t` (-1: none known).
+      const auto aspect_at = [&](double t, int& head) {
+        for (int h : line.heads) {
+          const auto it = bands.find(h);
+          if (it == bands.end() || it->second.empty() || it->second.front().from_s > t + 1e-9) {
+            continue;
+          }
+          head = h;
+          return internal::AspectAt(it->second, t);
+        }
+        return -1;
+      };
       for (std::size_t i = 1; i < samples.size(); ++i) {
         if (line.control == "signal") {
-          // The tail crosses the line (ScenarioRunner's RunningRedLightTest).
+          // The tail crosses the line on steady red (ScenarioRunner's RunningRedLightTest).
           const auto [before, lat0] = signed_at(samples[i - 1], -tail_behind);
           const auto [after, lat1] = signed_at(samples[i], -tail_behind);
-          if (!(before < 0 && after >= 0 && lat1 <= half + 0.02)) continue;
-          for (int h : line.heads) {
-            const int lamp = LampAt(lamps[h], samples[i].t);
-            if (lamp == 1) {
+          if (before < 0 && after >= 0 && lat1 <= half + 0.02) {
+            for (int h : line.heads) {
+              const auto it = bands.find(h);
+              if (it == bands.end() || internal::AspectAt(it->second, samples[i].t) != 1) {
+                continue;
+              }
               red.push_back({{"t_s", R(samples[i].t)},
                              {"intersection", line.intersection},
                              {"lane", line.lane},
@@ -617,24 +638,36 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
               break;
             }
           }
-        } else {
-          // The front crosses the line: was there a full stop within the zone before it
-          // (ScenarioRunner's RunningStopTest)?
-          const auto [before, lat0] = signed_at(samples[i - 1], front_ahead);
-          const auto [after, lat1] = signed_at(samples[i], front_ahead);
-          if (!(before < 0 && after >= 0 && lat1 <= half + 0.02)) continue;
-          double slowest = kInf;
-          for (std::size_t j = i; j-- > 0;) {
-            const auto [at, lat] = signed_at(samples[j], front_ahead);
-            if (at < -k.stop_zone_m) break;
-            slowest = std::min(slowest, std::abs(samples[j].vx));
+        }
+        // The front crosses a stop sign's line, or a signal's while it flashes red or is dark
+        // (an all-way stop by law): was there a full stop within the zone before it
+        // (ScenarioRunner's RunningStopTest)?
+        const auto [before, lat0] = signed_at(samples[i - 1], front_ahead);
+        const auto [after, lat1] = signed_at(samples[i], front_ahead);
+        if (!(before < 0 && after >= 0 && lat1 <= half + 0.02)) continue;
+        std::string control = "stop";
+        int head = 0;
+        if (line.control == "signal") {
+          const int aspect = aspect_at(samples[i].t, head);
+          if (aspect != 4 && aspect != 0) continue;
+          control = aspect == 4 ? "flashing_red" : "dark";
+        }
+        double slowest = kInf;
+        for (std::size_t j = i; j-- > 0;) {
+          const auto [at, lat] = signed_at(samples[j], front_ahead);
+          if (at < -k.stop_zone_m) break;
+          slowest = std::min(slowest, std::abs(samples[j].vx));
+        }
+        if (slowest >= k.stopped_mps) {
+          json violation{{"t_s", R(samples[i].t)},
+                         {"intersection", line.intersection},
+                         {"lane", line.lane},
+                         {"min_speed_mps", R(slowest)}};
+          if (control != "stop") {
+            violation["control"] = control;
+            violation["head"] = head;
           }
-          if (slowest >= k.stopped_mps) {
-            stop_signs.push_back({{"t_s", R(samples[i].t)},
-                                  {"intersection", line.intersection},
-                                  {"lane", line.lane},
-                                  {"min_speed_mps", R(slowest)}});
-          }
+          stop_signs.push_back(std::move(violation));
         }
       }
     }

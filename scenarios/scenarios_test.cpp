@@ -370,6 +370,41 @@ TEST(Metrics, RedLightWhenTheTailCrossesTheLineOnRed) {
   EXPECT_EQ(ComputeMetrics(Road(), dir.path())["run"]["red_light_violations"], 0);
 }
 
+TEST(Metrics, AFlashingRedOrDarkSignalIsJudgedAsAStopSign) {
+  test::TempDir dir("metrics_flash");
+  // Head 3 flashes red (red and dark every 0.5 s) from 0 to 40 s. At 0.1 m/s without
+  // stopping, the front crosses x = 2 when x = 1.77023 (t = 17.7023 s, sample 17.71 s) and the
+  // tail at 20.89 s (in a lit half): no red-light violation, one stop-sign violation.
+  std::string flash;
+  for (int k = 0; k < 80; ++k) flash += fmt::format("{:.6f},3,{}\n", 0.5 * k, k % 2 == 0 ? 1 : 0);
+  WriteLamps(dir.path(), flash);
+  WriteDrive(dir.path(), 0.1, 30);
+  json m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["red_light_violations"], 0);
+  const json& stops = m["vehicles"]["nigel_1"]["stop_sign_violations"];
+  ASSERT_EQ(stops.size(), 2U) << stops;  // the flashing red at x = 2, the stop sign at x = 3
+  EXPECT_NEAR(stops[0]["t_s"].get<double>(), 17.71, 1e-6);
+  EXPECT_EQ(stops[0]["control"], "flashing_red");
+  EXPECT_EQ(stops[0]["head"], 3);
+  // A full stop 0.2 m before the line (front at 1.8: x = 1.57), 2 s: none there.
+  WriteDrive(dir.path(), 0.1, 40, 0.0, 1.57, 2.0);
+  m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["red_light_violations"], 0);
+  ASSERT_EQ(m["vehicles"]["nigel_1"]["stop_sign_violations"].size(), 1U);
+  EXPECT_FALSE(m["vehicles"]["nigel_1"]["stop_sign_violations"][0].contains("control"));
+  // A dark head (the intersection switched off) is an all-way stop too.
+  WriteLamps(dir.path(), "0.000000,3,0\n");
+  WriteDrive(dir.path(), 0.1, 30);
+  m = ComputeMetrics(Road(), dir.path());
+  ASSERT_EQ(m["vehicles"]["nigel_1"]["stop_sign_violations"].size(), 2U);
+  EXPECT_EQ(m["vehicles"]["nigel_1"]["stop_sign_violations"][0]["control"], "dark");
+  // A steady red, as before: the red light, no stop-sign rule at the signal.
+  WriteLamps(dir.path(), "0.000000,3,1\n");
+  m = ComputeMetrics(Road(), dir.path());
+  EXPECT_EQ(m["run"]["red_light_violations"], 1);
+  EXPECT_EQ(m["vehicles"]["nigel_1"]["stop_sign_violations"].size(), 1U);
+}
+
 TEST(Metrics, CollisionAtFirstContactWithItsSpeed) {
   test::TempDir dir("metrics_collision");
   WriteLamps(dir.path(), "0.000000,3,3\n");

@@ -69,13 +69,36 @@ def polygon_distance(a, b):
     return best
 
 
-def lamp_at(track, t):
-    state = 0
-    for at, s in track:
-        if at > t + 1e-9:
-            break
-        state = s
-    return state
+def steady_red(track, t, end):
+    """Whether the head showed a steady red at t: red, and not one of three or more stretches
+    in a row of at most 1 s each alternating between red and dark (a flashing red, which is a
+    stop sign's rule, not a red light's)."""
+    stretches = []
+    for k, (at, state) in enumerate(track):
+        to = track[k + 1][0] if k + 1 < len(track) else max(end, at)
+        if to > at:
+            stretches.append((at, to, state))
+    i = None
+    for k, (at, to, state) in enumerate(stretches):
+        if at <= t + 1e-9:
+            i = k
+    if i is None or stretches[i][2] != 1:
+        return False
+
+    def short(k):
+        return stretches[k][1] - stretches[k][0] <= 1.0
+
+    def flips(k, j):
+        return stretches[k][2] in (0, 1) and stretches[j][2] in (0, 1) and \
+            stretches[k][2] != stretches[j][2]
+    if not short(i):
+        return True
+    lo = hi = i
+    while lo > 0 and short(lo - 1) and flips(lo - 1, lo):
+        lo -= 1
+    while hi + 1 < len(stretches) and short(hi + 1) and flips(hi, hi + 1):
+        hi += 1
+    return hi - lo + 1 < 3
 
 
 def recompute(run):
@@ -94,7 +117,7 @@ def recompute(run):
 
     out = {}
     # Red lights: the tail crosses a signalised stop line (within its ends) while a head facing
-    # the lane shows red (1).
+    # the lane shows a steady red (1).
     for car in world['cars']:
         samples = truth.get(car['name'], [])
         tail = car['length_m'] / 2 - car['centre_ahead_m']
@@ -117,7 +140,8 @@ def recompute(run):
                 b, _ = along(samples[i - 1])
                 a, lateral = along(samples[i])
                 if b < 0 <= a and lateral <= half + 0.02:
-                    if any(lamp_at(lamps.get(h, []), samples[i]['t']) == 1 for h in line['heads']):
+                    if any(steady_red(lamps.get(h, []), samples[i]['t'], world['end_s'])
+                           for h in line['heads']):
                         red.append(round(samples[i]['t'], 6))
         # Route completion: the furthest point of the route passed within the tolerance, moving
         # at most 0.5 m ahead at a time; 1 once the front is within the goal tolerance of its end.

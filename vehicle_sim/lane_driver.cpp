@@ -214,6 +214,35 @@ double LaneDriver::GapAhead(const RigidTransform2& X_MV, std::span<const float> 
   return gap;
 }
 
+bool LaneDriver::StopSign(double line_s, const maps::Intersection& x, double to_line,
+                          const RigidTransform2& X_MV, std::span<const float> lidar, Duration now) {
+  if (sign_done_at_s_ == line_s) return false;  // stopped at this line on this pass already
+  if (to_line <= options_.stop_gap_m + 0.02) {
+    if (!stopped_at_sign_since_) stopped_at_sign_since_ = now;
+    if (now - *stopped_at_sign_since_ >= options_.stop_sign_wait && BoxClear(x, X_MV, lidar)) {
+      sign_done_at_s_ = line_s;
+      stopped_at_sign_since_.reset();
+      return false;
+    }
+  }
+  return true;
+}
+
+bool LaneDriver::FlashingRed(SignalHeadId h, std::optional<std::int32_t> wire, Duration now) {
+  // A head that says it flashes red (wire 4), or one that shows red and dark in turn.
+  const std::optional<Aspect> aspect = wire ? AspectFromWire(*wire) : std::nullopt;
+  LampSeen& seen = seen_[h];
+  if (aspect == Aspect::kFlashingRed) {
+    seen = {};
+    return true;
+  }
+  if (aspect == Aspect::kRed) seen.red = now;
+  if (aspect == Aspect::kOff) seen.dark = now;
+  if (aspect && aspect != Aspect::kRed && aspect != Aspect::kOff) seen = {};
+  return seen.red && seen.dark && now - *seen.red <= options_.flash_window &&
+         now - *seen.dark <= options_.flash_window;
+}
+
 DriverDecision LaneDriver::Step(
     const RigidTransform2& X_MV,
     const std::function<std::optional<std::int32_t>(SignalHeadId)>& lamp,
@@ -247,40 +276,43 @@ DriverDecision LaneDriver::Step(
   const double front_s = progress_s_ + options_.front_overhang_m;
   for (const Piece& piece : route_) {
     if (piece.lane == nullptr || !piece.lane->stop_line || !piece.lane->ingress_of) continue;
-    const double to_line = piece.start_s + PieceLength(piece) - front_s;
+    const double line_s = piece.start_s + PieceLength(piece);
+    const double to_line = line_s - front_s;
     if (to_line < -0.05 || to_line > options_.slow_down_m + options_.stop_gap_m + 0.5) continue;
     const maps::Intersection& x = map_->intersection(*piece.lane->ingress_of);
     bool stop = false;
     if (x.control == maps::Control::kSignal && !options_.ignore_lights) {
-      // Red, yellow (unless too close to stop) or unknown: stop at the line.
+      // Red, yellow (unless too close to stop) or unknown: stop at the line. Flashing red: a
+      // stop sign.
       std::optional<Aspect> shown;
+      bool flashing = false;
       for (SignalHeadId h : x.signal_heads) {
         const maps::SignalHead& head = map_->signal_head(h);
         if (head.approach == piece.lane->ingress_approach) {
           const std::optional<std::int32_t> wire = lamp(h);
           shown = wire ? AspectFromWire(*wire) : std::nullopt;
+          flashing = FlashingRed(h, wire, now);
         }
       }
       const bool green = shown == Aspect::kGreen;
       const bool yellow = shown == Aspect::kYellow;
-      stop = !green && !(yellow && to_line < options_.stop_gap_m + 0.02) && to_line > 0;
-      if (stop) {
-        decision.reason = DriverDecision::Reason::kRedLight;
-      } else if (to_line > 0 && !BoxClear(x, X_MV, lidar)) {
-        // Not over the line yet: a vehicle in the box has the right of way.
-        stop = true;
-        decision.reason = DriverDecision::Reason::kGiveWay;
-      }
-    } else if (x.control == maps::Control::kStop && sign_done_for_ != piece.lane &&
-               !options_.ignore_stop_signs) {
-      if (to_line <= options_.stop_gap_m + 0.02) {
-        if (!stopped_at_sign_since_) stopped_at_sign_since_ = now;
-        if (now - *stopped_at_sign_since_ >= options_.stop_sign_wait && BoxClear(x, X_MV, lidar)) {
-          sign_done_for_ = piece.lane;
-          stopped_at_sign_since_.reset();
+      if (flashing && !options_.ignore_stop_signs) {
+        stop = StopSign(line_s, x, to_line, X_MV, lidar, now);
+        if (stop) decision.reason = DriverDecision::Reason::kStopSign;
+      } else {
+        // (Ignoring stop signs, it rolls through a flashing red as through a stop sign.)
+        stop =
+            !flashing && !green && !(yellow && to_line < options_.stop_gap_m + 0.02) && to_line > 0;
+        if (stop) {
+          decision.reason = DriverDecision::Reason::kRedLight;
+        } else if (to_line > 0 && !BoxClear(x, X_MV, lidar)) {
+          // Not over the line yet: a vehicle in the box has the right of way.
+          stop = true;
+          decision.reason = DriverDecision::Reason::kGiveWay;
         }
       }
-      stop = sign_done_for_ != piece.lane;
+    } else if (x.control == maps::Control::kStop && !options_.ignore_stop_signs) {
+      stop = StopSign(line_s, x, to_line, X_MV, lidar, now);
       if (stop) decision.reason = DriverDecision::Reason::kStopSign;
     }
     if (stop) {

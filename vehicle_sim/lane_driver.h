@@ -3,9 +3,9 @@
 /// A small driver that keeps a car moving on the map's lanes: pure pursuit along the lane
 /// centrelines and the movements through intersections (a random choice at each, from a seeded
 /// engine), stopping at the stop line when its light is red or yellow, stopping at stop signs
-/// and going on once nothing is in the intersection's box, and stopping for whatever its LIDAR
-/// sees close ahead. It knows only what a user's
-/// code on the real car would: the map, its pose (IPS position and IMU heading), the lamps'
+/// and at flashing red lights (a stop sign by law) and going on once nothing is in the
+/// intersection's box, and stopping for whatever its LIDAR sees close ahead. It knows only what a
+/// user's code on the real car would: the map, its pose (IPS position and IMU heading), the lamps'
 /// states and its LIDAR scan. `autodrive-example-driver` runs it over DDS for every car of a
 /// city; the main job (`scripts/run-city`) uses it so that the simulated city is alive with no
 /// user code.
@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <map>
 #include <optional>
 #include <random>
 #include <span>
@@ -41,6 +42,10 @@ struct DriverOptions {
   double half_width_m = 0.0875;  ///< half the body's width
   double path_margin_m = 0.04;
   Duration stop_sign_wait = std::chrono::seconds(1);
+  /// A head seen both red and dark within this long is flashing red (the lights flash once a
+  /// second by default): the driver treats it as a stop sign, and goes only while it still
+  /// flashes (a steady red after it holds the car again).
+  Duration flash_window = std::chrono::milliseconds(800);
   /// At a stop sign it goes only when its LIDAR sees nothing in the intersection's box (its
   /// tile, less this margin): a vehicle crossing has the right of way. At a green light it
   /// gives way the same way to what is in the box before it crosses the stop line.
@@ -125,9 +130,22 @@ class LaneDriver {
   std::mt19937_64 rng_;
   std::deque<Piece> route_;
   double progress_s_ = 0.0;  // arc length of the rear axle along the route
+  // A full stop at the stop line at route arc length `line_s` (a stop sign, or a flashing
+  // red): waits, then marks the line done once the box is clear. Whether to stop still.
+  bool StopSign(double line_s, const maps::Intersection& x, double to_line,
+                const RigidTransform2& X_MV, std::span<const float> lidar, Duration now);
+  // Notes what head `h` shows now; whether it is flashing red (red and dark within
+  // `flash_window`).
+  bool FlashingRed(SignalHeadId h, std::optional<std::int32_t> wire, Duration now);
+
   std::optional<Duration> stopped_at_sign_since_;
-  const maps::Lane* sign_done_for_ = nullptr;  // the stop-sign lane already stopped at
-  std::size_t route_next_ = 0;                 // index of the next lane of options_.route
+  // The stop line (its route arc length) already stopped at: each pass past a line is its own.
+  std::optional<double> sign_done_at_s_;
+  struct LampSeen {
+    std::optional<Duration> red, dark;  // when last seen red, dark
+  };
+  std::map<SignalHeadId, LampSeen> seen_;
+  std::size_t route_next_ = 0;  // index of the next lane of options_.route
 };
 
 }  // namespace autodrive::vehicle_sim

@@ -182,6 +182,15 @@ TEST(LaneDriver, StopsAtTheLineOnRedAndGoesOnGreen) {
   EXPECT_GT(town.world.State(0).X_MV.translation().x() + 0.2297, line.x() + 0.2);  // through
 }
 
+// The car's rear axle where the driver stops it at `lane`'s stop line.
+RigidTransform2 AtStopLine(const maps::Lane& lane, const DriverOptions& options) {
+  const Eigen::Vector2d line = 0.5 * (lane.stop_line->left + lane.stop_line->right);
+  const Eigen::Vector2d heading =
+      (lane.centreline.back() - lane.centreline[lane.centreline.size() - 2]).normalized();
+  const Eigen::Vector2d rear = line - heading * (options.front_overhang_m + options.stop_gap_m);
+  return RigidTransform2::FromXyYaw(rear.x(), rear.y(), std::atan2(heading.y(), heading.x()));
+}
+
 TEST(LaneDriver, AtAStopSignWaitsWhileSomethingIsInTheBoxThenGoes) {
   // The car stands at the stop line of a stop-controlled T-junction.
   const maps::Map& map = SmallTown();
@@ -195,12 +204,7 @@ TEST(LaneDriver, AtAStopSignWaitsWhileSomethingIsInTheBoxThenGoes) {
   }
   ASSERT_NE(lane, nullptr);
   const DriverOptions options;
-  const Eigen::Vector2d line = 0.5 * (lane->stop_line->left + lane->stop_line->right);
-  const Eigen::Vector2d heading =
-      (lane->centreline.back() - lane->centreline[lane->centreline.size() - 2]).normalized();
-  const Eigen::Vector2d rear = line - heading * (options.front_overhang_m + options.stop_gap_m);
-  const RigidTransform2 X_MV =
-      RigidTransform2::FromXyYaw(rear.x(), rear.y(), std::atan2(heading.y(), heading.x()));
+  const RigidTransform2 X_MV = AtStopLine(*lane, options);
   const auto no_lamps = [](SignalHeadId) -> std::optional<std::int32_t> { return std::nullopt; };
   // A scan with one return straight ahead, `r` from the LIDAR (all else: nothing).
   const auto scan = [](double r) {
@@ -227,6 +231,53 @@ TEST(LaneDriver, AtAStopSignWaitsWhileSomethingIsInTheBoxThenGoes) {
   d = fresh.Step(X_MV, no_lamps, scan(0), FromSeconds(0));
   EXPECT_EQ(d.reason, DriverDecision::Reason::kStopSign);
   for (int i = 1; i <= 25; ++i) d = fresh.Step(X_MV, no_lamps, scan(0), FromSeconds(0.05 * i));
+  EXPECT_GT(d.throttle, 0.0);
+}
+
+TEST(LaneDriver, AFlashingRedIsAStopSignWhileItFlashes) {
+  // The car stands at the stop line of the small town's signalised centre, from the west; the
+  // head facing it flashes red (red and dark in turn every 0.5 s), or says so (wire 4).
+  const maps::Map& map = SmallTown();
+  const maps::Lane* lane = map.FindLane("r2c1:W>E:0");
+  ASSERT_TRUE(lane != nullptr && lane->stop_line && lane->ingress_of);
+  const DriverOptions options;
+  const RigidTransform2 X_MV = AtStopLine(*lane, options);
+  const std::vector<float> clear(360, std::numeric_limits<float>::infinity());
+  const auto flashing = [](double t) {
+    return [t](SignalHeadId) -> std::optional<std::int32_t> {
+      return static_cast<int>(std::floor(t / 0.5)) % 2 == 0 ? 1 : 0;
+    };
+  };
+  // Flashing: a full stop (a second), then on with the box clear.
+  LaneDriver driver(map, options);
+  DriverDecision d;
+  for (int i = 0; i <= 15; ++i) {
+    d = driver.Step(X_MV, flashing(0.05 * i), clear, FromSeconds(0.05 * i));
+  }
+  EXPECT_EQ(d.reason, DriverDecision::Reason::kStopSign) << "0.75 s: still stopping";
+  EXPECT_EQ(d.throttle, 0.0);
+  for (int i = 16; i <= 30; ++i) {
+    d = driver.Step(X_MV, flashing(0.05 * i), clear, FromSeconds(0.05 * i));
+  }
+  EXPECT_GT(d.throttle, 0.0) << "after its stop it goes through the flashing red";
+  // Flashing turns to steady red before it went: held as at any red.
+  LaneDriver held(map, options);
+  for (int i = 0; i <= 10; ++i)
+    (void)held.Step(X_MV, flashing(0.05 * i), clear, FromSeconds(0.05 * i));
+  const auto red = [](SignalHeadId) -> std::optional<std::int32_t> { return 1; };
+  for (int i = 11; i <= 60; ++i) d = held.Step(X_MV, red, clear, FromSeconds(0.05 * i));
+  EXPECT_EQ(d.reason, DriverDecision::Reason::kRedLight);
+  EXPECT_EQ(d.throttle, 0.0);
+  // A steady red never passes for a flashing one, however long it stands.
+  LaneDriver steady(map, options);
+  for (int i = 0; i <= 100; ++i) d = steady.Step(X_MV, red, clear, FromSeconds(0.05 * i));
+  EXPECT_EQ(d.reason, DriverDecision::Reason::kRedLight);
+  // Wire 4 (flashing red, as a head may say it): the same stop-sign rule.
+  LaneDriver told(map, options);
+  const auto four = [](SignalHeadId) -> std::optional<std::int32_t> { return 4; };
+  d = told.Step(X_MV, four, clear, FromSeconds(0));
+  EXPECT_EQ(d.reason, DriverDecision::Reason::kStopSign);
+  for (int i = 1; i <= 25; ++i) d = told.Step(X_MV, four, clear, FromSeconds(0.05 * i));
   EXPECT_GT(d.throttle, 0.0);
 }
 

@@ -12,29 +12,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "scenarios/internal/lamp_bands.h"
+
 namespace autodrive::scenarios::internal {
 
 /// The most samples of one car's track a page carries: a longer track is thinned to every n-th
 /// step (its last sample kept), so that a page stays a few MB for an hour's run of many cars.
 inline constexpr std::size_t kMaxTrackSamples = 3000;
-
-/// A stretch of time over which a head showed one aspect: the `Aspect` wire numbers
-/// (common/aspect.h): 0 off, 1 red, 2 yellow, 3 green, 4 flashing red, 5 flashing yellow.
-struct LampBand {
-  double from_s = 0;
-  double to_s = 0;
-  int aspect = 0;
-  bool operator==(const LampBand&) const = default;
-};
-
-/// A head's bands from its lamp changes as `logs/lamps.csv` has them (time, state; in time
-/// order; a state is what the lamps show at that instant, so a flashing aspect alternates its
-/// colour and 0): three or more stretches in a row, each at most `flash_half_max_s` long,
-/// alternating between off and one colour (red or yellow) are one flashing band. The last band
-/// ends at `end_s`; nothing is drawn before the first change. Adjacent bands of one aspect are
-/// merged.
-[[nodiscard]] std::vector<LampBand> LampBands(const std::vector<std::pair<double, int>>& changes,
-                                              double end_s, double flash_half_max_s = 1.0);
 
 /// The data report.html draws: `report` (report.json) with, from `run_dir`'s `logs/`:
 /// `world` (lanes, statics, stop lines, bounds; null without world.json), `cars` (each car's
