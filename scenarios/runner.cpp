@@ -177,13 +177,17 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
   return w;
 }
 
-// The scenario's events, applied at their steps: operator commands to the SCM and V2I
-// requests on a car's behalf.
+// The scenario's events, applied at their steps (or when their trigger holds): operator
+// commands to the SCM, V2I requests on a car's behalf, faults of the lights.
 class EventPlayer {
  public:
   EventPlayer(const dds::Participant& participant, const Scenario& scenario, const maps::Map& map,
-              const std::string& operator_name, const fs::path& log)
-      : scenario_(scenario), map_(map), log_(log, std::ios::binary | std::ios::trunc) {
+              const RunWorld& world, const std::string& operator_name, const fs::path& log)
+      : scenario_(scenario),
+        map_(map),
+        world_(world),
+        log_(log, std::ios::binary | std::ios::trunc),
+        applied_(scenario.events.size(), false) {
     order_.resize(scenario.events.size());
     std::iota(order_.begin(), order_.end(), std::size_t{0});
     std::ranges::stable_sort(order_, {}, [&](std::size_t i) { return scenario.events[i].at_s; });
@@ -203,18 +207,27 @@ class EventPlayer {
   // a fault sent before would be lost).
   [[nodiscard]] bool Ready() const { return !faults_ || faults_->matched_readers() > 0; }
 
-  // Applies every event due at `t` (at or before it, not yet applied), in time order (those
-  // of one time in the order listed).
-  void Apply(Time t) {
-    for (; next_ < order_.size(); ++next_) {
-      const EventSpec& e = scenario_.events[order_[next_]];
+  // Applies every event due at `t` (at or before it, its trigger holding on `poses`, the cars'
+  // ground truth of the step; not yet applied), in time order (those of one time in the order
+  // listed).
+  void Apply(Time t, const std::vector<Recorder::Pose>& poses) {
+    for (const std::size_t k : order_) {
+      const EventSpec& e = scenario_.events[k];
       if (Time{} + e.at_s > t) break;
+      if (applied_[k]) continue;
+      std::optional<double> reach;  // the trigger's car's front from its point
+      if (e.when) {
+        reach = Reach(*e.when, poses);
+        if (!reach || *reach > e.when->within_m) continue;
+      }
+      applied_[k] = true;
       const auto x = std::find_if(map_.intersections.begin(), map_.intersections.end(),
                                   [&](const auto& y) { return y.name == e.intersection; });
       json line{{"t_s", ToSeconds(t)},
                 {"at_s", ToSeconds(e.at_s)},
                 {"action", e.action},
                 {"intersection", e.intersection}};
+      if (reach) line["trigger"] = {{"vehicle", e.when->vehicle}, {"distance_m", *reach}};
       if (!e.camera.empty()) {
         // The simulator stops and starts its frames on its own clock (the composed city's
         // `lost_from_s`/`lost_until_s`).
@@ -314,12 +327,28 @@ class EventPlayer {
  private:
   const Scenario& scenario_;
   const maps::Map& map_;
+  const RunWorld& world_;
   std::ofstream log_;
   std::unique_ptr<dds::Writer<msg::OperatorRequest>> operator_;
   std::unique_ptr<dds::Writer<msg::SignalRequest>> requests_;
   std::unique_ptr<dds::Writer<msg::SimFault>> faults_;  // when an event faults a head
-  std::vector<std::size_t> order_;                      // the events' indices in time order
-  std::size_t next_ = 0;                                // into order_
+  // How far the trigger's car's front is from its point; none before its first pose.
+  std::optional<double> Reach(const TriggerSpec& when,
+                              const std::vector<Recorder::Pose>& poses) const {
+    for (std::size_t i = 0; i < world_.cars.size(); ++i) {
+      const RunWorld::Car& car = world_.cars[i];
+      if (car.name != when.vehicle || !poses[i].known) continue;
+      const Recorder::Pose& p = poses[i];
+      const Eigen::Vector2d front = Eigen::Vector2d(p.x_m, p.y_m) +
+                                    (car.centre_ahead_m + car.length_m / 2) *
+                                        Eigen::Vector2d(std::cos(p.yaw_rad), std::sin(p.yaw_rad));
+      return (front - Eigen::Vector2d(when.x_m, when.y_m)).norm();
+    }
+    return std::nullopt;
+  }
+
+  std::vector<std::size_t> order_;  // the events' indices in time order
+  std::vector<bool> applied_;       // by index
   std::uint64_t request_id_ = 0;
   std::map<std::string, std::uint32_t> request_ids_;
 };
@@ -369,7 +398,7 @@ RunResult RunScenario(const RunOptions& options) {
   std::vector<std::string> names;
   for (const VehicleSpec& v : scenario.vehicles) names.push_back(v.name);
   Recorder recorder(participant, names, map, composed.traffic, out / "logs");
-  EventPlayer events(participant, scenario, map, composed.operator_name,
+  EventPlayer events(participant, scenario, map, world, composed.operator_name,
                      out / "logs" / "scenario_events.jsonl");
 
   // The city, through the launcher. TZ=UTC: the SCM's schedule reads the simulated time (from
@@ -458,7 +487,7 @@ RunResult RunScenario(const RunOptions& options) {
           last_step = t;
           last_step_wall.store(std::chrono::steady_clock::now().time_since_epoch().count());
           recorder.Take(t);
-          events.Apply(t);
+          events.Apply(t, recorder.poses());
           if (options.progress && (t - Time{}) % std::chrono::seconds(10) == Duration{0} &&
               t != Time{}) {
             std::fprintf(stderr, "%s: %.0f of %.0f simulated s\n", scenario.name.c_str(),

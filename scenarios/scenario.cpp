@@ -77,6 +77,13 @@ void EventSpec::Validate() const {
       {"count", count != 0},
       {"type", !type.empty()},
   };
+  if (when && (action == "place" || action == "remove" || action == "camera_lost" ||
+               action == "camera_back" || action == "surge")) {
+    throw InputError(
+        fmt::format("action {} takes no when: the simulator and SUMO apply it on "
+                    "their own clocks, from at_s",
+                    action));
+  }
   const std::vector<std::string>& needed = kKeys.at(action);
   for (const std::string& key : needed) {
     if (!given.at(key)) throw InputError(fmt::format("action {} needs {}", action, key));
@@ -100,9 +107,11 @@ void Scenario::Validate() const {
     }
   }
   for (const EventSpec& e : events) {
-    if (!e.vehicle.empty() && !names.contains(e.vehicle)) {
-      throw InputError(fmt::format("events: vehicle {} is not one of the scenario's cars ({})",
-                                   e.vehicle, fmt::join(names, ", ")));
+    for (const std::string* v : {&e.vehicle, e.when ? &e.when->vehicle : nullptr}) {
+      if (v != nullptr && !v->empty() && !names.contains(*v)) {
+        throw InputError(fmt::format("events: vehicle {} is not one of the scenario's cars ({})",
+                                     *v, fmt::join(names, ", ")));
+      }
     }
   }
   std::set<std::string> obstacle_names;

@@ -83,9 +83,33 @@ struct VehicleSpec {
   bool operator==(const VehicleSpec&) const = default;
 };
 
-/// What happens at a time.
+/// What triggers an event: a car's front coming within `within_m` of a point.
+struct TriggerSpec {
+  std::string vehicle;  ///< one of the scenario's cars
+  double x_m = 0.0;     ///< the point, map frame
+  double y_m = 0.0;
+  double within_m = 0.3;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("vehicle", vehicle);
+    a.Required("x_m", x_m, config::Range{-1e4, 1e4});
+    a.Required("y_m", y_m, config::Range{-1e4, 1e4});
+    a.Optional("within_m", within_m, config::Range{0.001, 1e4});
+  }
+  bool operator==(const TriggerSpec&) const = default;
+};
+
+/// What happens at a time, or when a car comes somewhere.
 struct EventSpec {
-  Duration at_s{0};  ///< simulated time since the start
+  /// Simulated time since the start at which it happens; with `when`, the earliest time it
+  /// may (default 0: from the start).
+  Duration at_s{0};
+  /// A trigger: the event happens at the first step (at or after `at_s`) at which the car's
+  /// front is within reach of the point (ground truth, as the runner records it). For the
+  /// events the runner sends (not place, remove, camera_lost, camera_back or surge, which the
+  /// simulator and SUMO apply on their own clocks from `at_s`).
+  std::optional<TriggerSpec> when;
   /// `mode` (an intersection put into `flash`, `dark` or back to `auto`), `plan` (an
   /// intersection's plan chosen by name, or `auto` for its schedule), `preempt` or `priority`
   /// (a V2I request for `vehicle` at `intersection`, from the lane it is on), `cancel` (that
@@ -116,7 +140,8 @@ struct EventSpec {
 
   template <typename Archive>
   void Serialize(Archive& a) {
-    a.Required("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
+    a.Optional("at_s", at_s, config::Range<Duration>{Duration{0}, std::chrono::hours(24)});
+    a.Optional("when", when);
     a.Required("action", action,
                config::OneOf{{"mode", "plan", "preempt", "priority", "cancel", "lamp", "unplug",
                               "plug", "link_cut", "link_restore", "place", "remove", "camera_lost",

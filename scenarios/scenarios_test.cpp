@@ -118,6 +118,19 @@ TEST(ScenarioFile, RefusalsNameTheFileLineAndKey) {
           "events[0]: action surge takes no vehicle");
   refused(std::string(kCar) + "events: [{at_s: 3, action: place, obstacle: box, to: a}]\n",
           "events[0]: action place takes no to");
+  // A trigger: a car of the scenario; none for what the simulator or SUMO apply.
+  refused(std::string(kCar) +
+              "events: [{action: mode, intersection: x, mode: flash, when: "
+              "{vehicle: nigel_7, x_m: 1, y_m: 2}}]\n",
+          "events: vehicle nigel_7 is not one of the scenario's cars");
+  refused(std::string(kCar) + box +
+              "events: [{action: place, obstacle: box, when: {vehicle: nigel_1, x_m: 1, y_m: "
+              "2}}]\n",
+          "events[0]: action place takes no when");
+  refused(std::string(kCar) +
+              "events: [{action: mode, intersection: x, mode: flash, when: "
+              "{vehicle: nigel_1, x_m: 1}}]\n",
+          "events[0].when.y_m: missing required key");
   // A camera lost and back: once each, back after lost.
   refused(std::string(kCar) + "events: [{at_s: 3, action: camera_lost}]\n",
           "events[0]: action camera_lost needs camera");

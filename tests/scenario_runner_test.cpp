@@ -455,6 +455,44 @@ TEST_F(ScenarioRunner, ACameraLostIsReportedByTheEyeInTheLoopAndItsReturnToo) {
   EXPECT_TRUE(NoneLeft(tag_));
 }
 
+TEST_F(ScenarioRunner, ATriggeredEventHappensAtTheStepTheCarComesWithinReach) {
+  // crossing_clean's car drives east along y = 2.35 towards the crossing. The crossing is put
+  // into flash when the car's front (0.22977 m ahead of its rear axle) comes within 0.05 m of
+  // (1.3, 2.35): at the first step whose ground truth says so. A trigger it never reaches
+  // never fires.
+  const fs::path file = Shortened("crossing_clean", "time_limit_s: 12", [](std::string& text) {
+    text +=
+        "events:\n"
+        "  - {action: mode, intersection: driving_school_crossing, mode: flash,\n"
+        "     when: {vehicle: nigel_1, x_m: 1.3, y_m: 2.35, within_m: 0.05}}\n"
+        "  - {at_s: 1, action: mode, intersection: driving_school_crossing, mode: auto,\n"
+        "     when: {vehicle: nigel_1, x_m: 4.5, y_m: 4.5, within_m: 0.05}}\n";
+  });
+  const Outcome r = RunScenario(file.string(), (dir_.path() / "trigger").string());
+  ASSERT_NE(r.code, 2) << r.output;
+  const fs::path logs = dir_.path() / "trigger" / "logs";
+  double expected = -1;
+  for (const std::string& line : ReadLines(logs / "ground_truth.csv")) {
+    double t = 0, x = 0, y = 0, yaw = 0;
+    char car[32];
+    if (std::sscanf(line.c_str(), "%lf,%31[^,],%lf,%lf,%lf", &t, car, &x, &y, &yaw) != 5) continue;
+    const double fx = x + 0.22977 * std::cos(yaw) - 1.3, fy = y + 0.22977 * std::sin(yaw) - 2.35;
+    if (std::hypot(fx, fy) <= 0.05) {
+      expected = t;
+      break;
+    }
+  }
+  ASSERT_GT(expected, 0.0) << "the car came within reach";
+  const std::vector<std::string> applied = ReadLines(logs / "scenario_events.jsonl");
+  ASSERT_EQ(applied.size(), 1U) << "the unreached trigger never fired";
+  const json e = json::parse(applied[0]);
+  EXPECT_EQ(e["mode"], "flash");
+  EXPECT_NEAR(e["t_s"].get<double>(), expected, 1e-6);
+  EXPECT_EQ(e["trigger"]["vehicle"], "nigel_1");
+  EXPECT_LE(e["trigger"]["distance_m"].get<double>(), 0.05);
+  EXPECT_TRUE(NoneLeft(tag_));
+}
+
 TEST_F(ScenarioRunner, CtrlCTakesTheCityDown) {
   const std::string out = (dir_.path() / "interrupted").string();
   ChildProcess p({Bin("autodrive-scenario"), "run", Shipped("crossing_clean"), "--out", out},
