@@ -332,6 +332,24 @@ void Localizer::FindDuplicates(FrameDetections& out) const {
   out.vehicles = std::move(kept);
 }
 
+void Localizer::ExpireLocked(Time now, std::vector<EyeEvent>* events) {
+  for (Car& car : cars_) {
+    VehicleTrack& track = car.track;
+    if (track.started() && !track.active(now) && now > track.last_update()) {
+      track.Stop();
+      if (events != nullptr) {
+        events->push_back({EyeEvent::Kind::kVehicleLost, now, track.vehicle().name,
+                           "not seen for " + std::to_string(config_.tracking.lost_after_s) + " s"});
+      }
+    }
+  }
+}
+
+void Localizer::ExpireTracks(Time now, std::vector<EyeEvent>* events) {
+  const std::lock_guard lock(mutex_);
+  ExpireLocked(now, events);
+}
+
 std::vector<LocalizedVehicle> Localizer::Fuse(const FrameDetections& frame,
                                               std::vector<EyeEvent>* events,
                                               std::vector<std::size_t>* withdrawn) {
@@ -385,14 +403,7 @@ std::vector<LocalizedVehicle> Localizer::Fuse(const FrameDetections& frame,
   std::vector<LocalizedVehicle> out;
   const std::lock_guard lock(mutex_);
   // Cars not seen for lost_after_s are lost (before this frame's measurements restart them).
-  for (Car& car : cars_) {
-    VehicleTrack& track = car.track;
-    if (track.started() && !track.active(frame.stamp) && frame.stamp > track.last_update()) {
-      track.Stop();
-      emit(EyeEvent::Kind::kVehicleLost, track.vehicle().name,
-           "not seen for " + std::to_string(config_.tracking.lost_after_s) + " s");
-    }
-  }
+  ExpireLocked(frame.stamp, events);
   for (const DuplicateTags& d : frame.duplicates) {
     const VehicleTagConfig& v = config_.vehicles.at(d.vehicle);
     std::string where;

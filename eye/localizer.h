@@ -154,6 +154,11 @@ class Localizer {
   std::vector<LocalizedVehicle> Fuse(const FrameDetections& frame, std::vector<EyeEvent>* events,
                                      std::vector<std::size_t>* withdrawn = nullptr);
 
+  /// Ends the tracks of cars not seen for `lost_after_s` at `now` (`vehicle_lost`, stamped
+  /// `now`), as `Fuse` does at each frame: for when no frame comes (a camera lost). Thread-safe
+  /// against `Fuse`.
+  void ExpireTracks(Time now, std::vector<EyeEvent>* events);
+
   /// Two cameras' frames this close in time show one instant (unsynchronised 30 Hz cameras'
   /// frames are at most 17 ms apart).
   static constexpr Duration kSameInstant = std::chrono::milliseconds(25);
@@ -173,6 +178,8 @@ class Localizer {
   struct Car;
   [[nodiscard]] std::vector<cv::Rect> PredictedRegions(const CameraState& cam, Time stamp) const;
   void FindDuplicates(FrameDetections& out) const;
+  // `ExpireTracks` with `mutex_` held.
+  void ExpireLocked(Time now, std::vector<EyeEvent>* events);
   // Fuse's parts (the caller holds mutex_).
   void FuseVehicle(const FrameDetections& frame, const VehicleMeasurement& m,
                    std::vector<EyeEvent>* events, std::vector<std::size_t>* withdrawn,

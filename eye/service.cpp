@@ -328,6 +328,7 @@ struct EyeService::Impl {
         step_frames.begin(), step_frames.end(),
         [](const FrameDetections& a, const FrameDetections& b) { return a.stamp < b.stamp; });
     for (const FrameDetections& frame : step_frames) Fuse(frame);
+    Expire(now);
   }
 
   bool WaitForAcks(std::chrono::steady_clock::duration timeout) const {
@@ -374,18 +375,42 @@ struct EyeService::Impl {
     if (files) --files_running;
   }
 
+  // With no frame for a while (every camera silent), the cars' tracks still end: on the
+  // cameras' clock, run on from the newest frame's stamp by the wall time since it came.
   void FuseLoop() {
+    std::optional<Time> newest;
+    SteadyClock::time_point newest_arrival;
     while (true) {
       FrameDetections frame;
       {
         std::unique_lock lock(queue_mutex);
-        queue_cv.wait(lock, [&] { return stop.load() || !queue.empty(); });
+        const bool got = queue_cv.wait_for(lock, std::chrono::milliseconds(200),
+                                           [&] { return stop.load() || !queue.empty(); });
         if (stop.load()) return;
+        if (!got) {
+          lock.unlock();
+          if (newest) {
+            Expire(*newest +
+                   std::chrono::duration_cast<Duration>(SteadyClock::now() - newest_arrival));
+          }
+          continue;
+        }
         frame = std::move(queue.front());
         queue.pop_front();
       }
+      if (!newest || frame.stamp > *newest) {
+        newest = frame.stamp;
+        newest_arrival = SteadyClock::now();
+      }
       Fuse(frame);
     }
+  }
+
+  // Ends the tracks of cars not seen for the tracking's lost_after_s at `now`.
+  void Expire(Time now) {
+    fuse_events.clear();
+    localizer.ExpireTracks(now, &fuse_events);
+    for (const EyeEvent& e : fuse_events) Publish(e);
   }
 
   void Fuse(const FrameDetections& frame) {

@@ -164,9 +164,25 @@ TEST_F(EyeOnline, FleetPosesOnDdsMatchTheSimulatorAndFeedTheScmsFleet) {
     count += registered();
   }
   EXPECT_EQ(count, 2) << "SIGHUP did not register the camera again";
+  // The simulator stops: no frame comes any more. The Eye ends both cars' tracks (lost after
+  // 0.5 s on the camera's clock, run on by the wall time since its last frame), then reports
+  // the camera lost (2 s).
+  sim.Stop();
+  std::map<std::string, bool> lost;
+  bool camera_lost = false;
+  const auto quiet = SteadyClock::now() + seconds(30);
+  while ((lost.size() < 2 || !camera_lost) && SteadyClock::now() < quiet) {
+    events.WaitForData(std::chrono::milliseconds(100));
+    for (const auto& e : events.TakeAll()) {
+      const std::string code(dds::View(e->code));
+      if (code == "vehicle_lost" && e->active) lost[std::string(dds::View(e->device_id))] = true;
+      if (code == "camera_lost" && e->active) camera_lost = true;
+    }
+  }
+  EXPECT_EQ(lost.size(), 2U) << "the cars' tracks did not end with the frames";
+  EXPECT_TRUE(camera_lost);
   EXPECT_EQ(eye.Stop(std::chrono::milliseconds(10000)), 0);
   driver.Stop();
-  sim.Stop();
 }
 
 }  // namespace

@@ -442,6 +442,11 @@ TEST_F(ScenarioRunner, ACameraLostIsReportedByTheEyeInTheLoopAndItsReturnToo) {
   EXPECT_NEAR((*lost)["t_s"].get<double>(), 11.98, 1e-6);
   EXPECT_EQ((*lost)["device"], "overhead");
   EXPECT_NEAR((*back)["t_s"].get<double>(), 18.0, 1e-6);
+  // The car's track ended 0.5 s after the last frame (at the step of 10.48 s), not when the
+  // frames came back.
+  const json* car_lost = find("vehicle_lost", true);
+  ASSERT_NE(car_lost, nullptr) << json(eye).dump(1);
+  EXPECT_NEAR((*car_lost)["t_s"].get<double>(), 10.48, 1e-6);
   // The car was tracked again after the camera came back.
   bool found_again = false;
   for (const json& e : eye) {
