@@ -532,6 +532,17 @@ RunResult RunScenario(const RunOptions& options) {
   } catch (const std::exception& e) {
     end_reason = "failed";
     failure = e.what();
+    // The simulator gone: what it said last (its error) is the cause.
+    const fs::path sim_log = out / "run" / "logs" / "sim.log";
+    std::ifstream in(sim_log);
+    std::string last, line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && line.rfind("====", 0) != 0) last = line;
+    }
+    if (in.eof() && !last.empty() && last.find("[info]") == std::string::npos) {
+      failure +=
+          fmt::format("; the simulator's last words: {} (its log: {})", last, sim_log.string());
+    }
   }
   // Down, whatever happened: the launcher stops the city in order (SIGTERM), then we wait.
   done.store(true);

@@ -376,6 +376,18 @@ TEST_F(ScenarioRunner, AnObstaclePlacedMidRunStopsTheCarUntilItIsRemoved) {
     }
   }
   EXPECT_LT(furthest + kFront, kFace + 0.01) << "the box held the car";
+
+  // A box placed onto the car (0.6 s in, where it then is) cannot be: the run fails with the
+  // simulator's reason, and nothing is left running.
+  const fs::path onto = Shortened("obstacle_mid_run", "time_limit_s: 3", [](std::string& text) {
+    const std::string box = "{name: box, x_m: 3.5, y_m: 2.35,";
+    text.replace(text.find(box), box.size(), "{name: box, x_m: 0.46, y_m: 2.63,");
+    const std::string place = "{at_s: 5, action: place";
+    text.replace(text.find(place), place.size(), "{at_s: 0.6, action: place");
+  });
+  const Outcome o = RunScenario(onto.string(), (dir_.path() / "onto").string());
+  EXPECT_EQ(o.code, 2) << o.output;
+  EXPECT_NE(o.output.find("would stand where vehicle 0's body is"), std::string::npos) << o.output;
   EXPECT_TRUE(NoneLeft(tag_));
 }
 

@@ -373,6 +373,20 @@ TEST(Dynamics, ATimedBoxStopsTheCarAndIsSeenOnlyWhileItStands) {
       world.AddTimedBox(
           {{RigidTransform2::FromXyYaw(3, 0, 0), {0.1, 0.1, 0.1}}, seconds(2), seconds(2)}),
       InputError);
+  // A box due where the car is cannot be put there: the step that would place it says so.
+  const double x = world.State(0).X_MV.translation().x();
+  world.AddTimedBox({{RigidTransform2::FromXyYaw(x, 0, 0), {0.1, 0.1, 0.1}},
+                     world.time() + milliseconds(10),
+                     std::nullopt});
+  world.StepUntil(world.time() + milliseconds(8));
+  try {
+    world.Step();
+    ADD_FAILURE() << "a box placed onto the car";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("would stand where vehicle 0's body is"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Dynamics, ACarDrivingIntoAStandingOnePushesItWithoutPassingThroughIt) {

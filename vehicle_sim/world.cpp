@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -65,6 +66,41 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kTrafficReach = 0.5;
 // How far the lab's floor (z = 0) reaches beyond a map with terrain (m).
 constexpr double kFloorMargin = 50.0;
+
+}  // namespace
+
+namespace {
+
+// Whether a box's footprint (4 corners) and a car's body box (pose, half extents), seen from
+// above, overlap: separating axes of the two rectangles.
+bool FootprintsOverlap(const maps::Polyline& box, const Eigen::Isometry3d& X_MB,
+                       const Eigen::Vector3d& half) {
+  const Eigen::Vector2d c = X_MB.translation().head<2>();
+  const Eigen::Vector2d u = X_MB.linear().col(0).head<2>().normalized() * half.x();
+  const Eigen::Vector2d v = X_MB.linear().col(1).head<2>().normalized() * half.y();
+  const std::array<Eigen::Vector2d, 4> car{c - u - v, c + u - v, c + u + v, c - u + v};
+  const auto separated = [](const auto& a, const auto& b, const Eigen::Vector2d& axis) {
+    double a_lo = 1e300, a_hi = -1e300, b_lo = 1e300, b_hi = -1e300;
+    for (const Eigen::Vector2d& p : a) {
+      a_lo = std::min(a_lo, p.dot(axis));
+      a_hi = std::max(a_hi, p.dot(axis));
+    }
+    for (const Eigen::Vector2d& p : b) {
+      b_lo = std::min(b_lo, p.dot(axis));
+      b_hi = std::max(b_hi, p.dot(axis));
+    }
+    return a_hi <= b_lo || b_hi <= a_lo;
+  };
+  for (std::size_t k = 0; k < 4; ++k) {
+    for (const auto* poly : {&box, static_cast<const maps::Polyline*>(nullptr)}) {
+      const Eigen::Vector2d edge =
+          poly != nullptr ? box[(k + 1) % 4] - box[k] : car[(k + 1) % 4] - car[k];
+      const Eigen::Vector2d axis(-edge.y(), edge.x());
+      if (separated(box, car, axis)) return false;
+    }
+  }
+  return true;
+}
 
 }  // namespace
 
@@ -170,12 +206,27 @@ struct World::Impl {
   }
 
   // Places and removes the timed boxes for the world's time; the scene is built again when
-  // one changed.
+  // one changed. A box due where a car's body is cannot be put there: that is refused
+  // (InputError naming the box, the car and the time), as ODE would otherwise push the car
+  // out of a box of infinite mass with unbounded speeds.
   void UpdateTimed() {
     const Duration t = steps * options.step;
     for (std::size_t i = 0; i < timed.size(); ++i) {
       const bool stands = timed[i].StandsAt(t);
       if (stands == timed_standing[i]) continue;
+      if (stands) {
+        for (std::size_t v = 0; v < vehicles.size(); ++v) {
+          Eigen::Isometry3d X_MB;
+          Eigen::Vector3d half;
+          vehicles[v]->Box(X_MB, half);
+          AUTODRIVE_THROW_UNLESS(
+              !FootprintsOverlap(timed_prisms[i].footprint_M, X_MB, half),
+              "an unmapped obstacle due at t = "
+                  << ToSeconds(t) << " s at (" << timed[i].box.X_MB.translation().x() << ", "
+                  << timed[i].box.X_MB.translation().y() << ") would stand where vehicle " << v
+                  << "'s body is: place it where no car is at that time");
+        }
+      }
       timed_standing[i] = stands;
       if (stands) {
         dGeomEnable(timed_geoms[i]);

@@ -108,9 +108,10 @@ class World {
   void AddStaticBox(const StaticBox& box);
   /// Adds an unmapped obstacle that stands only while `TimedBox::StandsAt(time())`: from the
   /// step that reaches `from` to the step that reaches `until`, it is in the physics (a static
-  /// box, as `AddStaticBox`) and in `Scene()`; otherwise neither. A box placed where a car
-  /// stands pushes it out (as a wall would): the caller keeps it clear. @throws InputError for
-  /// a size that is not positive, or `until` not after `from`.
+  /// box, as `AddStaticBox`) and in `Scene()`; otherwise neither. A box due where a car's
+  /// body is cannot be put there: the step that would place it throws InputError (naming the
+  /// car and the time). @throws InputError for a size that is not positive, or `until` not
+  /// after `from`.
   void AddTimedBox(const TimedBox& box);
   /// The timed boxes in the order added.
   [[nodiscard]] std::span<const TimedBox> TimedBoxes() const;
@@ -140,7 +141,8 @@ class World {
   /// take them up: a scenario that starts at speed, a knock. Its state shows it after the next
   /// step. @throws InputError for a non-finite value.
   void SetVelocity(int vehicle, const Eigen::Vector3d& v_M, const Eigen::Vector3d& w_M);
-  /// One physics step of `options().step`. @throws NumericalError (see the class).
+  /// One physics step of `options().step`. @throws NumericalError (see the class), InputError
+  /// when a timed box falls due where a car is (`AddTimedBox`).
   void Step();
   /// Steps until `time()` reaches `until` (whole steps; none when it already has).
   void StepUntil(Duration until);
