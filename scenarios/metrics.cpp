@@ -571,8 +571,7 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         const Vector2d rear(s.x, s.y);
         const auto [at, d] = ProjectOnto(car.route, rear, progress - 0.1, progress + 0.5);
         if (d <= k.route_tolerance_m) progress = std::max(progress, at);
-        const Vector2d front = rear + (car.centre_ahead_m + car.length_m / 2) *
-                                          Vector2d(std::cos(s.yaw), std::sin(s.yaw));
+        const Vector2d front = car.FrontAt(s.x, s.y, s.yaw);
         if (!goal_t && (front - car.route.back()).norm() <= car.goal_tolerance_m) goal_t = s.t;
       }
     }

@@ -5,6 +5,7 @@
 /// from anything an agent reports. Every metric's definition, its 1:14 scaling and the
 /// reference it follows are in docs/scenarios.md ("Metrics").
 
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -31,6 +32,11 @@ struct RunWorld {
     double top_speed_mps = 0.26;      ///< free-flow speed for delay and time loss
     Points route;  ///< the route's centre line (lanes and movements); empty: none
     double goal_tolerance_m = 0.15;
+    /// The middle of its front bumper for its rear axle at (x, y) heading `yaw` (map frame).
+    [[nodiscard]] Eigen::Vector2d FrontAt(double x_m, double y_m, double yaw_rad) const {
+      return Eigen::Vector2d(x_m, y_m) + (centre_ahead_m + length_m / 2) *
+                                             Eigen::Vector2d(std::cos(yaw_rad), std::sin(yaw_rad));
+    }
   };
   struct Static {
     std::string kind;  ///< "wall", "box" (the map's) or "obstacle" (unmapped)

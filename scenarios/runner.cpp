@@ -339,10 +339,7 @@ class EventPlayer {
       const RunWorld::Car& car = world_.cars[i];
       if (car.name != when.vehicle || !poses[i].known) continue;
       const Recorder::Pose& p = poses[i];
-      const Eigen::Vector2d front = Eigen::Vector2d(p.x_m, p.y_m) +
-                                    (car.centre_ahead_m + car.length_m / 2) *
-                                        Eigen::Vector2d(std::cos(p.yaw_rad), std::sin(p.yaw_rad));
-      return (front - Eigen::Vector2d(when.x_m, when.y_m)).norm();
+      return (car.FrontAt(p.x_m, p.y_m, p.yaw_rad) - Eigen::Vector2d(when.x_m, when.y_m)).norm();
     }
     return std::nullopt;
   }
@@ -501,12 +498,9 @@ RunResult RunScenario(const RunOptions& options) {
               if (car.route.empty()) continue;
               any = true;
               const Recorder::Pose& p = recorder.poses()[i];
-              const Eigen::Vector2d front =
-                  Eigen::Vector2d(p.x_m, p.y_m) +
-                  (car.centre_ahead_m + car.length_m / 2) *
-                      Eigen::Vector2d(std::cos(p.yaw_rad), std::sin(p.yaw_rad));
               all = all && p.known && std::abs(p.speed_mps) < 0.01 &&
-                    (front - car.route.back()).norm() <= car.goal_tolerance_m;
+                    (car.FrontAt(p.x_m, p.y_m, p.yaw_rad) - car.route.back()).norm() <=
+                        car.goal_tolerance_m;
             }
             if (any && all) {
               goals_end = true;

@@ -139,9 +139,12 @@ struct World::Impl {
   mutable std::optional<StaticScene> scene;        // built from `geometry` on demand
   // Timed boxes (`AddTimedBox`): each with its prism and ODE geom (enabled while it stands).
   std::vector<TimedBox> timed;
-  std::vector<Prism> timed_prisms;
-  std::vector<dGeomID> timed_geoms;
-  std::vector<bool> timed_standing;
+  struct Placed {
+    Prism prism;
+    dGeomID geom = nullptr;
+    bool standing = false;
+  };
+  std::vector<Placed> placed;  // by timed box
   std::int64_t steps = 0;
   std::string failure;  // set when a step went non-finite
 
@@ -213,25 +216,26 @@ struct World::Impl {
     const Duration t = steps * options.step;
     for (std::size_t i = 0; i < timed.size(); ++i) {
       const bool stands = timed[i].StandsAt(t);
-      if (stands == timed_standing[i]) continue;
+      Placed& p = placed[i];
+      if (stands == p.standing) continue;
       if (stands) {
         for (std::size_t v = 0; v < vehicles.size(); ++v) {
           Eigen::Isometry3d X_MB;
           Eigen::Vector3d half;
           vehicles[v]->Box(X_MB, half);
           AUTODRIVE_THROW_UNLESS(
-              !FootprintsOverlap(timed_prisms[i].footprint_M, X_MB, half),
+              !FootprintsOverlap(p.prism.footprint_M, X_MB, half),
               "an unmapped obstacle due at t = "
                   << ToSeconds(t) << " s at (" << timed[i].box.X_MB.translation().x() << ", "
                   << timed[i].box.X_MB.translation().y() << ") would stand where vehicle " << v
                   << "'s body is: place it where no car is at that time");
         }
       }
-      timed_standing[i] = stands;
+      p.standing = stands;
       if (stands) {
-        dGeomEnable(timed_geoms[i]);
+        dGeomEnable(p.geom);
       } else {
-        dGeomDisable(timed_geoms[i]);
+        dGeomDisable(p.geom);
       }
       scene.reset();
     }
@@ -240,8 +244,8 @@ struct World::Impl {
   // The scene's geometry: the permanent one, and the timed boxes standing now.
   StaticGeometry SceneGeometry() const {
     StaticGeometry g = geometry;
-    for (std::size_t i = 0; i < timed.size(); ++i) {
-      if (timed_standing[i]) g.prisms.push_back(timed_prisms[i]);
+    for (const Placed& p : placed) {
+      if (p.standing) g.prisms.push_back(p.prism);
     }
     return g;
   }
@@ -469,10 +473,8 @@ void World::AddTimedBox(const TimedBox& box) {
   const Prism prism = BoxPrism(impl_->geometry.terrain, box.box);
   Impl& w = *impl_;
   w.timed.push_back(box);
-  w.timed_prisms.push_back(prism);
-  w.timed_geoms.push_back(w.AddPrism(prism));
-  dGeomDisable(w.timed_geoms.back());
-  w.timed_standing.push_back(false);
+  w.placed.push_back({prism, w.AddPrism(prism), false});
+  dGeomDisable(w.placed.back().geom);
   w.UpdateTimed();
 }
 
