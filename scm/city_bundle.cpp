@@ -12,7 +12,7 @@ SupervisionParams SupervisionParamsOf(const City& city) {
 }
 
 CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& participant,
-                       SignalCommandWriters& writers,
+                       ClockKind clock, SignalCommandWriters& writers,
                        std::vector<IntersectionStateRecord> restore_states,
                        std::uint32_t map_revision)
     : restore(std::move(restore_states)) {
@@ -27,7 +27,7 @@ CityBundle::CityBundle(std::unique_ptr<City> city, const dds::Participant& parti
       owned.map, FleetRegistryParams{owned.fleet_staleness, 0.05, kPi / 3});
   std::vector<VehicleId> vehicles;
   for (const auto& name : owned.config.fleet.vehicles) vehicles.push_back(ParseVehicleName(name));
-  sources.push_back(std::make_unique<IpsSource>(participant, vehicles));
+  sources.push_back(std::make_unique<IpsSource>(participant, vehicles, clock));
   if (owned.config.fleet.eye) sources.push_back(std::make_unique<EyeSource>(participant));
   if (owned.config.fleet.traffic) {
     sources.push_back(std::make_unique<TrafficSource>(participant));

@@ -27,8 +27,9 @@ class CityBundle {
  public:
   /// Builds everything for `city`: its readers in `participant`, its lights' writers from
   /// `writers` (shared with the city it replaces). `restore`: the operator states to start the
-  /// intersections with. Slow for a big city.
-  CityBundle(std::unique_ptr<City> city, const dds::Participant& participant,
+  /// intersections with. `clock`: the kind the daemon runs on (how positions are stamped, see
+  /// `IpsSource`). Slow for a big city.
+  CityBundle(std::unique_ptr<City> city, const dds::Participant& participant, ClockKind clock,
              SignalCommandWriters& writers, std::vector<IntersectionStateRecord> restore,
              std::uint32_t map_revision);
   CityBundle(const CityBundle&) = delete;

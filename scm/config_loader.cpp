@@ -10,9 +10,11 @@
 
 namespace autodrive::scm {
 
-ConfigLoader::ConfigLoader(const dds::Participant& participant, SignalCommandWriters& writers,
-                           Store& store, MapResolution resolution, std::function<void()> wake)
+ConfigLoader::ConfigLoader(const dds::Participant& participant, ClockKind clock,
+                           SignalCommandWriters& writers, Store& store, MapResolution resolution,
+                           std::function<void()> wake)
     : participant_(participant),
+      clock_(clock),
       writers_(writers),
       store_(store),
       resolution_(std::move(resolution)),
@@ -136,7 +138,7 @@ void ConfigLoader::Build(std::string yaml, std::string label, std::uint32_t revi
     std::string error;
     try {
       auto city = Load(yaml, label, policy);
-      bundle = std::make_unique<CityBundle>(std::move(city), participant_, writers_,
+      bundle = std::make_unique<CityBundle>(std::move(city), participant_, clock_, writers_,
                                             store_.LoadIntersectionStates(), revision);
     } catch (const std::exception& e) {
       error = e.what();

@@ -44,9 +44,10 @@ class ConfigLoader {
  public:
   /// Where network-supplied city text may find its map: relative to `base_dir`, under `root`.
   /// `wake` is called from the loader's thread when a completion is ready.
-  /// Cities are built on `participant` with `writers` (both must outlive the loader).
-  ConfigLoader(const dds::Participant& participant, SignalCommandWriters& writers, Store& store,
-               MapResolution resolution, std::function<void()> wake);
+  /// Cities are built on `participant` with `writers` (both must outlive the loader), for a
+  /// daemon on a `clock` of that kind.
+  ConfigLoader(const dds::Participant& participant, ClockKind clock, SignalCommandWriters& writers,
+               Store& store, MapResolution resolution, std::function<void()> wake);
   ConfigLoader(const ConfigLoader&) = delete;
   ConfigLoader& operator=(const ConfigLoader&) = delete;
   /// Finishes the job under way, drops the rest, stops.
@@ -82,6 +83,7 @@ class ConfigLoader {
                              const Policy& policy) const;
 
   const dds::Participant& participant_;
+  ClockKind clock_;
   SignalCommandWriters& writers_;
   Store& store_;
   MapResolution resolution_;

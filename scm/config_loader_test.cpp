@@ -31,7 +31,7 @@ class ConfigLoaderTest : public ::testing::Test {
     store_ = std::make_unique<Store>((dir_ / "scm.db").string());
     writers_ = std::make_unique<SignalCommandWriters>(*participant_);
     loader_ = std::make_unique<ConfigLoader>(
-        *participant_, *writers_, *store_,
+        *participant_, ClockKind::kWall, *writers_, *store_,
         MapResolution{test::SourceDir() / "config/cities", test::SourceDir()},
         [this] { woken_ = true; });
     yaml_ = config::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
@@ -156,7 +156,7 @@ TEST_F(ConfigLoaderTest, ReplacingACityAgainAndAgainKeepsNothingOfTheOldOnes) {
   participant_ = std::make_unique<dds::Participant>(
       dds::ParticipantOptions{100 + static_cast<std::uint32_t>(::getpid() % 100), partition_, {}});
   writers_ = std::make_unique<SignalCommandWriters>(*participant_);
-  loader_ = std::make_unique<ConfigLoader>(*participant_, *writers_, *store_,
+  loader_ = std::make_unique<ConfigLoader>(*participant_, ClockKind::kWall, *writers_, *store_,
                                            MapResolution{dir_, dir_}, nullptr);
   auto build = [&] {
     std::atomic<bool> done{false};

@@ -153,8 +153,9 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   persistence = std::make_unique<Persistence>(Store(options.db_path), [this] { waitset.Wake(); });
   event_seq = static_cast<std::uint64_t>(persistence->store().LastEventId());
   signal_writers = std::make_unique<SignalCommandWriters>(participant);
-  loader = std::make_unique<ConfigLoader>(participant, *signal_writers, persistence->store(),
-                                          resolution, [this] { waitset.Wake(); });
+  loader =
+      std::make_unique<ConfigLoader>(participant, clock.kind(), *signal_writers,
+                                     persistence->store(), resolution, [this] { waitset.Wake(); });
   auto city = LoadStartupCity(resolution);
   figures.clock = clock.kind();
   ProcessWatchParams watch;
@@ -173,7 +174,7 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   clock_session = now.session;
   figures.started = now.mono;
   auto first =
-      std::make_unique<CityBundle>(std::move(city), participant, *signal_writers,
+      std::make_unique<CityBundle>(std::move(city), participant, clock.kind(), *signal_writers,
                                    persistence->store().LoadIntersectionStates(), ++map_revision);
   Install(std::move(first), now);
   Emit(Event{Severity::kInfo, "scm_started",

@@ -457,6 +457,67 @@ TEST_F(DaemonTest, IpsPositionsFeedTheFleetAndAParkedCarGetsItsLane) {
   EXPECT_EQ(v.intersection_id, map.intersections[0].id.value());
 }
 
+// The ips message has no time: the fleet takes the one its writer stamped, as long as that
+// is not in the future and at most a second old (hosts' clocks agree that well), and the time
+// it arrived otherwise.
+TEST_F(DaemonTest, AnIpsPositionIsObservedWhenItsWriterWroteItUnlessTheClocksDisagree) {
+  TestTime time;
+  time.offset_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                       std::chrono::system_clock::now().time_since_epoch())
+                       .count() -
+                   time.mono_ns.load();
+  WallClock clock(time.Sources());
+  Scm scm(Options(DrivingSchoolWithoutLights()), clock, *participant_);
+  dds::Reader<msg::FleetState> fleet(*participant_, dds::topics::Fleet().name,
+                                     dds::Qos::Stream(64));
+  dds::Writer<msg::Point> ips(*participant_, dds::topics::Ips(VehicleId(1)));
+  ASSERT_TRUE(ips.WaitForReaders(1, seconds(10)));
+  double x = 0.5;
+  // nigel_1's observed time in the fleet after a position written with stamp `written`.
+  const auto observed_after = [&](Time written) -> std::optional<Time> {
+    x += 0.05;  // a new position each time, so that it is a new observation
+    const msg::Point p{x, 0.3, 0.0};
+    const auto ns =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(written.time_since_epoch());
+    EXPECT_EQ(dds_write_ts(ips.handle(), &p, ns.count()), DDS_RETCODE_OK);
+    for (int i = 0; i < 100; ++i) {
+      time.AdvanceTo(time.mono() + milliseconds(20));
+      scm.Pass();
+      fleet.WaitForData(milliseconds(50));
+      for (auto& m : fleet.TakeAll()) {
+        for (const auto& v : dds::Elements(m->vehicles)) {
+          if (dds::View(v.vehicle_id) == "nigel_1" && std::abs(v.pose.pose.position.x - x) < 1e-9) {
+            return dds::FromMsg(v.observed);
+          }
+        }
+      }
+    }
+    return std::nullopt;
+  };
+  const auto wire_now = [&] { return clock.Read().wire; };
+  const auto near = [](Time a, Time b) {
+    return a - b < milliseconds(1) && b - a < milliseconds(1);
+  };
+
+  const Time recent = wire_now() - milliseconds(300);
+  const std::optional<Time> a = observed_after(recent);
+  ASSERT_TRUE(a) << "the position never reached the fleet";
+  EXPECT_TRUE(near(*a, recent)) << "a position written 0.3 s ago is observed when it was written";
+
+  const Time old = wire_now() - seconds(5);
+  const Time before_old = wire_now();
+  const std::optional<Time> b = observed_after(old);
+  ASSERT_TRUE(b);
+  EXPECT_GE(*b, before_old) << "a stamp 5 s old is taken as the clocks disagreeing: arrival time";
+
+  const Time ahead = wire_now() + seconds(3);
+  const Time before_ahead = wire_now();
+  const std::optional<Time> c = observed_after(ahead);
+  ASSERT_TRUE(c);
+  EXPECT_GE(*c, before_ahead);
+  EXPECT_LT(*c, ahead) << "a stamp in the future is not believed";
+}
+
 TEST_F(DaemonTest, AnEventsIdIsItsRowInTheLogAndTheCountGoesOnAfterARestart) {
   TestTime time;
   WallClock clock(time.Sources());

@@ -10,7 +10,9 @@
 
 namespace autodrive::scm {
 
-IpsSource::IpsSource(const dds::Participant& participant, const std::vector<VehicleId>& vehicles) {
+IpsSource::IpsSource(const dds::Participant& participant, const std::vector<VehicleId>& vehicles,
+                     ClockKind clock)
+    : clock_(clock) {
   for (const VehicleId v : vehicles) {
     Track t;
     t.vehicle = v;
@@ -22,7 +24,7 @@ IpsSource::IpsSource(const dds::Participant& participant, const std::vector<Vehi
 std::size_t IpsSource::Poll(const ClockReading& now, FleetRegistry& fleet) {
   std::size_t recorded = 0;
   for (Track& t : tracks_) {
-    while (t.reader->TakeOne(sample_)) {
+    while (t.reader->TakeOne(sample_, &info_)) {
       const msg::Point& p = *sample_;
       if (!std::isfinite(p.x) || !std::isfinite(p.y)) {
         ++malformed_;
@@ -37,6 +39,11 @@ std::size_t IpsSource::Poll(const ClockReading& now, FleetRegistry& fleet) {
       o.vehicle = t.vehicle;
       o.source = PoseSource::kIps;
       o.observed = now.wire;
+      if (clock_ == ClockKind::kWall) {
+        const Time written{std::chrono::duration_cast<Time::duration>(
+            std::chrono::nanoseconds(info_.source_timestamp_ns))};
+        if (written <= now.wire && now.wire - written <= kMaxWriterAge) o.observed = written;
+      }
       o.heading_known = t.yaw_rad.has_value();
       o.X_MV = RigidTransform2(pos, t.yaw_rad.value_or(0.0)).ToRigidTransform3();
       try {

@@ -40,13 +40,20 @@ class ObservationSource {
 /// simulator's ground truth in simulation, the lab's positioning system on the real track.
 /// A position only: the heading is estimated from the motion (once the car moved more than
 /// `kMinMotion_m`); until then it is unknown and the registry locates the car by position alone.
-/// Observations are labelled `PoseSource::kIps` and stamped on arrival.
+/// Observations are labelled `PoseSource::kIps`. The message carries no time: on the wall clock
+/// each is stamped when its writer wrote it (the sample's source timestamp, which the simulator
+/// and a lab's positioning system write as they measure), unless that is in the future or older
+/// than `kMaxWriterAge` (the hosts' clocks disagree), when it is stamped on arrival, as it always
+/// is on a simulated clock (whose time the writer's stamp is not in).
 class IpsSource final : public ObservationSource {
  public:
   /// Motion needed before a heading is estimated from two positions.
   static constexpr double kMinMotion_m = 0.01;
+  /// The oldest writer's stamp taken as the time of a position (older: clocks disagree).
+  static constexpr Duration kMaxWriterAge = std::chrono::seconds(1);
 
-  IpsSource(const dds::Participant& participant, const std::vector<VehicleId>& vehicles);
+  IpsSource(const dds::Participant& participant, const std::vector<VehicleId>& vehicles,
+            ClockKind clock);
   std::size_t Poll(const ClockReading& now, FleetRegistry& fleet) override;
   [[nodiscard]] std::string_view name() const override { return "ips"; }
   [[nodiscard]] std::uint64_t malformed() const override { return malformed_; }
@@ -59,7 +66,9 @@ class IpsSource final : public ObservationSource {
     std::optional<double> yaw_rad;        ///< from the motion, once it moved
   };
   std::vector<Track> tracks_;
+  ClockKind clock_;
   dds::Message<msg::Point> sample_;
+  dds::SampleInfo info_;
   std::uint64_t malformed_ = 0;
 };
 

@@ -55,12 +55,12 @@ class OperatorCommandsTest : public ::testing::Test {
     persistence_ = std::make_unique<Persistence>(Store((dir_ / "scm.db").string()), nullptr);
     bundle_ = std::make_unique<CityBundle>(
         std::make_unique<City>(LoadCity(test::SourceDir() / "config/cities/small_town.yaml")),
-        participant_, writers_, std::vector<IntersectionStateRecord>{}, 1);
+        participant_, ClockKind::kWall, writers_, std::vector<IntersectionStateRecord>{}, 1);
     bundle_->Start(now_.mono);
     publishers_ = std::make_unique<ScmPublishers>(participant_, "small_town", 42);
     publishers_->Reset(*bundle_->runtime, "small_town");
     loader_ = std::make_unique<ConfigLoader>(
-        participant_, writers_, persistence_->store(),
+        participant_, ClockKind::kWall, writers_, persistence_->store(),
         MapResolution{test::SourceDir() / "config/cities", test::SourceDir() / "config"}, nullptr);
     service_ = std::make_unique<LoaderService>(*loader_);
     control_ = std::make_unique<ControlPlane>(ControlPlaneParams{});
