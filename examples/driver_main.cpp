@@ -68,6 +68,8 @@ const char* ToString(vehicle_sim::DriverDecision::Reason r) {
       return "giving way to a vehicle in the intersection";
     case vehicle_sim::DriverDecision::Reason::kObstacle:
       return "stopping for something ahead";
+    case vehicle_sim::DriverDecision::Reason::kAdvisory:
+      return "keeping to an advised speed";
     case vehicle_sim::DriverDecision::Reason::kGoal:
       return "stopped at the end of its route";
     case vehicle_sim::DriverDecision::Reason::kLost:
@@ -206,6 +208,8 @@ int main(int argc, char** argv) {
       options.wheelbase_m = p.wheelbase_m;
       options.steering_limit_rad = p.steering_limit_rad;
       options.front_overhang_m = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
+      options.rear_overhang_m = p.body_length_m / 2 - p.body_centre_ahead_of_rear_axle_m;
+      options.top_speed_mps = p.top_speed_mps;
       options.half_width_m = p.body_width_m / 2;
       cars.push_back(std::make_unique<Car>(participant, ParseVehicleName(city.sim.vehicles[i].name),
                                            map, options));

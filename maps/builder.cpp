@@ -17,6 +17,7 @@
 #include <Eigen/Geometry>
 
 #include "common/error.h"
+#include "maps/polyline.h"
 
 namespace autodrive::maps {
 
@@ -766,6 +767,27 @@ class Builder {
     }
   }
 
+  // A sign given by the layout stands beside the road: its pole on a lane or a path through an
+  // intersection would stand in the cars' way (and under a LIDAR's plane, unseen).
+  void RefuseOnRoad(const Sign& sign) const {
+    const Vec at = sign.X_MS.translation();
+    const auto refuse = [&](const std::string& on, double distance, double half_width) {
+      Fail(
+          fmt::format("sign {} ({}) at ({:.3f}, {:.3f}) stands on {}: {:.3f} m from its centre, "
+                      "less than the half width {:.3f} m; signs stand beside the road",
+                      sign.id.value(), sign.type, at.x(), at.y(), on, distance, half_width));
+    };
+    for (const Lane& lane : map_.lanes) {
+      const double d = NearestOnPolyline(lane.centreline, at).distance_m;
+      if (d < lane.width_m / 2) refuse("lane " + lane.name, d, lane.width_m / 2);
+    }
+    for (const Movement& m : map_.movements) {
+      const double half = map_.lane(m.from).width_m / 2;
+      const double d = NearestOnPolyline(m.path, at).distance_m;
+      if (d < half) refuse("the path " + m.name, d, half);
+    }
+  }
+
   void MakeSigns() {
     for (const auto& s : layout_.signs) {
       Sign sign;
@@ -773,6 +795,7 @@ class Builder {
       sign.type = s.type;
       sign.X_MS = RigidTransform2::FromXyYaw(s.x_m, s.y_m, s.yaw_rad);
       sign.value = s.value;
+      RefuseOnRoad(sign);
       map_.signs.push_back(sign);
     }
     // Stop and yield signs of controlled intersections, one per approach at its right corner.

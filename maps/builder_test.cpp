@@ -259,6 +259,35 @@ TEST(MapBuilder, StopControlledIntersectionsGetStopSignsAndNoHeads) {
   }
 }
 
+// A sign the layout stands on a lane, or on a path through an intersection, is refused with
+// its place and the lane; beside the road it is taken.
+TEST(MapBuilder, ASignOnTheRoadIsRefusedNamingTheLane) {
+  Layout layout = MakeLayout({{"empty", "straight@90", "empty"},
+                              {"straight", "x4 control=signal", "straight"},
+                              {"empty", "straight@90", "empty"}});
+  SignSpec sign;
+  sign.type = "curve_right";
+  sign.x_m = 0.5;
+  sign.y_m = 1.3;  // 5 cm from the west tile's eastbound lane (the lanes run at y 1.35 and 1.65)
+  sign.yaw_rad = 0.0;
+  layout.signs = {sign};
+  try {
+    (void)Build(layout);
+    FAIL() << "a sign 5 cm from a lane's centre was taken";
+  } catch (const InputError& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("sign 1 (curve_right) at (0.500, 1.300) stands on lane r1c0:"),
+        std::string::npos)
+        << e.what();
+  }
+  layout.signs[0].x_m = 1.5;
+  layout.signs[0].y_m = 1.5;  // the intersection's centre: on its paths
+  EXPECT_THROW((void)Build(layout), InputError);
+  layout.signs[0].x_m = 0.5;
+  layout.signs[0].y_m = 1.12;  // beside the road
+  EXPECT_EQ(Build(layout).signs.size(), 1u);
+}
+
 // The ids of each intersection's heads by the side of the approach they face: "E4 N5 W6 S7".
 std::map<std::string, std::string> HeadIdsBySide(const Map& map) {
   std::map<std::string, std::string> out;

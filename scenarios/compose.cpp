@@ -387,6 +387,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
     const std::vector<std::pair<std::string, std::string>> with{
         {"{city}", fs::absolute(city_file).lexically_normal().string()},
         {"{vehicle}", v.name},
+        {"{seed}", std::to_string(scenario.seed)},
         {"{route}", fmt::format("{}", fmt::join(v.route, ","))},
         {"{lockstep}", AgentController(v.name)},
         {"{run}", fs::absolute(run_dir).lexically_normal().string()},

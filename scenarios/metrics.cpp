@@ -17,6 +17,7 @@
 #include "scenarios/internal/logs.h"
 
 #include "common/config.h"
+#include "common/dds/conversions.h"
 #include "common/error.h"
 
 namespace autodrive::scenarios {
@@ -202,7 +203,7 @@ json R(double x) {
 struct Contact {
   double t = 0;
   std::string with;  ///< "nigel_2", "traffic:<id>", "wall:3", ...
-  std::string kind;  ///< vehicle, traffic, wall, box, obstacle
+  std::string kind;  ///< vehicle, traffic, wall, box, pole, obstacle
   double speed_mps = 0;
 };
 
@@ -917,17 +918,16 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
                             {"type", type == 2 ? "preemption" : "priority"},
                             {"to_green_s", std::isfinite(green) ? R(green - t) : json(nullptr)}});
   }
-  static const char* const kOutcome[] = {"received", "processing", "granted",
-                                         "rejected", "completed",  "cancelled"};
   json outcomes = {{"granted", 0},   {"rejected", 0}, {"completed", 0},
                    {"cancelled", 0}, {"received", 0}, {"processing", 0}};
   int granted = 0;
   for (json& r : request_list) {
     const auto it =
         outcome.find({r["vehicle"].get<std::string>(), r["request_id"].get<std::uint32_t>()});
-    const std::string o = it == outcome.end() || it->second < 0 || it->second > 5
-                              ? "unanswered"
-                              : kOutcome[it->second];
+    const std::string o =
+        it == outcome.end() || it->second < 0 || it->second > 5
+            ? "unanswered"
+            : std::string(dds::SignalRequestStatusName(static_cast<std::uint8_t>(it->second)));
     r["outcome"] = o;
     outcomes[o] = outcomes.value(o, 0) + 1;
     // granted, or served and then completed

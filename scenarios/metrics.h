@@ -39,7 +39,8 @@ struct RunWorld {
     }
   };
   struct Static {
-    std::string kind;  ///< "wall", "box" (the map's) or "obstacle" (unmapped)
+    std::string kind;  ///< "wall", "box" (the map's), "pole" (a signal head's or a sign's) or
+                       ///< "obstacle" (unmapped)
     std::string name;
     Points footprint;  ///< counter-clockwise
     /// It stands from `from_s` until `until_s` (simulated seconds; none: to the end): an

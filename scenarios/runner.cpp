@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
+#include <numbers>
 #include <numeric>
 #include <thread>
 
@@ -29,6 +30,7 @@
 #include "common/process.h"
 #include "common/shutdown.h"
 #include "maps/map_io.h"
+#include "vehicle_sim/raycast.h"
 #include "vehicle_sim/sim_config.h"
 #include "vehicle_sim/variability.h"
 
@@ -145,6 +147,23 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
   for (std::size_t i = 0; i < world_map.obstacles.size(); ++i) {
     w.statics.push_back(
         {world_map.obstacles[i].kind, std::to_string(i), world_map.obstacles[i].footprint});
+  }
+  // The poles of the signal heads and signs, as the simulator's world stands them (heads
+  // first, then signs): a car can touch them too. Octagons about each pole's circle.
+  const std::vector<vehicle_sim::Cylinder> poles =
+      vehicle_sim::GeometryFromMap(world_map, sim.world.scene).cylinders;
+  for (std::size_t i = 0; i < poles.size(); ++i) {
+    Points octagon;
+    const double r = poles[i].radius_m / std::cos(std::numbers::pi / 8);
+    for (int k = 0; k < 8; ++k) {
+      const double a = std::numbers::pi / 8 + k * std::numbers::pi / 4;
+      octagon.push_back(poles[i].centre_M + r * Eigen::Vector2d(std::cos(a), std::sin(a)));
+    }
+    const std::size_t heads = world_map.signal_heads.size();
+    w.statics.push_back({"pole",
+                         i < heads ? fmt::format("signal_{}", world_map.signal_heads[i].id.value())
+                                   : fmt::format("sign_{}", world_map.signs[i - heads].id.value()),
+                         std::move(octagon)});
   }
   const auto obstacles =
       vehicle_sim::UnmappedObstacles(sim, map, vehicle_sim::SpawnPoses(sim, map));

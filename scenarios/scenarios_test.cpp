@@ -418,6 +418,33 @@ TEST(Metrics, AFlashingRedOrDarkSignalIsJudgedAsAStopSign) {
   EXPECT_EQ(m["vehicles"]["nigel_1"]["stop_sign_violations"].size(), 1U);
 }
 
+// A sign's pole (an octagon of 1 cm radius, as MakeWorld stands it) on the car's path is a
+// collision like a wall's; the same pole 2 cm beside its body is not.
+TEST(Metrics, APoleIsCollidedWith) {
+  test::TempDir dir("metrics_pole");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  const auto pole = [](double y) {
+    Points octagon;
+    for (int k = 0; k < 8; ++k) {
+      const double a = std::numbers::pi / 8 + k * std::numbers::pi / 4;
+      octagon.push_back(Eigen::Vector2d(3.5, y) +
+                        0.0108 * Eigen::Vector2d(std::cos(a), std::sin(a)));
+    }
+    return octagon;
+  };
+  RunWorld on_path = Road();
+  on_path.statics = {{"pole", "sign_2", pole(0.05)}};
+  WriteDrive(dir.path(), 0.2, 25);
+  const json m = ComputeMetrics(on_path, dir.path());
+  const auto& c = m["vehicles"]["nigel_1"]["collisions"];
+  ASSERT_EQ(c.size(), 1U) << c;
+  EXPECT_EQ(c[0]["kind"], "pole");
+  EXPECT_EQ(c[0]["with"], "pole:sign_2");
+  RunWorld beside = Road();
+  beside.statics = {{"pole", "sign_2", pole(0.0875 + 0.0108 + 0.02)}};
+  EXPECT_EQ(ComputeMetrics(beside, dir.path())["run"]["collisions"], 0);
+}
+
 TEST(Metrics, CollisionAtFirstContactWithItsSpeed) {
   test::TempDir dir("metrics_collision");
   WriteLamps(dir.path(), "0.000000,3,3\n");

@@ -247,15 +247,62 @@ DriverDecision LaneDriver::Step(
     const RigidTransform2& X_MV,
     const std::function<std::optional<std::int32_t>(SignalHeadId)>& lamp,
     std::span<const float> lidar, Duration now) {
+  // The lamps of the ingress approach's head, read as an indication with no times.
+  const SignalLookup from_lamps = [&](const maps::Lane& ingress,
+                                      const maps::Movement*) -> std::optional<SignalIndication> {
+    const maps::Intersection& x = map_->intersection(*ingress.ingress_of);
+    std::optional<Aspect> shown;
+    bool flashing = false;
+    for (SignalHeadId h : x.signal_heads) {
+      const maps::SignalHead& head = map_->signal_head(h);
+      if (head.approach == ingress.ingress_approach) {
+        const std::optional<std::int32_t> wire = lamp(h);
+        shown = wire ? AspectFromWire(*wire) : std::nullopt;
+        flashing = FlashingRed(h, wire, now);
+      }
+    }
+    using State = SignalIndication::State;
+    if (flashing) return SignalIndication{State::kFlashingRed, {}, {}, {}};
+    if (!shown) return std::nullopt;
+    switch (*shown) {
+      case Aspect::kGreen:
+        return SignalIndication{State::kGreen, {}, {}, {}};
+      case Aspect::kYellow:
+        return SignalIndication{State::kYellow, {}, {}, {}};
+      case Aspect::kFlashingYellow:
+        return SignalIndication{State::kFlashingYellow, {}, {}, {}};
+      default:  // red, and a dark head not (yet) seen flashing: stop
+        return SignalIndication{State::kRed, {}, {}, {}};
+    }
+  };
+  return Step(X_MV, from_lamps, lidar, now);
+}
+
+DriverDecision LaneDriver::Step(const RigidTransform2& X_MV, const SignalLookup& signal,
+                                std::span<const float> lidar, Duration now,
+                                std::optional<double> speed_limit_mps) {
   DriverDecision decision;
+  next_line_.reset();
   const Eigen::Vector2d p = X_MV.translation();
-  if (route_.empty() || (PointAt(Project(p)) - p).norm() > 0.4) Localise(X_MV);
+  if (route_.empty() || (PointAt(Project(p)) - p).norm() > 0.4) {
+    Localise(X_MV);
+    last_step_.reset();
+  }
   if (route_.empty()) {
     decision.reason = DriverDecision::Reason::kLost;
     return decision;
   }
   progress_s_ = std::max(progress_s_ - 0.05, Project(p));
   Extend();
+  // The speed along the route, smoothed over a few steps.
+  if (last_step_ && now > *last_step_) {
+    const double v = (progress_s_ - last_progress_s_) / ToSeconds(now - *last_step_);
+    speed_mps_ += 0.3 * (v - speed_mps_);
+  }
+  if (!last_step_ || now > *last_step_) {
+    last_step_ = now;
+    last_progress_s_ = progress_s_;
+  }
 
   // Pure pursuit towards the route point one lookahead ahead.
   Eigen::Vector2d target = PointAt(progress_s_ + options_.lookahead_m);
@@ -274,35 +321,39 @@ DriverDecision LaneDriver::Step(
   // The speed: cruise, unless a stop line or something ahead says otherwise.
   double throttle = options_.cruise_throttle;
   const double front_s = progress_s_ + options_.front_overhang_m;
-  for (const Piece& piece : route_) {
+  for (std::size_t k = 0; k < route_.size(); ++k) {
+    const Piece& piece = route_[k];
     if (piece.lane == nullptr || !piece.lane->stop_line || !piece.lane->ingress_of) continue;
     const double line_s = piece.start_s + PieceLength(piece);
     const double to_line = line_s - front_s;
-    if (to_line < -0.05 || to_line > options_.slow_down_m + options_.stop_gap_m + 0.5) continue;
+    if (to_line < -0.05) continue;
     const maps::Intersection& x = map_->intersection(*piece.lane->ingress_of);
+    const maps::Movement* movement = k + 1 < route_.size() ? route_[k + 1].movement : nullptr;
+    next_line_ = StopLineAhead{&x, piece.lane, movement,
+                               movement != nullptr ? &map_->lane(movement->to) : nullptr, to_line};
+    if (to_line > options_.slow_down_m + options_.stop_gap_m + 0.5) break;
     bool stop = false;
     if (x.control == maps::Control::kSignal && !options_.ignore_lights) {
-      // Red, yellow (unless too close to stop) or unknown: stop at the line. Flashing red: a
-      // stop sign.
-      std::optional<Aspect> shown;
-      bool flashing = false;
-      for (SignalHeadId h : x.signal_heads) {
-        const maps::SignalHead& head = map_->signal_head(h);
-        if (head.approach == piece.lane->ingress_approach) {
-          const std::optional<std::int32_t> wire = lamp(h);
-          shown = wire ? AspectFromWire(*wire) : std::nullopt;
-          flashing = FlashingRed(h, wire, now);
-        }
-      }
-      const bool green = shown == Aspect::kGreen;
-      const bool yellow = shown == Aspect::kYellow;
-      if (flashing && !options_.ignore_stop_signs) {
+      using State = SignalIndication::State;
+      const std::optional<SignalIndication> shown = signal(*piece.lane, movement);
+      const bool as_stop_sign =
+          shown && (shown->state == State::kFlashingRed || shown->state == State::kDark);
+      const bool go =
+          shown && (shown->state == State::kGreen || shown->state == State::kFlashingYellow);
+      if (as_stop_sign && !options_.ignore_stop_signs) {
         stop = StopSign(line_s, x, to_line, X_MV, lidar, now);
         if (stop) decision.reason = DriverDecision::Reason::kStopSign;
       } else {
         // (Ignoring stop signs, it rolls through a flashing red as through a stop sign.)
-        stop =
-            !flashing && !green && !(yellow && to_line < options_.stop_gap_m + 0.02) && to_line > 0;
+        bool cross_yellow = false;
+        if (shown && shown->state == State::kYellow) {
+          // Too close to stop, or its tail passes the line before the yellow ends.
+          const double to_clear = to_line + options_.front_overhang_m + options_.rear_overhang_m;
+          cross_yellow =
+              to_line < options_.stop_gap_m + 0.02 ||
+              (shown->min_end_s && speed_mps_ > 0.01 && to_clear / speed_mps_ < *shown->min_end_s);
+        }
+        stop = !as_stop_sign && !go && !cross_yellow && to_line > 0;
         if (stop) {
           decision.reason = DriverDecision::Reason::kRedLight;
         } else if (to_line > 0 && !BoxClear(x, X_MV, lidar)) {
@@ -323,6 +374,14 @@ DriverDecision LaneDriver::Step(
       if (room < 0.01) throttle = 0.0;
     }
     break;  // only the next stop line matters
+  }
+  // An advisory speed: never faster than asked.
+  if (speed_limit_mps) {
+    const double capped = std::clamp(*speed_limit_mps / options_.top_speed_mps, 0.0, 1.0);
+    if (capped < throttle) {
+      throttle = capped;
+      decision.reason = DriverDecision::Reason::kAdvisory;
+    }
   }
   // Something on its path close ahead (a car, a box): slow down, then stop. Only what is on
   // its own path counts: in an intersection's box, vehicles waiting at the other stop lines
@@ -350,6 +409,18 @@ DriverDecision LaneDriver::Step(
   }
   decision.throttle = throttle;
   return decision;
+}
+
+std::optional<StopLineAhead> LaneDriver::NextStopLine() const { return next_line_; }
+
+bool LaneDriver::InIntersection(IntersectionId x) const {
+  const double rear = progress_s_ - options_.rear_overhang_m;
+  const double front = progress_s_ + options_.front_overhang_m;
+  for (const Piece& piece : route_) {
+    if (piece.movement == nullptr || piece.movement->intersection != x) continue;
+    if (piece.start_s < front && piece.start_s + PieceLength(piece) > rear) return true;
+  }
+  return false;
 }
 
 std::string LaneDriver::lane_name() const {

@@ -2,7 +2,8 @@
 /// @file
 /// A small driver that keeps a car moving on the map's lanes: pure pursuit along the lane
 /// centrelines and the movements through intersections (a random choice at each, from a seeded
-/// engine), stopping at the stop line when its light is red or yellow, stopping at stop signs
+/// engine), stopping at the stop line when its light is red or on a yellow it cannot clear
+/// (from the lamps, or from SPaT through a `SignalLookup`), stopping at stop signs
 /// and at flashing red lights (a stop sign by law) and going on once nothing is in the
 /// intersection's box, and stopping for whatever its LIDAR sees close ahead. It knows only what a
 /// user's code on the real car would: the map, its pose (IPS position and IMU heading), the lamps'
@@ -27,14 +28,40 @@
 
 namespace autodrive::vehicle_sim {
 
+/// What a signal shows the car's movement: read off its lamps, or from SPaT (V2I).
+struct SignalIndication {
+  enum class State { kDark, kRed, kYellow, kGreen, kFlashingRed, kFlashingYellow };
+  State state = State::kRed;
+  /// Seconds from now, when known: the earliest end of this state (SPaT's min_end_time), its
+  /// likely end (likely_time), and the start of the movement's next green (next_time).
+  std::optional<double> min_end_s, likely_end_s, next_green_s;
+};
+
+/// The indication for the movement from lane `ingress` along `movement` (null while the route
+/// does not reach past the stop line yet); nothing when unknown (the driver stops, as at red).
+using SignalLookup = std::function<std::optional<SignalIndication>(const maps::Lane& ingress,
+                                                                   const maps::Movement* movement)>;
+
+/// The next stop line on the car's route, as the driver last saw it.
+struct StopLineAhead {
+  const maps::Intersection* intersection = nullptr;
+  const maps::Lane* ingress = nullptr;
+  const maps::Movement* movement = nullptr;  ///< null while the route does not reach past it
+  const maps::Lane* egress = nullptr;        ///< the movement's lane out, when known
+  double to_line_m = 0.0;                    ///< from the car's front bumper, along the route
+};
+
 struct DriverOptions {
   double cruise_throttle = 0.6;  ///< normalised throttle on open road (0.6 x 0.26 m/s)
   double lookahead_m = 0.25;     ///< pure pursuit's lookahead distance
   double wheelbase_m = 0.14154;
   double steering_limit_rad = 0.5236;
   double front_overhang_m = 0.2297;  ///< rear axle to the front of the body
-  double stop_gap_m = 0.03;          ///< the front stops this far before a stop line
-  double slow_down_m = 0.3;          ///< throttle falls linearly over this distance to a stop
+  double rear_overhang_m = 0.0883;   ///< rear axle to the back of the body
+  /// Speed at full throttle (NIGEL.md): a speed limit becomes a throttle by it.
+  double top_speed_mps = 0.26;
+  double stop_gap_m = 0.03;  ///< the front stops this far before a stop line
+  double slow_down_m = 0.3;  ///< throttle falls linearly over this distance to a stop
   /// What its LIDAR sees on its own path ahead (within its half width plus `path_margin_m` of
   /// the route it drives): it slows down from twice this gap (front bumper to the obstacle,
   /// along the path) and stops under it.
@@ -78,7 +105,8 @@ struct DriverDecision {
     kStopSign,
     kGiveWay,  ///< at a green light, for what is in the intersection's box
     kObstacle,
-    kGoal,  ///< at the end of its route (`stop_at_route_end`)
+    kAdvisory,  ///< held to the speed asked of `Step` (e.g. GLOSA's)
+    kGoal,      ///< at the end of its route (`stop_at_route_end`)
     kLost
   } reason = Reason::kCruise;
 };
@@ -95,6 +123,22 @@ class LaneDriver {
   DriverDecision Step(const RigidTransform2& X_MV,
                       const std::function<std::optional<std::int32_t>(SignalHeadId)>& lamp,
                       std::span<const float> lidar, Duration now);
+
+  /// The same, with the signals from `signal` (e.g. SPaT): a yellow is crossed when the car's
+  /// tail can pass the line before it ends (at its present speed) or it is too close to stop,
+  /// and stopped at otherwise; dark is a stop sign, as flashing red is; flashing yellow is a
+  /// green that gives way. `speed_limit_mps`, when given, caps its speed (an advisory).
+  DriverDecision Step(const RigidTransform2& X_MV, const SignalLookup& signal,
+                      std::span<const float> lidar, Duration now,
+                      std::optional<double> speed_limit_mps = std::nullopt);
+
+  /// The next stop line on its route (within the 2 m it plans ahead), as of the last step.
+  [[nodiscard]] std::optional<StopLineAhead> NextStopLine() const;
+  /// Whether the car's body (rear to front bumper) overlaps a path through `x`, as of the
+  /// last step.
+  [[nodiscard]] bool InIntersection(IntersectionId x) const;
+  /// Its speed along the route (m/s), from its progress over the last steps.
+  [[nodiscard]] double speed_mps() const { return speed_mps_; }
 
   /// The lane the car is on or heading to (for logs), empty before the first step.
   [[nodiscard]] std::string lane_name() const;
@@ -146,6 +190,11 @@ class LaneDriver {
   };
   std::map<SignalHeadId, LampSeen> seen_;
   std::size_t route_next_ = 0;  // index of the next lane of options_.route
+  // For the speed: the progress and time of the last step.
+  std::optional<Duration> last_step_;
+  double last_progress_s_ = 0.0;
+  double speed_mps_ = 0.0;
+  std::optional<StopLineAhead> next_line_;
 };
 
 }  // namespace autodrive::vehicle_sim

@@ -70,25 +70,6 @@ std::string_view KindName(std::uint8_t k) {
   }
 }
 
-std::string_view RequestStatusName(std::uint8_t s) {
-  switch (s) {
-    case autodrive_msgs_msg_SignalRequestStatus_Constants_RECEIVED:
-      return "received";
-    case autodrive_msgs_msg_SignalRequestStatus_Constants_PROCESSING:
-      return "processing";
-    case autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED:
-      return "granted";
-    case autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED:
-      return "rejected";
-    case autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED:
-      return "completed";
-    case autodrive_msgs_msg_SignalRequestStatus_Constants_CANCELLED:
-      return "cancelled";
-    default:
-      return "unknown";
-  }
-}
-
 std::string_view ControlName(maps::Control c) {
   switch (c) {
     case maps::Control::kSignal:
@@ -243,7 +224,7 @@ json RequestJson(const msg::SignalRequestStatus& r) {
   return {{"vehicle", Text(r.vehicle_id)},
           {"request", r.request_id},
           {"intersection", r.intersection_id},
-          {"status", RequestStatusName(r.status)},
+          {"status", dds::SignalRequestStatusName(r.status)},
           {"group", r.signal_group},
           {"expected_green", r.has_expected_green ? json(Seconds(r.expected_green)) : json()},
           {"reason", Text(r.reason)}};

@@ -60,4 +60,23 @@ double YawOf(const msg::Quaternion& q) {
   return std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
 }
 
+std::string_view SignalRequestStatusName(std::uint8_t status) {
+  switch (status) {
+    case autodrive_msgs_msg_SignalRequestStatus_Constants_RECEIVED:
+      return "received";
+    case autodrive_msgs_msg_SignalRequestStatus_Constants_PROCESSING:
+      return "processing";
+    case autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED:
+      return "granted";
+    case autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED:
+      return "rejected";
+    case autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED:
+      return "completed";
+    case autodrive_msgs_msg_SignalRequestStatus_Constants_CANCELLED:
+      return "cancelled";
+    default:
+      return "unknown";
+  }
+}
+
 }  // namespace autodrive::dds

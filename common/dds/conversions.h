@@ -2,6 +2,9 @@
 /// @file
 /// Conversions between kernel types and message fields.
 
+#include <cstdint>
+#include <string_view>
+
 #include "common/dds/messages.h"
 #include "common/geometry.h"
 #include "common/time.h"
@@ -26,5 +29,10 @@ namespace autodrive::dds {
 /// The heading (rad, from the map's x, counter-clockwise) of a geometry_msgs/Quaternion: the
 /// rotated x axis projected on the plane. Never throws (a zero quaternion gives 0).
 [[nodiscard]] double YawOf(const msg::Quaternion& q);
+
+/// The name of a SignalRequestStatus `status` (autodrive_msgs SignalRequestStatus_Constants):
+/// "received", "processing", "granted", "rejected", "completed", "cancelled"; "unknown" for
+/// any other value.
+[[nodiscard]] std::string_view SignalRequestStatusName(std::uint8_t status);
 
 }  // namespace autodrive::dds

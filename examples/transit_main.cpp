@@ -1,0 +1,6 @@
+// autodrive-example-transit: see examples/README.md and examples/v2i/agent.h.
+#include "examples/v2i/agent.h"
+
+int main(int argc, char** argv) {
+  return autodrive::examples::RunAgent(argc, argv, autodrive::examples::AgentKind::kTransit);
+}
