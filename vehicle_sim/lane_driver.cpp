@@ -84,7 +84,7 @@ bool LaneDriver::AtRouteEnd() const {
 
 void LaneDriver::Extend() {
   const auto end_s = [&] { return route_.back().start_s + PieceLength(route_.back()); };
-  while (!route_.empty() && end_s() < progress_s_ + 2.0 && !AtRouteEnd()) {
+  while (!route_.empty() && end_s() < progress_s_ + options_.plan_ahead_m && !AtRouteEnd()) {
     const Piece& last = route_.back();
     const double start = end_s();
     if (last.movement != nullptr) {
@@ -367,17 +367,21 @@ DriverDecision LaneDriver::Step(const RigidTransform2& X_MV, const SignalLookup&
       if (stop) decision.reason = DriverDecision::Reason::kStopSign;
     }
     if (stop) {
+      // Down to a creep (not below it: the last centimetres at a throttle the command noise
+      // swamps stop and start the car again and again), then held at the line.
       const double room = to_line - options_.stop_gap_m;
       throttle =
-          std::min(throttle, std::clamp(options_.cruise_throttle * room / options_.slow_down_m, 0.0,
+          std::min(throttle, std::clamp(options_.cruise_throttle * room / options_.slow_down_m,
+                                        options_.creep_fraction * options_.cruise_throttle,
                                         options_.cruise_throttle));
       if (room < 0.01) throttle = 0.0;
     }
     break;  // only the next stop line matters
   }
-  // An advisory speed: never faster than asked.
+  // An advisory speed: never faster than asked (its throttle, corrected by the speed error).
   if (speed_limit_mps) {
-    const double capped = std::clamp(*speed_limit_mps / options_.top_speed_mps, 0.0, 1.0);
+    const double capped = std::clamp(
+        (*speed_limit_mps + (*speed_limit_mps - speed_mps_)) / options_.top_speed_mps, 0.0, 1.0);
     if (capped < throttle) {
       throttle = capped;
       decision.reason = DriverDecision::Reason::kAdvisory;

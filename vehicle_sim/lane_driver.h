@@ -54,6 +54,8 @@ struct StopLineAhead {
 struct DriverOptions {
   double cruise_throttle = 0.6;  ///< normalised throttle on open road (0.6 x 0.26 m/s)
   double lookahead_m = 0.25;     ///< pure pursuit's lookahead distance
+  /// How far ahead of the car its route is planned (and `NextStopLine` sees).
+  double plan_ahead_m = 2.0;
   double wheelbase_m = 0.14154;
   double steering_limit_rad = 0.5236;
   double front_overhang_m = 0.2297;  ///< rear axle to the front of the body
@@ -62,6 +64,8 @@ struct DriverOptions {
   double top_speed_mps = 0.26;
   double stop_gap_m = 0.03;  ///< the front stops this far before a stop line
   double slow_down_m = 0.3;  ///< throttle falls linearly over this distance to a stop
+  /// ... but not below this fraction of the cruising throttle until the car is at the line.
+  double creep_fraction = 0.3;
   /// What its LIDAR sees on its own path ahead (within its half width plus `path_margin_m` of
   /// the route it drives): it slows down from twice this gap (front bumper to the obstacle,
   /// along the path) and stops under it.
@@ -132,7 +136,7 @@ class LaneDriver {
                       std::span<const float> lidar, Duration now,
                       std::optional<double> speed_limit_mps = std::nullopt);
 
-  /// The next stop line on its route (within the 2 m it plans ahead), as of the last step.
+  /// The next stop line on its route (within `plan_ahead_m`), as of the last step.
   [[nodiscard]] std::optional<StopLineAhead> NextStopLine() const;
   /// Whether the car's body (rear to front bumper) overlaps a path through `x`, as of the
   /// last step.

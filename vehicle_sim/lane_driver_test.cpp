@@ -297,5 +297,39 @@ TEST(LaneDriver, AFollowingCarKeepsItsDistanceFromAStoppedOne) {
   EXPECT_LT(std::abs(town.world.State(1).v_V_mps.x()), 0.01);  // it waits behind
 }
 
+// The next stop line is seen as far ahead as the route is planned (`plan_ahead_m`), with the
+// movement the route takes through it, and an indication is asked for that movement.
+TEST(LaneDriver, SeesTheNextStopLineAsFarAheadAsItPlansAndAsksForItsMovement) {
+  const maps::Map& map = SmallTown();
+  // r3c0:N>S:0 (1 m), r4c0:N>E:0 (1.021 m), r4c1:W>E:0 (1 m, to south_t's stop line).
+  const maps::Lane& start = *map.FindLane("r3c0:N>S:0");
+  const maps::Lane& ingress = *map.FindLane("r4c1:W>E:0");
+  const maps::Lane& out = *map.FindLane("r4c3:W>E:0");
+  DriverOptions options;
+  options.route = {start.id, map.FindLane("r4c0:N>E:0")->id, ingress.id, out.id};
+  const Eigen::Vector2d p = start.centreline.front();
+  const Eigen::Vector2d d = (start.centreline[1] - start.centreline[0]).normalized();
+  const RigidTransform2 X_MV = RigidTransform2::FromXyYaw(p.x(), p.y(), std::atan2(d.y(), d.x()));
+  const SignalLookup red = [](const maps::Lane&, const maps::Movement*) {
+    return std::optional<SignalIndication>(
+        SignalIndication{SignalIndication::State::kRed, 10.0, 20.0, 20.0});
+  };
+  {
+    LaneDriver driver(map, options);  // 2 m: the line is 3 m ahead of the rear axle
+    (void)driver.Step(X_MV, red, {}, Duration{});
+    EXPECT_FALSE(driver.NextStopLine().has_value());
+  }
+  options.plan_ahead_m = 4.0;
+  LaneDriver driver(map, options);
+  (void)driver.Step(X_MV, red, {}, Duration{});
+  const std::optional<StopLineAhead> ahead = driver.NextStopLine();
+  ASSERT_TRUE(ahead.has_value());
+  EXPECT_EQ(ahead->ingress, &ingress);
+  EXPECT_EQ(ahead->intersection->name, "south_t");
+  ASSERT_NE(ahead->movement, nullptr);
+  EXPECT_EQ(ahead->egress, &out) << "the route's movement: straight on";
+  EXPECT_NEAR(ahead->to_line_m, 1.0 + 1.021 + 1.0 - options.front_overhang_m, 0.01);
+}
+
 }  // namespace
 }  // namespace autodrive::vehicle_sim

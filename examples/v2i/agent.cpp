@@ -189,6 +189,7 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     options.half_width_m = params.body_width_m / 2;
     options.top_speed_mps = params.top_speed_mps;
     glosa.cruise_mps = throttle * params.top_speed_mps;
+    if (kind == AgentKind::kGlosa) options.plan_ahead_m = glosa.horizon_m + 0.5;
     glosa.body_length_m = params.body_length_m;
     requests.cruise_mps = throttle * params.top_speed_mps;
 
@@ -211,6 +212,7 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     std::vector<float> scan;
     Reason reason = Reason::kLost;
     bool map_checked = false;
+    bool advising = false;  // GLOSA's advice in force at the last step
 
     // One decision from what the topics brought since the last; `now` is the system time.
     const auto decide = [&](Time now) {
@@ -243,8 +245,17 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
             ahead && ahead->intersection->control == maps::Control::kSignal) {
           if (const auto shown = v2i.Indication(*ahead->ingress, ahead->movement, now)) {
             advice = GlosaSpeed(glosa, ahead->to_line_m, *shown);
+            if (advice.has_value() != advising) {
+              spdlog::debug(
+                  "{}: {:.2f} m before the line of {}, green in {} s: {}", vehicle,
+                  ahead->to_line_m, ahead->ingress->name,
+                  GreenStartsIn(*shown) ? fmt::format("{:.1f}", *GreenStartsIn(*shown))
+                                        : std::string("?"),
+                  advice ? fmt::format("advising {:.3f} m/s", *advice) : std::string("no advice"));
+            }
           }
         }
+        advising = advice.has_value();
       }
       const auto decision =
           driver.Step(RigidTransform2::FromXyYaw(position->x(), position->y(), *yaw), spat, scan,

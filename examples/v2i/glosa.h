@@ -15,9 +15,13 @@
 namespace autodrive::examples {
 
 struct GlosaParams {
-  double horizon_m = 3.0;        ///< advice from this far before the stop line (front bumper)
-  double cruise_mps = 0.156;     ///< the car's speed without advice
-  double min_speed_mps = 0.05;   ///< the slowest speed advised
+  /// Advice from this far before the stop line (front bumper): 8 m is 112 m at full scale,
+  /// about the range of SUMO's glosa device (100 m by default).
+  double horizon_m = 8.0;
+  double cruise_mps = 0.156;  ///< the car's speed without advice
+  /// The slowest speed advised: slower, the paper's command noise (σ 0.013 m/s) stops the car
+  /// now and then, and a stop is what GLOSA is for avoiding.
+  double min_speed_mps = 0.06;
   double margin_s = 1.0;         ///< arrive this long after the expected start of green
   double body_length_m = 0.318;  ///< for "through before the green ends"
 };

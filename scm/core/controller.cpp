@@ -454,7 +454,8 @@ enum class Policy { kMin, kLikely, kMax };
 // The walk below predicts when phases end: at their min green (kMin), as the plan expects
 // (kLikely) or at their max green plus any priority extension (kMax).
 template <typename F>
-std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F green_end) const {
+std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F green_end,
+                                                            bool after_run) const {
   const Plan& p = plan();
   const std::size_t n = p.phases.size();
   if (n == 0) return std::nullopt;
@@ -495,10 +496,13 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
     default:
       return std::nullopt;
   }
-  for (std::size_t step = 1; step <= n; ++step) {
+  bool in_run = after_run;  // still in the phases that keep the group green
+  for (std::size_t step = 1; step <= n + (after_run ? n : 0); ++step) {
     const std::size_t k = (from + 1) % n;
     t += clearance(from, k);
-    if (Contains(p.phases[k].groups, g)) return t;
+    const bool has = Contains(p.phases[k].groups, g);
+    if (has && !in_run) return t;
+    in_run = in_run && has;
     t = green_end(k, t, false);
     from = k;
   }
@@ -617,6 +621,9 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
         s.min_end = std::max(now, yellow_end_);
         s.max_end = s.likely_end = s.min_end;
         s.likely_confidence = 1.0f;
+        if (mode != Mode::kManual && !active_) {
+          s.next_green = WalkToGreen(g, green_end(Policy::kLikely));
+        }
         break;
       case Aspect::kGreen: {
         s.min_end = std::max(now, since_[g] + model_->groups[g].timing.min_green);
@@ -639,6 +646,7 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
           s.likely_end = std::max(s.min_end, end_of_run(Policy::kLikely));
           s.max_end = std::max(*s.likely_end, end_of_run(Policy::kMax));
           s.likely_confidence = confidence;
+          if (!active_) s.next_green = WalkToGreen(g, green_end(Policy::kLikely), true);
         }
         break;
       }

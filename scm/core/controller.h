@@ -41,7 +41,9 @@ struct GroupSignal {
   std::optional<MonoTime> max_end;     ///< latest end, when known
   std::optional<MonoTime> likely_end;  ///< best estimate, when known
   float likely_confidence = 0.0f;      ///< 0..1
-  std::optional<MonoTime> next_green;  ///< when the group's next green should start (not green)
+  /// When the group's next green should start: for a red group the end of its red, for a
+  /// green or yellow one the start of its green after the red that follows.
+  std::optional<MonoTime> next_green;
 };
 
 /// Where the SCM host's local day is, for what runs by time of day: the schedule of plans and
@@ -182,8 +184,11 @@ class IntersectionController {
   /// The time group `g` turns green if the sequence runs with each phase's green ending at
   /// `green_end(phase, start)`.
   [[nodiscard]] std::optional<MonoTime> EarliestGreen(std::size_t g, MonoTime now) const;
+  /// For a group green now (`after_run`): the start of its green after the red that follows
+  /// the phases keeping it green.
   template <typename F>
-  [[nodiscard]] std::optional<MonoTime> WalkToGreen(std::size_t g, F green_end) const;
+  [[nodiscard]] std::optional<MonoTime> WalkToGreen(std::size_t g, F green_end,
+                                                    bool after_run = false) const;
   void Show(std::size_t g, Aspect aspect, MonoTime now);
   void EnterFlash(MonoTime now, bool dark);
   void EnterAllRed(MonoTime now, Duration d);
