@@ -525,6 +525,13 @@ class Exporter {
   }
 
   std::string TrafficLightsXml() const {
+    for (const auto& [id, program] : o_.programs) {
+      const auto it = std::ranges::find(map_.intersections, id, &Intersection::id);
+      if (it == map_.intersections.end() || it->control != Control::kSignal) {
+        throw InputError("a SUMO program is given for intersection " + std::to_string(id.value()) +
+                         ", which is not a signalised intersection of map " + map_.name);
+      }
+    }
     pugi::xml_document doc;
     internal::AddXmlDeclaration(doc);
     pugi::xml_node root = internal::AppendElement(doc, "tlLogics");
@@ -532,13 +539,52 @@ class Exporter {
       if (x.control != Control::kSignal && x.control != Control::kStop) continue;
       const bool stop = x.control == Control::kStop;
       const std::string& id = junction_of_.at(x.id);
+      const auto given = stop ? o_.programs.end() : o_.programs.find(x.id);
+      const Duration offset = given == o_.programs.end() ? Duration{0} : given->second.offset;
       pugi::xml_node logic = internal::AppendElement(
-          root, "tlLogic", {{"id", id}, {"type", "static"}, {"programID", "0"}, {"offset", "0"}});
+          root, "tlLogic",
+          {{"id", id}, {"type", "static"}, {"programID", "0"}, {"offset", Num(ToSeconds(offset))}});
       const auto phase = [&](Duration d, const std::string& state, const std::string& name) {
         internal::AppendElement(
             logic, "phase", {{"duration", Num(ToSeconds(d))}, {"state", state}, {"name", name}});
       };
-      for (const Approach& a : x.approaches) {
+      if (given != o_.programs.end()) {
+        // The given program: each phase's movements green, then those the next phase does not
+        // keep yellow, then all red.
+        const auto& phases = given->second.phases;
+        if (phases.empty()) throw InputError("the SUMO program of " + x.name + " has no phase");
+        for (const SumoSignalPhase& ph : phases) {
+          for (MovementId mid : ph.movements) {
+            if (std::ranges::find(x.movements, mid) == x.movements.end()) {
+              throw InputError("the SUMO program of " + x.name + " names movement " +
+                               std::to_string(mid.value()) + ", not one of its own");
+            }
+          }
+          if (ph.green <= Duration::zero()) {
+            throw InputError("the SUMO program of " + x.name + " has a phase without green");
+          }
+        }
+        for (std::size_t k = 0; k < phases.size(); ++k) {
+          const auto& next = phases[(k + 1) % phases.size()].movements;
+          std::string green, yellow, red;
+          for (MovementId mid : x.movements) {
+            const bool on =
+                std::ranges::find(phases[k].movements, mid) != phases[k].movements.end();
+            const bool kept = on && std::ranges::find(next, mid) != next.end();
+            green += on ? 'G' : 'r';
+            yellow += kept ? 'G' : (on ? 'y' : 'r');
+            red += kept ? 'G' : 'r';
+          }
+          const std::string name = "phase " + std::to_string(k + 1);
+          phase(phases[k].green, green, name + " green");
+          if (phases[k].yellow > Duration::zero())
+            phase(phases[k].yellow, yellow, name + " yellow");
+          if (phases[k].all_red > Duration::zero())
+            phase(phases[k].all_red, red, name + " all red");
+        }
+      }
+      for (const Approach& a :
+           given != o_.programs.end() ? std::vector<Approach>{} : x.approaches) {
         std::string green, yellow;
         for (MovementId mid : x.movements) {
           const bool served = map_.movement(mid).from_approach == a.id;

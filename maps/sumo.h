@@ -102,6 +102,22 @@ SumoVehicleType LabEmergencyVehicle();
 /// SUMO metres per lab metre of an exported network: the lab is 1:14.
 inline constexpr double kSumoScale = 14.0;
 
+/// One phase of a fixed-time program given for an intersection: its movements green for `green`,
+/// then those not green in the next phase yellow for `yellow`, then all red for `all_red`.
+struct SumoSignalPhase {
+  std::vector<MovementId> movements;
+  Duration green{0};
+  Duration yellow{0};
+  Duration all_red{0};
+};
+
+/// A fixed-time program for one signalised intersection (e.g. a city's plan), in place of the
+/// export's default; `offset` as SUMO's tlLogic offset.
+struct SumoSignalProgram {
+  std::vector<SumoSignalPhase> phases;
+  Duration offset{0};
+};
+
 /// Parameters of the export.
 struct SumoOptions {
   /// Speed limit of every edge (m/s): a lab speed, not a road speed.
@@ -114,6 +130,8 @@ struct SumoOptions {
   Duration green = std::chrono::seconds(12);
   Duration yellow = std::chrono::seconds(3);
   Duration all_red = std::chrono::seconds(2);  ///< zero: no all-red phase
+  /// Programs given for signalised intersections, in place of the one above.
+  std::map<IntersectionId, SumoSignalProgram> programs;
   /// The stand-in program of a stop-controlled intersection (SUMO alone), per approach.
   Duration stop_green = std::chrono::seconds(4);
   Duration stop_yellow = std::chrono::seconds(2);

@@ -13,17 +13,20 @@ namespace autodrive::traffic {
 
 namespace {
 
-maps::SumoExport Export(const maps::Map& map, const std::filesystem::path& dir, double speed_mps) {
+maps::SumoExport Export(const maps::Map& map, const std::filesystem::path& dir, double speed_mps,
+                        std::map<IntersectionId, maps::SumoSignalProgram> programs) {
   maps::SumoOptions options;
   options.speed_mps = speed_mps;
+  options.programs = std::move(programs);
   return maps::ExportSumo(map, dir.string(), options);
 }
 
 }  // namespace
 
 TrafficNetwork::TrafficNetwork(const maps::Map& map, const std::filesystem::path& dir,
-                               double speed_mps)
-    : map_(map), export_(Export(map, dir, speed_mps)) {
+                               double speed_mps,
+                               std::map<IntersectionId, maps::SumoSignalProgram> programs)
+    : map_(map), export_(Export(map, dir, speed_mps, std::move(programs))) {
   std::map<std::string, std::set<std::string>> next;
   std::map<std::string, std::pair<double, int>> length;  // sum, count
   for (const maps::Lane& lane : map.lanes) {

@@ -32,9 +32,11 @@ struct Placement {
 
 class TrafficNetwork {
  public:
-  /// Exports `map` into `dir` (created) with every road's speed limit `speed_mps` (lab m/s).
+  /// Exports `map` into `dir` (created) with every road's speed limit `speed_mps` (lab m/s),
+  /// and `programs` in place of the default fixed-time programs of those intersections.
   /// @throws InputError as `maps::ExportSumo`.
-  TrafficNetwork(const maps::Map& map, const std::filesystem::path& dir, double speed_mps);
+  TrafficNetwork(const maps::Map& map, const std::filesystem::path& dir, double speed_mps,
+                 std::map<IntersectionId, maps::SumoSignalProgram> programs = {});
 
   [[nodiscard]] const maps::Map& map() const { return map_; }
   [[nodiscard]] const maps::SumoExport& files() const { return export_; }

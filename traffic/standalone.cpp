@@ -30,10 +30,45 @@ void Save(const pugi::xml_document& doc, const std::filesystem::path& path) {
 
 }  // namespace
 
+std::map<IntersectionId, maps::SumoSignalProgram> PlanPrograms(const scm::City& city,
+                                                               const std::string& plan) {
+  std::map<IntersectionId, maps::SumoSignalProgram> programs;
+  for (const scm::IntersectionModel& x : city.intersections) {
+    const std::optional<std::size_t> k = x.PlanIndex(plan);
+    if (!k) throw InputError(x.name + " has no plan \"" + plan + "\"");
+    const scm::Plan& p = x.plans[*k];
+    if (p.type != scm::PlanType::kFixed) {
+      throw InputError(x.name + "'s plan " + plan + " is " + std::string(scm::ToString(p.type)) +
+                       ", not fixed-time");
+    }
+    maps::SumoSignalProgram& program = programs[x.id];
+    program.offset = p.offset;
+    for (std::size_t i = 0; i < p.phases.size(); ++i) {
+      const scm::Phase& phase = p.phases[i];
+      const scm::Phase& next = p.phases[(i + 1) % p.phases.size()];
+      maps::SumoSignalPhase out;
+      out.green = phase.green;
+      for (std::size_t g : phase.groups) {
+        const scm::SignalGroup& group = x.groups[g];
+        out.movements.insert(out.movements.end(), group.movements.begin(), group.movements.end());
+        if (std::ranges::find(next.groups, g) == next.groups.end()) {
+          out.yellow = std::max(out.yellow, group.timing.yellow);
+          out.all_red = std::max(out.all_red, group.timing.red_clearance);
+        }
+      }
+      program.phases.push_back(std::move(out));
+    }
+  }
+  return programs;
+}
+
 StandaloneFiles ExportStandalone(const scm::City& city, const TrafficConfig& config,
-                                 const std::filesystem::path& dir, Duration duration) {
+                                 const std::filesystem::path& dir, Duration duration,
+                                 const std::string& plan) {
   std::filesystem::create_directories(dir);
-  const TrafficNetwork network(city.map, dir / "network", config.speed_mps);
+  const TrafficNetwork network(city.map, dir / "network", config.speed_mps,
+                               plan.empty() ? std::map<IntersectionId, maps::SumoSignalProgram>{}
+                                            : PlanPrograms(city, plan));
   std::mt19937_64 rng(config.seed);
   // Edges enough to drive for the whole duration at the speed limit on the shortest edge.
   double shortest = std::numeric_limits<double>::infinity();

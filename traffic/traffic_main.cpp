@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -161,14 +162,27 @@ int main(int argc, char** argv) {
   exp->add_option("--duration", export_duration_s, "seconds the demand lasts")
       ->check(CLI::Range(1.0, 1e7))
       ->capture_default_str();
+  std::optional<int> export_vehicles;
+  exp->add_option("--vehicles", export_vehicles,
+                  "background vehicles circulating from the start, in place of the city's "
+                  "traffic.vehicles")
+      ->check(CLI::Range(0, 100000));
+  std::optional<std::uint64_t> export_seed;
+  exp->add_option("--seed", export_seed, "the demand's seed, in place of the city's traffic.seed");
+  std::string export_plan;
+  exp->add_option("--plan", export_plan,
+                  "the city's fixed-time plan (e.g. day) for every signalised intersection's "
+                  "lights, instead of the export's default program");
   try {
     app.parse(argc, argv);
     if (exp->parsed()) {
       InitLogging("autodrive-traffic", spdlog::level::info);
       const scm::City city = scm::LoadCity(export_city);
-      const TrafficConfig config = LoadTrafficConfig(export_city);
+      TrafficConfig config = LoadTrafficConfig(export_city);
+      if (export_vehicles) config.vehicles = *export_vehicles;
+      if (export_seed) config.seed = *export_seed;
       const StandaloneFiles f =
-          ExportStandalone(city, config, export_out, FromSeconds(export_duration_s));
+          ExportStandalone(city, config, export_out, FromSeconds(export_duration_s), export_plan);
       std::printf("wrote %s (%d vehicles); run: sumo -c %s\n", f.route_file.c_str(), f.vehicles,
                   f.config_file.c_str());
       return 0;

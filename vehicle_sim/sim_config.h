@@ -188,8 +188,9 @@ struct VariabilityConfig {
   std::optional<double> lidar_range_noise_m;
   /// Unmapped obstacles added to the world where given.
   std::vector<UnmappedObstacle> obstacles;
-  /// And this many more at random (0.1 m cubes at a seeded random place and heading on the
-  /// map, outside every mapped obstacle and at least 0.5 m from every car's start). Paper: 3.
+  /// And this many more at random (0.1 m square, 0.3 m tall: above the LIDAR's plane; at a
+  /// seeded random place and heading on the map, outside every mapped obstacle, off every lane
+  /// and path through an intersection, and at least 0.5 m from every car's start). Paper: 3.
   std::optional<int> random_obstacles;
 
   template <typename Archive>

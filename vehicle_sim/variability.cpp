@@ -6,6 +6,7 @@
 
 #include "common/error.h"
 #include "common/geometry.h"
+#include "maps/polyline.h"
 #include "vehicle_sim/raycast.h"
 
 namespace autodrive::vehicle_sim {
@@ -75,7 +76,11 @@ std::vector<UnmappedObstacle> UnmappedObstacles(const SimConfig& sim, const maps
   std::vector<UnmappedObstacle> out = sim.variability.obstacles;
   const int n = sim.variability.RandomObstacles();
   if (n == 0) return out;
-  constexpr double kSize = 0.1, kClearOfCars = 0.5;
+  // 0.1 m square, 0.3 m tall: above the LIDAR's plane (0.176 m up), so a car's LIDAR sees it.
+  constexpr double kSize = 0.1, kHeight = 0.3, kClearOfCars = 0.5;
+  // Clear of every lane and path through an intersection by this much (its half diagonal and
+  // 2 cm): beside the road, or on open and parking floor.
+  const double clear_of_road = kSize * std::numbers::sqrt2 / 2 + 0.02;
   std::mt19937_64 rng(StreamSeed(sim.seed, -1, kObstacleStream));
   std::uniform_real_distribution<double> x(0.0, map.cols * map.tile_size_m);
   std::uniform_real_distribution<double> y(0.0, map.rows * map.tile_size_m);
@@ -99,12 +104,23 @@ std::vector<UnmappedObstacle> UnmappedObstacles(const SimConfig& sim, const maps
           clear = !Inside(o.footprint, p + R * corner);
         }
       }
+      for (const maps::Lane& lane : map.lanes) {
+        if (!clear) break;
+        clear = maps::NearestOnPolyline(lane.centreline, p).distance_m >=
+                lane.width_m / 2 + clear_of_road;
+      }
+      for (const maps::Movement& m : map.movements) {
+        if (!clear) break;
+        clear = maps::NearestOnPolyline(m.path, p).distance_m >=
+                map.lane(m.from).width_m / 2 + clear_of_road;
+      }
       if (!clear) continue;
       UnmappedObstacle cube;
       cube.x_m = p.x();
       cube.y_m = p.y();
       cube.yaw_rad = heading;
-      cube.length_m = cube.width_m = cube.height_m = kSize;
+      cube.length_m = cube.width_m = kSize;
+      cube.height_m = kHeight;
       out.push_back(cube);
       placed = true;
     }

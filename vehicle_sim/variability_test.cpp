@@ -10,6 +10,7 @@
 #include "common/test_support.h"
 #include "maps/builder.h"
 #include "maps/layout.h"
+#include "maps/polyline.h"
 #include "vehicle_sim/raycast.h"
 
 namespace autodrive::vehicle_sim {
@@ -162,6 +163,7 @@ TEST(Variability, ThePaperPresetScattersThreeSmallObstaclesAwayFromTheCarsAndThe
   const StaticScene mapped = StaticScene::FromMap(map);
   for (const UnmappedObstacle& o : a) {
     EXPECT_EQ(o.length_m, 0.1);
+    EXPECT_GT(o.height_m, 0.1757) << "above the LIDAR's plane: a car's LIDAR sees it";
     EXPECT_GE(o.x_m, 0.0);
     EXPECT_LE(o.x_m, map.cols * map.tile_size_m);
     EXPECT_GE((spawns[0].translation() - Eigen::Vector2d(o.x_m, o.y_m)).norm(), 0.5);
@@ -182,6 +184,30 @@ TEST(Variability, ThePaperPresetScattersThreeSmallObstaclesAwayFromTheCarsAndThe
   box.length_m = box.width_m = box.height_m = 0.2;
   sim.variability.obstacles = {box};
   EXPECT_EQ(UnmappedObstacles(sim, map, spawns).size(), 1u);
+}
+
+// On a road map the random obstacles stand beside the road: a lane follower, which must stop
+// for what is on its lane, would stop for ever; one is put on a lane on purpose instead.
+TEST(Variability, ThePaperPresetsObstaclesStandOffEveryLaneAndPath) {
+  const maps::Map map =
+      maps::Build(maps::LoadLayout((test::SourceDir() / "config/maps/small_town.yaml").string()));
+  SimConfig sim;
+  sim.variability.preset = VariabilityPreset::kPaper;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    sim.seed = seed;
+    for (const UnmappedObstacle& o : UnmappedObstacles(sim, map, {})) {
+      const Eigen::Vector2d p(o.x_m, o.y_m);
+      for (const maps::Lane& lane : map.lanes) {
+        EXPECT_GE(maps::NearestOnPolyline(lane.centreline, p).distance_m, lane.width_m / 2 + 0.0707)
+            << "seed " << seed << ": an obstacle at (" << p.x() << ", " << p.y() << ") on "
+            << lane.name;
+      }
+      for (const maps::Movement& m : map.movements) {
+        EXPECT_GE(maps::NearestOnPolyline(m.path, p).distance_m, 0.15 + 0.0707)
+            << "seed " << seed << ": an obstacle on " << m.name;
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/dds/conversions.h"
 #include "common/dds/lockstep.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
@@ -149,6 +150,13 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
         ->check(CLI::Range(0.1, 50.0))
         ->capture_default_str();
   }
+  std::string pose_source = "ips";
+  app.add_option("--pose", pose_source,
+                 "where its pose comes from: ips (its devkit ips and imu topics: the lab's "
+                 "positioning system, the simulator's ground truth in the twin) or eye (the Eye's "
+                 "fleet, /autodrive/eye/fleet: the overhead camera's measurement)")
+      ->check(CLI::IsMember({"ips", "eye"}))
+      ->capture_default_str();
   app.add_option("--lockstep", lockstep,
                  "take part in the simulator's lockstep as the controller of this name: decide "
                  "once per simulated step, on the simulated time (--rate-hz is then unused)");
@@ -204,6 +212,10 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     }
     dds::Reader<msg::Point> ips(participant, topics::Ips(id));
     dds::Reader<msg::Imu> imu(participant, topics::Imu(id));
+    std::unique_ptr<dds::Reader<msg::FleetState>> eye;
+    if (pose_source == "eye") {
+      eye = std::make_unique<dds::Reader<msg::FleetState>>(participant, topics::EyeFleet());
+    }
     dds::Reader<msg::LaserScan> lidar(participant, topics::Lidar(id));
     dds::Writer<msg::Float32> throttle_out(participant, topics::ThrottleCommand(id));
     dds::Writer<msg::Float32> steering_out(participant, topics::SteeringCommand(id));
@@ -224,10 +236,22 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
                        map.name);
         }
       }
-      while (auto m = ips.TakeOne()) position = Eigen::Vector2d((*m)->x, (*m)->y);
-      while (auto m = imu.TakeOne()) {
-        const auto& q = (*m)->orientation;
-        yaw = YawFromQuaternion(Eigen::Quaterniond(q.w, q.x, q.y, q.z));
+      if (eye) {
+        // The Eye's newest pose of this car (its rear axle's middle, as the map frame has it).
+        while (auto m = eye->TakeOne()) {
+          for (const auto& v : dds::Elements((*m)->vehicles)) {
+            if (dds::View(v.vehicle_id) != vehicle) continue;
+            const RigidTransform2 X = dds::FromMsg(v.pose.pose).ToRigidTransform2();
+            position = X.translation();
+            yaw = X.yaw();
+          }
+        }
+      } else {
+        while (auto m = ips.TakeOne()) position = Eigen::Vector2d((*m)->x, (*m)->y);
+        while (auto m = imu.TakeOne()) {
+          const auto& q = (*m)->orientation;
+          yaw = YawFromQuaternion(Eigen::Quaterniond(q.w, q.x, q.y, q.z));
+        }
       }
       while (auto m = lidar.TakeOne()) {
         const auto& r = (*m)->ranges;
@@ -278,7 +302,15 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
         spdlog::warn("lockstep: the simulator does not read {}'s commands", vehicle);
       }
       if (!client.Register(stop)) return 0;
-      while (const std::optional<Time> t = client.NextStep(stop)) {
+      for (;;) {
+        std::optional<Time> t;
+        try {
+          t = client.NextStep(stop);
+        } catch (const dds::LockstepError&) {
+          if (stop.load()) break;  // told to stop as the run ended: the simulator went first
+          throw;
+        }
+        if (!t) break;
         decide(*t);
         if (!throttle_out.WaitForAcks(dds::kLockstepAckTimeout) ||
             !steering_out.WaitForAcks(dds::kLockstepAckTimeout)) {

@@ -36,17 +36,26 @@ void SignalRequester::TakeAnswers() {
       default:
         break;
     }
-    spdlog::info("{}: request {} at intersection {}: {}{}", vehicle_, s.request_id,
-                 s.intersection_id, dds::SignalRequestStatusName(s.status),
-                 dds::View(s.reason).empty() ? "" : fmt::format(" ({})", dds::View(s.reason)));
-    if (active_ && s.request_id == active_->request_id) {
+    const bool ours = active_ && s.request_id == active_->request_id;
+    if (!ours || s.status != active_->last_status) {  // each update is answered again
+      spdlog::info("{}: request {} at intersection {}: {}{}", vehicle_, s.request_id,
+                   s.intersection_id, dds::SignalRequestStatusName(s.status),
+                   dds::View(s.reason).empty() ? "" : fmt::format(" ({})", dds::View(s.reason)));
+    }
+    if (ours) {
+      active_->last_status = s.status;
       if (s.status == autodrive_msgs_msg_SignalRequestStatus_Constants_REJECTED) {
         active_->refused = true;
-      } else if (s.status == autodrive_msgs_msg_SignalRequestStatus_Constants_GRANTED) {
-        active_->granted = true;
+        active_->refused_at = now_;
       }
     }
   }
+}
+
+std::uint8_t SignalRequester::FirstType() const {
+  return params_.kind == RequestParams::Kind::kPreemption
+             ? autodrive_msgs_msg_SignalRequest_Constants_PREEMPTION
+             : autodrive_msgs_msg_SignalRequest_Constants_PRIORITY;
 }
 
 void SignalRequester::Send(std::uint8_t type, const Active& a, Time now, double to_line_m,
@@ -70,6 +79,7 @@ void SignalRequester::Send(std::uint8_t type, const Active& a, Time now, double 
 }
 
 void SignalRequester::Step(const vehicle_sim::LaneDriver& driver, const V2iView& v2i, Time now) {
+  now_ = now;
   TakeAnswers();
   const std::optional<vehicle_sim::StopLineAhead> ahead = driver.NextStopLine();
   const auto clear_m = [&](const vehicle_sim::StopLineAhead& a) {
@@ -78,14 +88,27 @@ void SignalRequester::Step(const vehicle_sim::LaneDriver& driver, const V2iView&
   if (active_) {
     const bool approaching = ahead && ahead->intersection->id == active_->intersection;
     if (!approaching && !driver.InIntersection(active_->intersection)) {
-      // Through (or off the route to it): cancel what is still standing.
-      if (!active_->refused) {
+      // Through (or off the route to it): cancel what is still standing (not what the SCM
+      // already ended: served and completed, or cancelled).
+      const bool ended =
+          active_->last_status == autodrive_msgs_msg_SignalRequestStatus_Constants_COMPLETED ||
+          active_->last_status == autodrive_msgs_msg_SignalRequestStatus_Constants_CANCELLED;
+      if (!active_->refused && !ended) {
         Send(autodrive_msgs_msg_SignalRequest_Constants_CANCEL, *active_, now, 0.0, 0.0, 0.0);
         ++counts_.cancels;
         spdlog::info("{}: through intersection {}: request {} cancelled", vehicle_,
                      active_->ids.intersection, active_->request_id);
       }
       active_.reset();
+    } else if (approaching && active_->refused &&
+               now - active_->refused_at >= params_.retry_period) {
+      // Ask again, as a new request.
+      active_->request_id = next_id_++;
+      active_->refused = false;
+      active_->last_status = 255;
+      active_->last_sent = now;
+      Send(FirstType(), *active_, now, ahead->to_line_m, clear_m(*ahead), driver.speed_mps());
+      ++counts_.sent;
     } else if (approaching && !active_->refused &&
                now - active_->last_sent >= params_.update_period) {
       Send(autodrive_msgs_msg_SignalRequest_Constants_UPDATE, *active_, now, ahead->to_line_m,
@@ -106,10 +129,7 @@ void SignalRequester::Step(const vehicle_sim::LaneDriver& driver, const V2iView&
   a.ids = *ids;
   a.request_id = next_id_++;
   a.last_sent = now;
-  Send(params_.kind == RequestParams::Kind::kPreemption
-           ? autodrive_msgs_msg_SignalRequest_Constants_PREEMPTION
-           : autodrive_msgs_msg_SignalRequest_Constants_PRIORITY,
-       a, now, ahead->to_line_m, clear_m(*ahead), driver.speed_mps());
+  Send(FirstType(), a, now, ahead->to_line_m, clear_m(*ahead), driver.speed_mps());
   ++counts_.sent;
   spdlog::info("{}: {} request {} at intersection {} (lane {} to {}), {:.2f} m before its line",
                vehicle_,

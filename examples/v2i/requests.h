@@ -5,8 +5,9 @@
 /// its front comes within `horizon_m` of a signalised stop line it asks for its movement
 /// (pre-emption as an emergency vehicle, or priority as a bus), sends the SCM a new ETA every
 /// `update_period` while it approaches, and cancels the request once its body has left the
-/// intersection. One request at a time, one per intersection it passes; a refused request is
-/// not sent again at that intersection.
+/// intersection. One request at a time; a refused one (the signal in flash or starting up, a
+/// request of another vehicle served) is asked again, as a new request, `retry_period` later
+/// while the car still approaches.
 
 #include <cstdint>
 #include <optional>
@@ -26,6 +27,7 @@ struct RequestParams {
   enum class Kind { kPreemption, kPriority } kind = Kind::kPreemption;
   double horizon_m = 2.0;  ///< ask when the front is this close to the stop line
   Duration update_period = std::chrono::seconds(1);
+  Duration retry_period = std::chrono::seconds(2);
   double cruise_mps = 0.156;  ///< for the ETA and the time to clear when it is slower now
 };
 
@@ -53,11 +55,14 @@ class SignalRequester {
     std::uint32_t request_id = 0;
     Time last_sent{};
     bool refused = false;
-    bool granted = false;
+    Time refused_at{};
+    std::uint8_t last_status = 255;  ///< the last answer logged
   };
   void Send(std::uint8_t type, const Active& a, Time now, double to_line_m, double clear_m,
             double speed_mps);
   void TakeAnswers();
+  /// PREEMPTION or PRIORITY: what a request (not an update or a cancel) asks.
+  [[nodiscard]] std::uint8_t FirstType() const;
 
   std::string vehicle_;
   RequestParams params_;
@@ -65,6 +70,7 @@ class SignalRequester {
   dds::Reader<msg::SignalRequestStatus> answers_;
   std::optional<Active> active_;
   std::uint32_t next_id_ = 1;
+  Time now_{};  ///< of the step under way
   RequestCounts counts_;
 };
 

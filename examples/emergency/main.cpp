@@ -1,4 +1,4 @@
-// autodrive-example-emergency: see examples/README.md and examples/v2i/agent.h.
+// autodrive-example-emergency: see README.md beside this file, and examples/v2i/agent.h.
 #include "examples/v2i/agent.h"
 
 int main(int argc, char** argv) {

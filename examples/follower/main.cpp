@@ -1,4 +1,4 @@
-// autodrive-example-follower: see examples/README.md and examples/v2i/agent.h.
+// autodrive-example-follower: see README.md beside this file, and examples/v2i/agent.h.
 #include "examples/v2i/agent.h"
 
 int main(int argc, char** argv) {
