@@ -214,6 +214,14 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
     obstacles.push_back(n);
   }
   if (obstacles.size() > 0) variability["obstacles"] = obstacles;
+  // The random obstacles keep clear of the cars' goal poses as of their starts.
+  for (const VehicleSpec& v : scenario.vehicles) {
+    if (!v.goal) continue;
+    YAML::Node point(YAML::NodeType::Map);
+    point["x_m"] = v.goal->x_m;
+    point["y_m"] = v.goal->y_m;
+    variability["keep_clear"].push_back(point);
+  }
   sim["variability"] = variability;
   for (auto cam : sim["cameras"]) {
     if (cam["lens"] && cam["lens"]["calibration"]) {
@@ -291,13 +299,20 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   YAML::Node service = sim["service"] ? sim["service"] : YAML::Node(YAML::NodeType::Map);
   service["mode"] = "lockstep";
   YAML::Node stages(YAML::NodeType::Sequence);
-  // The lights and the Eye first (the SCM decides on what they said), then the SCM.
-  for (const char* stage : {"lights", "scm"}) {
-    YAML::Node s(YAML::NodeType::Sequence);
-    s.push_back(stage);
-    if (scenario.eye && std::string_view(stage) == "lights") s.push_back("eye");
-    s.SetStyle(YAML::EmitterStyle::Flow);
-    stages.push_back(s);
+  // The lights and the Eye first (the SCM decides on what they said), then the SCM. A map
+  // without signal heads (the Parking School) has no light host to run.
+  const bool has_lights = !map.signal_heads.empty();
+  {
+    YAML::Node first(YAML::NodeType::Sequence);
+    if (has_lights) first.push_back("lights");
+    if (scenario.eye) first.push_back("eye");
+    YAML::Node second(YAML::NodeType::Sequence);
+    second.push_back("scm");
+    for (YAML::Node s : {first, second}) {
+      if (s.size() == 0) continue;
+      s.SetStyle(YAML::EmitterStyle::Flow);
+      stages.push_back(s);
+    }
   }
   service["stages"] = stages;
   YAML::Node controllers(YAML::NodeType::Sequence);
@@ -359,6 +374,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
   YAML::Node launch(YAML::NodeType::Map);
   launch["run_dir"] = fs::absolute(run_dir).lexically_normal().string();
   launch["lights"]["config"] = lights_config;
+  if (!has_lights) launch["lights"]["mode"] = "off";
   launch["eye"]["mode"] = scenario.eye ? "on" : "off";
   launch["driver"]["mode"] = "off";
   launch["dashboard"]["mode"] = "off";
@@ -388,6 +404,8 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
         {"{city}", fs::absolute(city_file).lexically_normal().string()},
         {"{vehicle}", v.name},
         {"{seed}", std::to_string(scenario.seed)},
+        {"{goal}", v.goal ? fmt::format("{},{},{}", v.goal->x_m, v.goal->y_m, v.goal->yaw_rad)
+                          : std::string()},
         {"{route}", fmt::format("{}", fmt::join(v.route, ","))},
         {"{lockstep}", AgentController(v.name)},
         {"{run}", fs::absolute(run_dir).lexically_normal().string()},

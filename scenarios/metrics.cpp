@@ -219,13 +219,18 @@ json RunWorld::ToJson() const {
   json j;
   j["end_s"] = end_s;
   for (const Car& c : cars) {
-    j["cars"].push_back({{"name", c.name},
-                         {"length_m", c.length_m},
-                         {"width_m", c.width_m},
-                         {"centre_ahead_m", c.centre_ahead_m},
-                         {"top_speed_mps", c.top_speed_mps},
-                         {"goal_tolerance_m", c.goal_tolerance_m},
-                         {"route", PointsToJson(c.route)}});
+    j["cars"].push_back(
+        {{"name", c.name},
+         {"length_m", c.length_m},
+         {"width_m", c.width_m},
+         {"centre_ahead_m", c.centre_ahead_m},
+         {"top_speed_mps", c.top_speed_mps},
+         {"goal_tolerance_m", c.goal_tolerance_m},
+         {"goal_pose", c.goal_pose
+                           ? json::array({c.goal_pose->x(), c.goal_pose->y(), c.goal_pose->z()})
+                           : json(nullptr)},
+         {"goal_tolerance_rad", c.goal_tolerance_rad},
+         {"route", PointsToJson(c.route)}});
   }
   j["statics"] = json::array();
   for (const Static& s : statics) {
@@ -274,6 +279,12 @@ RunWorld RunWorld::FromJson(const json& j) {
     car.centre_ahead_m = c.at("centre_ahead_m").get<double>();
     car.top_speed_mps = c.at("top_speed_mps").get<double>();
     car.goal_tolerance_m = c.at("goal_tolerance_m").get<double>();
+    if (c.contains("goal_pose") && !c.at("goal_pose").is_null()) {
+      const auto g = c.at("goal_pose").get<std::vector<double>>();
+      AUTODRIVE_THROW_UNLESS(g.size() == 3, "world.json: goal_pose is not [x, y, yaw]");
+      car.goal_pose = Eigen::Vector3d(g[0], g[1], g[2]);
+      car.goal_tolerance_rad = c.value("goal_tolerance_rad", car.goal_tolerance_rad);
+    }
     car.route = PointsFromJson(c.at("route"));
     w.cars.push_back(std::move(car));
   }
@@ -572,8 +583,9 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         const Vector2d rear(s.x, s.y);
         const auto [at, d] = ProjectOnto(car.route, rear, progress - 0.1, progress + 0.5);
         if (d <= k.route_tolerance_m) progress = std::max(progress, at);
-        const Vector2d front = car.FrontAt(s.x, s.y, s.yaw);
-        if (!goal_t && (front - car.route.back()).norm() <= car.goal_tolerance_m) goal_t = s.t;
+        if (!goal_t && car.AtGoal(s.x, s.y, s.yaw)) goal_t = s.t;
+      } else if (car.goal_pose && !goal_t && speed < k.stopped_mps && car.AtGoal(s.x, s.y, s.yaw)) {
+        goal_t = s.t;  // a goal pose: reached standing there
       }
     }
     // Comfort: acceleration over 1 s windows (speed now minus 1 s ago), jerk likewise.
@@ -737,8 +749,10 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
       }
     }
     const double completion =
-        car.route.empty() ? 1.0
-                          : (goal_t ? 1.0 : std::min(progress / std::max(route_length, 1e-9), 1.0));
+        car.goal_pose ? (goal_t ? 1.0 : 0.0)
+        : car.route.empty()
+            ? 1.0
+            : (goal_t ? 1.0 : std::min(progress / std::max(route_length, 1e-9), 1.0));
     const double off_fraction = distance > 0 ? std::min(off_distance / distance, 1.0) : 0.0;
     const auto n_red = static_cast<int>(red.size());
     const auto n_stop = static_cast<int>(stop_signs.size());
@@ -757,6 +771,14 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
     v["route_length_m"] = R(route_length);
     v["route_completion"] = R(completion);
     v["goal_reached"] = goal_t.has_value();
+    if (car.goal_pose && !samples.empty()) {
+      // Where it ended against the goal pose.
+      const Sample& last = samples.back();
+      v["final_position_error_m"] = R((Vector2d(last.x, last.y) - car.goal_pose->head<2>()).norm());
+      v["final_heading_error_deg"] =
+          R(std::abs(std::remainder(last.yaw - car.goal_pose->z(), 2 * std::numbers::pi)) * 180 /
+            std::numbers::pi);
+    }
     v["time_to_goal_s"] = goal_t ? R(*goal_t) : json(nullptr);
     v["delay_s"] = goal_t && !car.route.empty() ? R(*goal_t - route_length / car.top_speed_mps)
                                                 : json(nullptr);
@@ -784,7 +806,7 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
     max_accel = std::max(max_accel, accel_max);
     max_jerk = std::max(max_jerk, jerk_max);
     min_score = std::min(min_score, score);
-    if (!car.route.empty()) {
+    if (car.HasGoal()) {  // a route, or a goal pose
       ++cars_with_route;
       min_completion = std::min(min_completion, completion);
       if (goal_t) {

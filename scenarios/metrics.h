@@ -32,6 +32,24 @@ struct RunWorld {
     double top_speed_mps = 0.26;      ///< free-flow speed for delay and time loss
     Points route;  ///< the route's centre line (lanes and movements); empty: none
     double goal_tolerance_m = 0.15;
+    /// A goal pose (x, y, yaw of the rear axle) instead of the route's end, and its heading
+    /// tolerance (its distance tolerance is `goal_tolerance_m`).
+    std::optional<Eigen::Vector3d> goal_pose{};
+    double goal_tolerance_rad = 0.0873;
+    /// Whether it has a goal (a route, or a goal pose).
+    [[nodiscard]] bool HasGoal() const { return goal_pose.has_value() || !route.empty(); }
+    /// Whether the car with its rear axle at (x, y) heading `yaw` is at its goal (standing still
+    /// there is for the caller to say): its front within `goal_tolerance_m` of the route's end,
+    /// or its rear axle within `goal_tolerance_m` and `goal_tolerance_rad` of the goal pose.
+    [[nodiscard]] bool AtGoal(double x_m, double y_m, double yaw_rad) const {
+      if (goal_pose) {
+        return (Eigen::Vector2d(x_m, y_m) - goal_pose->head<2>()).norm() <= goal_tolerance_m &&
+               std::abs(std::remainder(yaw_rad - goal_pose->z(), 2 * 3.14159265358979323846)) <=
+                   goal_tolerance_rad;
+      }
+      return !route.empty() &&
+             (FrontAt(x_m, y_m, yaw_rad) - route.back()).norm() <= goal_tolerance_m;
+    }
     /// The middle of its front bumper for its rear axle at (x, y) heading `yaw` (map frame).
     [[nodiscard]] Eigen::Vector2d FrontAt(double x_m, double y_m, double yaw_rad) const {
       return Eigen::Vector2d(x_m, y_m) + (centre_ahead_m + length_m / 2) *

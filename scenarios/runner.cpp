@@ -142,6 +142,11 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
     const vehicle_sim::VehicleParams& p = it->params;
     w.cars.push_back({v.name, p.body_length_m, p.body_width_m, p.body_centre_ahead_of_rear_axle_m,
                       p.top_speed_mps, RoutePoints(map, v.route), v.goal_tolerance_m});
+    if (v.goal) {
+      w.cars.back().goal_pose = Eigen::Vector3d(v.goal->x_m, v.goal->y_m, v.goal->yaw_rad);
+      w.cars.back().goal_tolerance_m = v.goal->tolerance_m;
+      w.cars.back().goal_tolerance_rad = v.goal->tolerance_rad;
+    }
   }
   const maps::Map world_map = vehicle_sim::SimulatedMap(sim, map);
   for (std::size_t i = 0; i < world_map.obstacles.size(); ++i) {
@@ -514,12 +519,11 @@ RunResult RunScenario(const RunOptions& options) {
             bool any = false, all = true;
             for (std::size_t i = 0; i < world.cars.size(); ++i) {
               const RunWorld::Car& car = world.cars[i];
-              if (car.route.empty()) continue;
+              if (!car.HasGoal()) continue;
               any = true;
               const Recorder::Pose& p = recorder.poses()[i];
               all = all && p.known && std::abs(p.speed_mps) < 0.01 &&
-                    (car.FrontAt(p.x_m, p.y_m, p.yaw_rad) - car.route.back()).norm() <=
-                        car.goal_tolerance_m;
+                    car.AtGoal(p.x_m, p.y_m, p.yaw_rad);
             }
             if (any && all) {
               goals_end = true;

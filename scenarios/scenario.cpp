@@ -38,6 +38,9 @@ void VehicleSpec::Validate() const {
     throw InputError(fmt::format("name: \"{}\" is not nigel_<n>", name));
   }
   spawn.Validate();
+  if (goal && !route.empty()) {
+    throw InputError("goal: a car has a route (its goal the route's end) or a goal pose, not both");
+  }
 }
 
 void EventSpec::Validate() const {

@@ -59,6 +59,26 @@ struct AgentSpec {
   bool operator==(const AgentSpec&) const = default;
 };
 
+/// A pose to reach instead of a route's end (a parking bay): the rear axle's, map frame. It is
+/// reached when the car stands there within both tolerances.
+struct GoalPoseSpec {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  double yaw_rad = 0.0;
+  double tolerance_m = 0.05;
+  double tolerance_rad = 0.0873;  ///< 5°
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("x_m", x_m, config::Range{-1e4, 1e4});
+    a.Required("y_m", y_m, config::Range{-1e4, 1e4});
+    a.Required("yaw_rad", yaw_rad, config::Range{-7.0, 7.0});
+    a.Optional("tolerance_m", tolerance_m, config::Range{0.001, 10.0});
+    a.Optional("tolerance_rad", tolerance_rad, config::Range{0.001, 3.2});
+  }
+  bool operator==(const GoalPoseSpec&) const = default;
+};
+
 struct VehicleSpec {
   std::string name;  ///< `nigel_<n>`
   vehicle_sim::SpawnConfig spawn;
@@ -68,6 +88,8 @@ struct VehicleSpec {
   std::vector<std::string> route;
   /// The goal is reached when the car's front is within this distance of the last lane's end.
   double goal_tolerance_m = 0.15;
+  /// Or a goal pose (no route then): route completion is 1 once it is reached, else 0.
+  std::optional<GoalPoseSpec> goal;
   /// Without an agent the car stands where it spawned (no commands: held still).
   std::optional<AgentSpec> agent;
 
@@ -77,6 +99,7 @@ struct VehicleSpec {
     a.Required("spawn", spawn);
     a.Optional("route", route);
     a.Optional("goal_tolerance_m", goal_tolerance_m, config::Range{0.01, 10.0});
+    a.Optional("goal", goal);
     a.Optional("agent", agent);
   }
   void Validate() const;

@@ -251,8 +251,8 @@ TEST(ComposedCity, EveryShippedScenarioLoadsAndComposes) {
     if (e.path().extension() != ".yaml") continue;
     SCOPED_TRACE(e.path().string());
     const YAML::Node node = YAML::LoadFile(e.path().string());
-    if (node["variants"]) {
-      EXPECT_NO_THROW((void)LoadSweep(e.path()));  // a sweep
+    if (node["scenario"]) {  // a sweep names its scenario (its variants are optional)
+      EXPECT_NO_THROW((void)LoadSweep(e.path()));
       continue;
     }
     const Scenario s = LoadScenario(e.path());
@@ -360,6 +360,41 @@ void WriteDrive(const fs::path& logs, double v, double seconds, double y = 0.0, 
 
 void WriteLamps(const fs::path& logs, const std::string& rows) {
   config::WriteFile(logs / "lamps.csv", "t_s,head,state\n" + rows);
+}
+
+// A goal pose (a parking bay): reached once the car stands within its distance and heading
+// tolerances, not while it drives through; route completion 1 or 0; the final pose's errors.
+TEST(Metrics, AGoalPoseIsReachedStandingThereWithinBothTolerances) {
+  test::TempDir dir("metrics_goal_pose");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  // 0.1 m/s from x = 0, standing at x = 1.0 from t = 10 s for 5 s, then on to 20 s (x 1.5).
+  WriteDrive(dir.path(), 0.1, 20, 0.0, 1.0, 5.0);
+  RunWorld w = Road();
+  w.stop_lines.clear();
+  w.statics.clear();
+  w.cars[0].route.clear();
+  w.cars[0].goal_pose = Eigen::Vector3d(1.02, 0.0, 0.0);
+  w.cars[0].goal_tolerance_m = 0.05;
+  w.cars[0].goal_tolerance_rad = 0.0873;
+  const json m = ComputeMetrics(w, dir.path());
+  EXPECT_EQ(m["run"]["goals_reached"], 1);
+  EXPECT_EQ(m["run"]["route_completion"], 1.0);
+  json v = m["vehicles"]["nigel_1"];
+  EXPECT_EQ(v["goal_reached"], true);
+  EXPECT_NEAR(v["time_to_goal_s"].get<double>(), 10.0, 0.02) << "when it stood there, not 9.7 s";
+  EXPECT_EQ(v["route_completion"], 1.0);
+  EXPECT_NEAR(v["final_position_error_m"].get<double>(), 0.48, 0.01) << "it drove on after";
+  // The same stand with the goal facing north: not reached.
+  w.cars[0].goal_pose = Eigen::Vector3d(1.02, 0.0, std::numbers::pi / 2);
+  v = ComputeMetrics(w, dir.path())["vehicles"]["nigel_1"];
+  EXPECT_EQ(v["goal_reached"], false);
+  EXPECT_EQ(v["route_completion"], 0.0);
+  EXPECT_NEAR(v["final_heading_error_deg"].get<double>(), 90.0, 1e-6);
+  // It survives world.json.
+  const RunWorld back = RunWorld::FromJson(w.ToJson());
+  ASSERT_TRUE(back.cars[0].goal_pose);
+  EXPECT_EQ(*back.cars[0].goal_pose, *w.cars[0].goal_pose);
+  EXPECT_EQ(back.cars[0].goal_tolerance_rad, 0.0873);
 }
 
 TEST(Metrics, RedLightWhenTheTailCrossesTheLineOnRed) {

@@ -169,6 +169,18 @@ constexpr auto ConfigEnumNames(VariabilityPreset) {
                     std::pair{VariabilityPreset::kPaper, std::string_view{"paper"}}};
 }
 
+/// A point the random obstacles keep clear of (`sim.variability.keep_clear`).
+struct ClearPoint {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("x_m", x_m, config::Range{-1e4, 1e4});
+    a.Required("y_m", y_m, config::Range{-1e4, 1e4});
+  }
+  bool operator==(const ClearPoint&) const = default;
+};
+
 /// Variability of the simulated world (`sim.variability`), drawn from the simulation's seed.
 /// A preset gives every figure a value; a figure given here overrides the preset's.
 struct VariabilityConfig {
@@ -192,6 +204,9 @@ struct VariabilityConfig {
   /// seeded random place and heading on the map, outside every mapped obstacle, off every lane
   /// and path through an intersection, and at least 0.5 m from every car's start). Paper: 3.
   std::optional<int> random_obstacles;
+  /// Points the random obstacles keep 0.5 m from, as from the cars' starts: the scenario runner
+  /// gives its cars' goal poses (a bay an obstacle filled could not be parked in).
+  std::vector<ClearPoint> keep_clear;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -203,6 +218,7 @@ struct VariabilityConfig {
     a.Optional("lidar_range_noise_m", lidar_range_noise_m, config::Range{0.0, 10.0});
     a.Optional("obstacles", obstacles);
     a.Optional("random_obstacles", random_obstacles, config::Range{0, 1000});
+    a.Optional("keep_clear", keep_clear);
   }
   bool operator==(const VariabilityConfig&) const = default;
 

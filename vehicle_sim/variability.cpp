@@ -93,6 +93,8 @@ std::vector<UnmappedObstacle> UnmappedObstacles(const SimConfig& sim, const maps
       bool clear = true;
       for (const RigidTransform2& s : spawns)
         clear = clear && (s.translation() - p).norm() >= kClearOfCars;
+      for (const ClearPoint& c : sim.variability.keep_clear)
+        clear = clear && (Eigen::Vector2d(c.x_m, c.y_m) - p).norm() >= kClearOfCars;
       // The cube's corners and centre outside every mapped obstacle.
       const Eigen::Rotation2Dd R(heading);
       for (const maps::Obstacle& o : map.obstacles) {

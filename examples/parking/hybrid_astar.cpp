@@ -33,6 +33,23 @@ HybridAStar::HybridAStar(maps::OccupancyGrid grid, const HybridAStarParams& para
   AUTODRIVE_THROW_UNLESS(
       params_.step_m > 0 && params_.cell_m > 0 && params_.heading_bins >= 8,
       "hybrid A*: step, cell and heading bins must be positive (8 bins or more)");
+  ComputeClearance();
+  // Four circles along the body (with its margin, and without) cover it.
+  const auto cover = [&](double margin, std::vector<Eigen::Vector2d>& centres, double& radius) {
+    const double length = params_.length_m + 2 * margin;
+    const double width = params_.width_m + 2 * margin;
+    constexpr int kCircles = 4;
+    const double piece = length / kCircles;
+    for (int k = 0; k < kCircles; ++k) {
+      centres.emplace_back(params_.centre_ahead_m - length / 2 + piece * (k + 0.5), 0.0);
+    }
+    radius = std::hypot(piece / 2, width / 2);
+  };
+  cover(params_.margin_m, circles_, circle_radius_);
+  cover(0.0, bare_circles_, bare_radius_);
+}
+
+void HybridAStar::ComputeClearance() {
   // Distance from each free cell's centre to the nearest occupied cell's centre (exact L2).
   cv::Mat free(grid_.height, grid_.width, CV_8U);
   for (int r = 0; r < grid_.height; ++r) {
@@ -52,15 +69,28 @@ HybridAStar::HybridAStar(maps::OccupancyGrid grid, const HybridAStarParams& para
                  static_cast<std::size_t>(c)] = grid_.IsFree(c, r) ? std::max(d, 0.0) : 0.0;
     }
   }
-  // Four circles along the body (with its margin) cover it.
-  const double length = params_.length_m + 2 * params_.margin_m;
-  const double width = params_.width_m + 2 * params_.margin_m;
-  constexpr int kCircles = 4;
-  const double piece = length / kCircles;
-  for (int k = 0; k < kCircles; ++k) {
-    circles_.emplace_back(params_.centre_ahead_m - length / 2 + piece * (k + 0.5), 0.0);
+}
+
+void HybridAStar::AddObstacles(const std::vector<Eigen::Vector2d>& points, double radius_m) {
+  const int reach = static_cast<int>(std::ceil(radius_m / grid_.resolution_m));
+  bool changed = false;
+  for (const Eigen::Vector2d& q : points) {
+    const Eigen::Vector2d cell = (q - grid_.origin_m) / grid_.resolution_m;
+    const int c0 = static_cast<int>(std::floor(cell.x()));
+    const int r0 = static_cast<int>(std::floor(cell.y()));
+    for (int r = r0 - reach; r <= r0 + reach; ++r) {
+      for (int c = c0 - reach; c <= c0 + reach; ++c) {
+        if (c < 0 || r < 0 || c >= grid_.width || r >= grid_.height) continue;
+        if ((grid_.CellCentre(c, r) - q).norm() > radius_m + grid_.resolution_m / 2) continue;
+        std::uint8_t& v =
+            grid_.cells[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_.width) +
+                        static_cast<std::size_t>(c)];
+        changed = changed || v != maps::OccupancyGrid::kOccupied;
+        v = maps::OccupancyGrid::kOccupied;
+      }
+    }
   }
-  circle_radius_ = std::hypot(piece / 2, width / 2);
+  if (changed) ComputeClearance();
 }
 
 double HybridAStar::Clearance(const Eigen::Vector2d& p) const {
@@ -75,9 +105,10 @@ double HybridAStar::Clearance(const Eigen::Vector2d& p) const {
                       grid_.resolution_m * std::numbers::sqrt2 / 2);
 }
 
-bool HybridAStar::Free(const RigidTransform2& X_MV) const {
-  for (const Eigen::Vector2d& c : circles_) {
-    if (Clearance(X_MV * c) < circle_radius_) return false;
+bool HybridAStar::Free(const RigidTransform2& X_MV, bool with_margin) const {
+  const double radius = with_margin ? circle_radius_ : bare_radius_;
+  for (const Eigen::Vector2d& c : with_margin ? circles_ : bare_circles_) {
+    if (Clearance(X_MV * c) < radius) return false;
   }
   return true;
 }
@@ -122,7 +153,7 @@ std::vector<double> HybridAStar::GridDistances(const Eigen::Vector2d& goal) cons
 
 PlanResult HybridAStar::Plan(const RigidTransform2& start, const RigidTransform2& goal) const {
   PlanResult result;
-  if (!Free(start)) {
+  if (!Free(start, false)) {
     result.failure = "the start pose is not clear of the obstacles";
     return result;
   }
@@ -157,6 +188,8 @@ PlanResult HybridAStar::Plan(const RigidTransform2& start, const RigidTransform2
   };
   std::vector<Node> nodes;
   nodes.push_back(Node{start.translation().x(), start.translation().y(), start.yaw(), 0, -1, 1, 0});
+  // Driven from the start (metres), per node: the margin is kept from `leave_m` on.
+  std::vector<double> driven{0.0};
   using Item = std::pair<double, std::int64_t>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> open;
   open.push({heuristic(nodes[0].x, nodes[0].y), 0});
@@ -190,7 +223,10 @@ PlanResult HybridAStar::Plan(const RigidTransform2& start, const RigidTransform2
         }
         m.yaw = WrapAngle(m.yaw);
         if (closed.contains(key_of(m))) continue;
-        if (!Free(RigidTransform2::FromXyYaw(m.x, m.y, m.yaw))) continue;
+        const double from_start = driven[static_cast<std::size_t>(at)] + params_.step_m;
+        if (!Free(RigidTransform2::FromXyYaw(m.x, m.y, m.yaw), from_start >= params_.leave_m)) {
+          continue;
+        }
         m.gear = gear;
         m.steer = steer;
         m.parent = at;
@@ -198,6 +234,7 @@ PlanResult HybridAStar::Plan(const RigidTransform2& start, const RigidTransform2
               params_.steer_cost * std::abs(steer) * params_.step_m +
               (at != 0 && gear != n.gear ? params_.gear_change_cost_m : 0.0);
         nodes.push_back(m);
+        driven.push_back(from_start);
         open.push({m.g + heuristic(m.x, m.y), static_cast<std::int64_t>(nodes.size() - 1)});
       }
     }

@@ -46,6 +46,7 @@ struct HybridAStarParams {
   double steer_cost = 0.05;
   double goal_tolerance_m = 0.02;
   double goal_tolerance_rad = 0.0524;  ///< 3°: the controller has the rest of 5 cm and 5°
+  double leave_m = 0.2;  ///< driven from the start, within which the margin is not kept
   std::size_t max_expansions = 2'000'000;
 };
 
@@ -71,13 +72,23 @@ class HybridAStar {
   /// A path from `start` to `goal` (rear-axle poses in the map frame).
   [[nodiscard]] PlanResult Plan(const RigidTransform2& start, const RigidTransform2& goal) const;
 
-  /// Whether the car's body (with the margin) at rear-axle pose `X_MV` is clear of the grid's
-  /// occupied cells and inside the grid.
-  [[nodiscard]] bool Free(const RigidTransform2& X_MV) const;
+  /// Marks the cells within `radius_m` of each of `points` (map frame) occupied: unmapped
+  /// obstacles seen by the LIDAR, for the next `Plan`. Points outside the grid are skipped.
+  void AddObstacles(const std::vector<Eigen::Vector2d>& points, double radius_m);
+
+  /// The grid as planned on (the map's and what `AddObstacles` added).
+  [[nodiscard]] const maps::OccupancyGrid& grid() const { return grid_; }
+
+  /// Whether the car's body (with the margin, or without) at rear-axle pose `X_MV` is clear of
+  /// the grid's occupied cells and inside the grid. A plan may start within the margin of an
+  /// obstacle (the car stopped close to one it just saw): within `leave_m` of its start its
+  /// poses need only the body clear.
+  [[nodiscard]] bool Free(const RigidTransform2& X_MV, bool with_margin = true) const;
 
   [[nodiscard]] const HybridAStarParams& params() const { return params_; }
 
  private:
+  void ComputeClearance();
   // Distance (m) from the centre of cell (col, row) to the nearest occupied cell's centre, 0 on
   // an occupied cell and outside the grid.
   [[nodiscard]] double Clearance(const Eigen::Vector2d& p) const;
@@ -87,9 +98,9 @@ class HybridAStar {
 
   maps::OccupancyGrid grid_;
   HybridAStarParams params_;
-  std::vector<double> clearance_;         // per cell
-  std::vector<Eigen::Vector2d> circles_;  // centres in the car's frame
-  double circle_radius_ = 0.0;
+  std::vector<double> clearance_;                        // per cell
+  std::vector<Eigen::Vector2d> circles_, bare_circles_;  // centres in the car's frame
+  double circle_radius_ = 0.0, bare_radius_ = 0.0;       // with the margin, without
 };
 
 }  // namespace autodrive::examples

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "common/test_support.h"
+#include "examples/parking/tracker.h"
 #include "maps/builder.h"
 #include "maps/layout.h"
 #include "maps/occupancy.h"
@@ -115,6 +116,57 @@ TEST(HybridAStar, ABodyOnABoxIsNotFreeAndAGoalInsideOneIsRefused) {
                                        RigidTransform2::FromXyYaw(1.0, 1.0, 0.0));
   EXPECT_TRUE(plan.path.empty());
   EXPECT_EQ(plan.failure, "the goal pose is not clear of the obstacles");
+}
+
+// A car that stopped just short of an obstacle it saw (within its margin, its body clear) can
+// still plan away from it: near its start only the body must be clear.
+TEST(HybridAStar, PlansAwayFromAnObstacleSeenWithinItsMargin) {
+  const HybridAStarParams p;
+  HybridAStar planner(maps::MakeOccupancyGrid(ParkingSchool(), 0.025, false), p);
+  const RigidTransform2 start = RigidTransform2::FromXyYaw(0.6, 2.0, 0.0);
+  const double front = 0.6 + p.centre_ahead_m + p.length_m / 2;
+  planner.AddObstacles({Eigen::Vector2d(front + 0.12, 2.0)}, 0.01);  // 11 cm from the bumper
+  EXPECT_FALSE(planner.Free(start)) << "within the margin";
+  EXPECT_TRUE(planner.Free(start, false)) << "the body itself clear";
+  const PlanResult plan =
+      planner.Plan(start, RigidTransform2::FromXyYaw(3.6, 2.0, std::numbers::pi));
+  ASSERT_FALSE(plan.path.empty()) << plan.failure;
+  ExpectDrivable(plan, p);
+}
+
+// The tracker drives a kinematic bicycle (speed 0.3 m/s per unit of throttle, the twin's Nigel
+// near its cruise) along the planned path, both gears, and stops within the case study's 5 cm
+// and 5 degrees of the goal without touching anything.
+TEST(PathTracker, DrivesAKinematicCarAlongThePlanIntoTheBay) {
+  const HybridAStarParams p;
+  const HybridAStar planner(maps::MakeOccupancyGrid(ParkingSchool(), 0.025, false), p);
+  const RigidTransform2 goal = RigidTransform2::FromXyYaw(3.6, 2.0, std::numbers::pi);
+  RigidTransform2 X = RigidTransform2::FromXyYaw(0.6, 2.0, 0.0);
+  const PlanResult plan = planner.Plan(X, goal);
+  ASSERT_FALSE(plan.path.empty()) << plan.failure;
+  PathTracker tracker;
+  tracker.SetPath(plan.path);
+  ASSERT_EQ(tracker.segments(), 2U);
+  const double dt = 0.02;
+  double speed = 0.0;
+  bool done = false;
+  int backwards = 0;
+  for (int k = 0; k < 10'000 && !done; ++k) {
+    const TrackCommand c = tracker.Step(X, std::abs(speed));
+    done = c.done;
+    // First-order speed response (0.1 s), steering at once.
+    speed += (0.3 * c.throttle - speed) * dt / 0.1;
+    if (speed < 0) ++backwards;
+    const double delta = c.steering * p.steering_limit_rad;
+    const double yaw = X.yaw() + speed * std::tan(delta) / p.wheelbase_m * dt;
+    X = RigidTransform2::FromXyYaw(X.translation().x() + speed * std::cos(X.yaw()) * dt,
+                                   X.translation().y() + speed * std::sin(X.yaw()) * dt, yaw);
+    ASSERT_FALSE(Touches(ParkingSchool(), X, p)) << "step " << k;
+  }
+  ASSERT_TRUE(done) << "not at the goal: " << X.translation().transpose() << " " << X.yaw();
+  EXPECT_GT(backwards, 0) << "it backed in";
+  EXPECT_LE((X.translation() - goal.translation()).norm(), 0.05);
+  EXPECT_LE(std::abs(WrapAngle(X.yaw() - goal.yaw())), 0.0873);
 }
 
 }  // namespace

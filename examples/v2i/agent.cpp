@@ -9,23 +9,18 @@
 #include <memory>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
-#include "common/dds/conversions.h"
-#include "common/dds/lockstep.h"
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
-#include "common/dds/reader.h"
-#include "common/dds/topics.h"
-#include "common/dds/writer.h"
 #include "common/error.h"
 #include "common/geometry.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "examples/common/car_io.h"
 #include "examples/v2i/glosa.h"
 #include "examples/v2i/requests.h"
 #include "examples/v2i/v2i_view.h"
@@ -37,7 +32,6 @@ namespace autodrive::examples {
 
 namespace {
 
-namespace topics = dds::topics;
 using Reason = vehicle_sim::DriverDecision::Reason;
 
 struct Names {
@@ -210,18 +204,7 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     if (kind == AgentKind::kEmergency || kind == AgentKind::kTransit) {
       requester = std::make_unique<SignalRequester>(participant, vehicle, requests);
     }
-    dds::Reader<msg::Point> ips(participant, topics::Ips(id));
-    dds::Reader<msg::Imu> imu(participant, topics::Imu(id));
-    std::unique_ptr<dds::Reader<msg::FleetState>> eye;
-    if (pose_source == "eye") {
-      eye = std::make_unique<dds::Reader<msg::FleetState>>(participant, topics::EyeFleet());
-    }
-    dds::Reader<msg::LaserScan> lidar(participant, topics::Lidar(id));
-    dds::Writer<msg::Float32> throttle_out(participant, topics::ThrottleCommand(id));
-    dds::Writer<msg::Float32> steering_out(participant, topics::SteeringCommand(id));
-    std::optional<Eigen::Vector2d> position;
-    std::optional<double> yaw;
-    std::vector<float> scan;
+    CarIo io(participant, id, pose_source == "eye" ? PoseSource::kEye : PoseSource::kIps);
     Reason reason = Reason::kLost;
     bool map_checked = false;
     bool advising = false;  // GLOSA's advice in force at the last step
@@ -236,28 +219,9 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
                        map.name);
         }
       }
-      if (eye) {
-        // The Eye's newest pose of this car (its rear axle's middle, as the map frame has it).
-        while (auto m = eye->TakeOne()) {
-          for (const auto& v : dds::Elements((*m)->vehicles)) {
-            if (dds::View(v.vehicle_id) != vehicle) continue;
-            const RigidTransform2 X = dds::FromMsg(v.pose.pose).ToRigidTransform2();
-            position = X.translation();
-            yaw = X.yaw();
-          }
-        }
-      } else {
-        while (auto m = ips.TakeOne()) position = Eigen::Vector2d((*m)->x, (*m)->y);
-        while (auto m = imu.TakeOne()) {
-          const auto& q = (*m)->orientation;
-          yaw = YawFromQuaternion(Eigen::Quaterniond(q.w, q.x, q.y, q.z));
-        }
-      }
-      while (auto m = lidar.TakeOne()) {
-        const auto& r = (*m)->ranges;
-        scan.assign(r._buffer, r._buffer + r._length);
-      }
-      if (!position || !yaw) return;
+      io.Take();
+      const std::optional<RigidTransform2> X = io.pose();
+      if (!X) return;
       const vehicle_sim::SignalLookup spat = [&](const maps::Lane& ingress,
                                                  const maps::Movement* movement) {
         return v2i.Indication(ingress, movement, now);
@@ -281,11 +245,8 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
         }
         advising = advice.has_value();
       }
-      const auto decision =
-          driver.Step(RigidTransform2::FromXyYaw(position->x(), position->y(), *yaw), spat, scan,
-                      now - Time{}, advice);
-      throttle_out.Write(msg::Float32{static_cast<float>(decision.throttle)});
-      steering_out.Write(msg::Float32{static_cast<float>(decision.steering)});
+      const auto decision = driver.Step(*X, spat, io.scan(), now - Time{}, advice);
+      io.Command(decision.throttle, decision.steering);
       if (requester) requester->Step(driver, v2i, now);
       if (decision.reason != reason) {
         spdlog::debug("{}: {} on {}", vehicle, ToString(decision.reason), driver.lane_name());
@@ -294,40 +255,7 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     };
     spdlog::info("{} drives {} on map {}{}", names.program, vehicle, map.name,
                  lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
-    if (!lockstep.empty()) {
-      dds::LockstepClient client(participant, lockstep);
-      if (!client.WaitForSimulator(stop)) return 0;
-      if (!throttle_out.WaitForReaders(1, std::chrono::seconds(5)) ||
-          !steering_out.WaitForReaders(1, std::chrono::seconds(5))) {
-        spdlog::warn("lockstep: the simulator does not read {}'s commands", vehicle);
-      }
-      if (!client.Register(stop)) return 0;
-      for (;;) {
-        std::optional<Time> t;
-        try {
-          t = client.NextStep(stop);
-        } catch (const dds::LockstepError&) {
-          if (stop.load()) break;  // told to stop as the run ended: the simulator went first
-          throw;
-        }
-        if (!t) break;
-        decide(*t);
-        if (!throttle_out.WaitForAcks(dds::kLockstepAckTimeout) ||
-            !steering_out.WaitForAcks(dds::kLockstepAckTimeout)) {
-          spdlog::warn("lockstep: {}'s commands were not acknowledged in time", vehicle);
-        }
-        client.Answer();
-      }
-    } else {
-      const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-          std::chrono::duration<double>(1.0 / rate_hz));
-      auto next = std::chrono::steady_clock::now();
-      while (!stop.load()) {
-        decide(SystemNow());
-        next += period;
-        std::this_thread::sleep_until(next);
-      }
-    }
+    const int code = io.Run(participant, lockstep, rate_hz, decide, stop);
     if (requester) {
       const RequestCounts& c = requester->counts();
       spdlog::info(
@@ -335,7 +263,7 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
           "{}, completed {}, cancelled {}",
           vehicle, c.sent, c.updates, c.cancels, c.granted, c.rejected, c.completed, c.cancelled);
     }
-    return 0;
+    return code;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s: %s\n", names.program, e.what());
     return 1;

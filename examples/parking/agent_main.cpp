@@ -1,0 +1,232 @@
+// autodrive-example-parking: the parking case study as a driving agent: plans a path to a goal
+// pose with hybrid A* on the map's occupancy grid, tracks it (tracker.h), and, when its LIDAR
+// sees something the map does not have on the path ahead, stops, adds it to the grid and plans
+// again. Its pose from the car's ips and imu (the lab's positioning system) or the Eye. See
+// README.md.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "common/dds/participant.h"
+#include "common/dds/program_options.h"
+#include "common/error.h"
+#include "common/logging.h"
+#include "common/shutdown.h"
+#include "examples/common/car_io.h"
+#include "examples/parking/hybrid_astar.h"
+#include "examples/parking/tracker.h"
+#include "maps/map_io.h"
+#include "maps/occupancy.h"
+#include "vehicle_sim/sensors.h"
+#include "vehicle_sim/sim_config.h"
+
+namespace {
+
+using namespace autodrive;
+
+// Whether `q` is more than `reach` from every occupied cell of `grid` (something the map has
+// not: a wall seen through the LIDAR's noise stays the wall's).
+bool Unmapped(const maps::OccupancyGrid& grid, const Eigen::Vector2d& q, double reach) {
+  const int n = static_cast<int>(std::ceil(reach / grid.resolution_m));
+  const Eigen::Vector2d cell = (q - grid.origin_m) / grid.resolution_m;
+  const int c0 = static_cast<int>(std::floor(cell.x()));
+  const int r0 = static_cast<int>(std::floor(cell.y()));
+  if (c0 < 0 || r0 < 0 || c0 >= grid.width || r0 >= grid.height) return false;
+  for (int r = std::max(0, r0 - n); r <= std::min(grid.height - 1, r0 + n); ++r) {
+    for (int c = std::max(0, c0 - n); c <= std::min(grid.width - 1, c0 + n); ++c) {
+      if (!grid.IsFree(c, r) && (grid.CellCentre(c, r) - q).norm() <= reach) return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "autodrive-example-parking: drives one car to a goal pose (e.g. into a parking bay, "
+      "backwards if need be): hybrid A* on the map's occupancy grid, pure-pursuit tracking, and "
+      "a new plan round what its LIDAR sees that the map has not. Public topics only: the car's "
+      "ips, imu (or the Eye's fleet), lidar, throttle_command and steering_command. See "
+      "examples/parking/README.md."};
+  std::string city_path, vehicle, lockstep, log_level = "info", pose_source = "ips";
+  std::vector<double> goal_v;
+  double rate_hz = 20.0;
+  examples::HybridAStarParams plan_params;
+  examples::TrackerParams track_params;
+  dds::ProgramOptions dds_cli("/autodrive/example_parking");
+  app.add_option("--city", city_path, "city file: its map, the car's figures from its sim section")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("--vehicle", vehicle, "the car to drive: nigel_<n>")->required();
+  app.add_option("--goal", goal_v, "the goal: the rear axle's pose X,Y,YAW (m, m, rad)")
+      ->required()
+      ->delimiter(',');
+  app.add_option("--pose", pose_source, "ips (its ips and imu) or eye (the Eye's fleet)")
+      ->check(CLI::IsMember({"ips", "eye"}))
+      ->capture_default_str();
+  app.add_option("--margin", plan_params.margin_m, "kept clear round the body (m)")
+      ->check(CLI::Range(0.0, 0.3))
+      ->capture_default_str();
+  app.add_option("--throttle", track_params.cruise_throttle, "cruising throttle (normalised)")
+      ->check(CLI::Range(0.1, 1.0))
+      ->capture_default_str();
+  app.add_option("--rate-hz", rate_hz, "decisions per second (not in lockstep)")
+      ->check(CLI::Range(1.0, 200.0))
+      ->capture_default_str();
+  app.add_option("--lockstep", lockstep,
+                 "take part in the simulator's lockstep as the controller of this name");
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
+      ->capture_default_str();
+  dds_cli.Add(app);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    InitLogging("autodrive-example-parking", ParseLogLevel(log_level));
+    if (goal_v.size() != 3) throw InputError("--goal: give X,Y,YAW (m, m, rad)");
+    const RigidTransform2 goal = RigidTransform2::FromXyYaw(goal_v[0], goal_v[1], goal_v[2]);
+    const VehicleId id = ParseVehicleName(vehicle);
+    const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
+    const maps::Map map = maps::LoadMapOrLayout(city.map_path);
+    vehicle_sim::VehicleParams car;
+    double lidar_x = vehicle_sim::LidarConfig{}.x_m;  // the LIDAR ahead of the rear axle
+    for (const auto& v : city.sim.vehicles) {
+      if (v.name != vehicle) continue;
+      car = v.params;
+      lidar_x = v.sensors.lidar.x_m;
+    }
+    plan_params.wheelbase_m = track_params.wheelbase_m = car.wheelbase_m;
+    plan_params.steering_limit_rad = track_params.steering_limit_rad = car.steering_limit_rad;
+    plan_params.length_m = car.body_length_m;
+    plan_params.width_m = car.body_width_m;
+    plan_params.centre_ahead_m = car.body_centre_ahead_of_rear_axle_m;
+    const maps::OccupancyGrid mapped = maps::MakeOccupancyGrid(map, 0.025, false);
+    examples::HybridAStar planner(mapped, plan_params);
+    examples::PathTracker tracker(track_params);
+
+    std::atomic<bool> stop{false};
+    ShutdownSignals signals([&] { stop.store(true); });
+    dds::Participant participant(dds_cli.Participant());
+    examples::CarIo io(
+        participant, id,
+        pose_source == "eye" ? examples::PoseSource::kEye : examples::PoseSource::kIps);
+
+    enum class Phase { kWaiting, kDriving, kBlocked, kParked } phase = Phase::kWaiting;
+    std::optional<RigidTransform2> last_pose;
+    std::optional<Time> last_time, blocked_since;
+    double speed = 0.0;
+    int replans = 0;
+    std::size_t last_scan = 0;  // scans seen, by their first range (a cheap change test)
+    float last_first = -1.0f;
+    const auto plan = [&](const RigidTransform2& from) {
+      const examples::PlanResult p = planner.Plan(from, goal);
+      if (p.path.empty()) {
+        spdlog::warn("{}: no path to the goal: {}", vehicle, p.failure);
+        return false;
+      }
+      spdlog::info("{}: a path of {:.2f} m with {} gear changes ({} expansions)", vehicle,
+                   p.length_m, p.gear_changes, p.expansions);
+      tracker.SetPath(p.path);
+      return true;
+    };
+    const auto decide = [&](Time now) {
+      io.Take();
+      const std::optional<RigidTransform2> X = io.pose();
+      if (!X) return;
+      if (last_pose && last_time && now > *last_time) {
+        const double v =
+            (X->translation() - last_pose->translation()).norm() / ToSeconds(now - *last_time);
+        speed += 0.3 * (v - speed);
+      }
+      last_pose = X;
+      last_time = now;
+      if (phase == Phase::kWaiting) {
+        phase = plan(*X) ? Phase::kDriving : Phase::kBlocked;
+        blocked_since = now;
+      }
+      // A new scan: anything the map has not on the path's next 0.4 m stops the car and is
+      // planned round.
+      const auto scan = io.scan();
+      if (phase == Phase::kDriving && !scan.empty() && scan[0] != last_first) {
+        last_first = scan[0];
+        ++last_scan;
+        std::vector<Eigen::Vector2d> unmapped;
+        for (std::size_t i = 0; i < scan.size(); ++i) {
+          const double r = scan[i];
+          if (!std::isfinite(r) || r > 1.5) continue;
+          const double a =
+              2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(scan.size());
+          const Eigen::Vector2d q =
+              *X * Eigen::Vector2d(lidar_x + r * std::cos(a), r * std::sin(a));
+          if (Unmapped(mapped, q, 0.08)) unmapped.push_back(q);
+        }
+        bool in_way = false;
+        double along = 0.0;
+        const auto ahead = tracker.Ahead();
+        for (std::size_t k = 0; k < ahead.size() && along < 0.4 && !in_way; ++k) {
+          if (k > 0) {
+            along += (ahead[k].X_MV.translation() - ahead[k - 1].X_MV.translation()).norm();
+          }
+          const RigidTransform2 inv = ahead[k].X_MV.inverse();
+          for (const Eigen::Vector2d& q : unmapped) {
+            const Eigen::Vector2d b = inv * q;
+            if (std::abs(b.x() - plan_params.centre_ahead_m) <=
+                    plan_params.length_m / 2 + plan_params.margin_m &&
+                std::abs(b.y()) <= plan_params.width_m / 2 + plan_params.margin_m) {
+              in_way = true;
+              break;
+            }
+          }
+        }
+        if (in_way) {
+          spdlog::info("{}: something unmapped on the path ahead ({} points): planning round it",
+                       vehicle, unmapped.size());
+          planner.AddObstacles(unmapped, 0.03);
+          phase = Phase::kBlocked;
+          blocked_since = now;
+        }
+      }
+      if (phase == Phase::kBlocked) {
+        io.Command(0.0, 0.0);
+        // Once standing, plan again (every second until a path is found).
+        if (speed < track_params.stand_mps && blocked_since &&
+            now - *blocked_since >= std::chrono::milliseconds(500)) {
+          ++replans;
+          if (plan(*X)) {
+            phase = Phase::kDriving;
+          } else {
+            blocked_since = now + std::chrono::milliseconds(500);
+          }
+        }
+        return;
+      }
+      if (phase == Phase::kParked) {
+        io.Command(0.0, 0.0);
+        return;
+      }
+      const examples::TrackCommand c = tracker.Step(*X, speed);
+      io.Command(c.throttle, c.steering);
+      if (c.done) {
+        phase = Phase::kParked;
+        spdlog::info("{}: parked {:.1f} mm and {:.2f} deg from the goal ({} new plans)", vehicle,
+                     (X->translation() - goal.translation()).norm() * 1000,
+                     std::abs(WrapAngle(X->yaw() - goal.yaw())) * 180 / std::numbers::pi, replans);
+      }
+    };
+    spdlog::info("autodrive-example-parking drives {} to ({:.3f}, {:.3f}, {:.3f}) on map {}{}",
+                 vehicle, goal_v[0], goal_v[1], goal_v[2], map.name,
+                 lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
+    return io.Run(participant, lockstep, rate_hz, decide, stop);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "autodrive-example-parking: %s\n", e.what());
+    return 1;
+  }
+}
