@@ -124,6 +124,7 @@ int main(int argc, char** argv) {
     std::optional<Time> last_time, blocked_since;
     double speed = 0.0;
     int replans = 0;
+    int corrections = 0;
     std::size_t last_scan = 0;  // scans seen, by their first range (a cheap change test)
     float last_first = -1.0f;
     const auto plan = [&](const RigidTransform2& from) {
@@ -189,6 +190,15 @@ int main(int argc, char** argv) {
         if (in_way) {
           spdlog::info("{}: something unmapped on the path ahead ({} points): planning round it",
                        vehicle, unmapped.size());
+          // Not what lies against its own body (the LIDAR's noise, or a box it passes close by:
+          // it is not touching it, and marking it would leave it no way out).
+          const RigidTransform2 inv = X->inverse();
+          std::erase_if(unmapped, [&](const Eigen::Vector2d& q) {
+            const Eigen::Vector2d b = inv * q;
+            return std::abs(b.x() - plan_params.centre_ahead_m) <=
+                       plan_params.length_m / 2 + 0.06 &&
+                   std::abs(b.y()) <= plan_params.width_m / 2 + 0.06;
+          });
           planner.AddObstacles(unmapped, 0.03);
           phase = Phase::kBlocked;
           blocked_since = now;
@@ -215,6 +225,16 @@ int main(int argc, char** argv) {
       const examples::TrackCommand c = tracker.Step(*X, speed);
       io.Command(c.throttle, c.steering);
       if (c.done) {
+        // Short of the planner's own tolerance at the end: a correction from here (twice at most).
+        const double off_m = (X->translation() - goal.translation()).norm();
+        const double off_rad = std::abs(WrapAngle(X->yaw() - goal.yaw()));
+        if ((off_m > plan_params.goal_tolerance_m || off_rad > plan_params.goal_tolerance_rad) &&
+            corrections < 2) {
+          ++corrections;
+          spdlog::info("{}: {:.1f} mm and {:.2f} deg from the goal: a correction", vehicle,
+                       off_m * 1000, off_rad * 180 / std::numbers::pi);
+          if (plan(*X)) return;
+        }
         phase = Phase::kParked;
         spdlog::info("{}: parked {:.1f} mm and {:.2f} deg from the goal ({} new plans)", vehicle,
                      (X->translation() - goal.translation()).norm() * 1000,

@@ -34,19 +34,15 @@ HybridAStar::HybridAStar(maps::OccupancyGrid grid, const HybridAStarParams& para
       params_.step_m > 0 && params_.cell_m > 0 && params_.heading_bins >= 8,
       "hybrid A*: step, cell and heading bins must be positive (8 bins or more)");
   ComputeClearance();
-  // Four circles along the body (with its margin, and without) cover it.
-  const auto cover = [&](double margin, std::vector<Eigen::Vector2d>& centres, double& radius) {
-    const double length = params_.length_m + 2 * margin;
-    const double width = params_.width_m + 2 * margin;
-    constexpr int kCircles = 4;
-    const double piece = length / kCircles;
-    for (int k = 0; k < kCircles; ++k) {
-      centres.emplace_back(params_.centre_ahead_m - length / 2 + piece * (k + 0.5), 0.0);
-    }
-    radius = std::hypot(piece / 2, width / 2);
-  };
-  cover(params_.margin_m, circles_, circle_radius_);
-  cover(0.0, bare_circles_, bare_radius_);
+  // Four circles along the body (with its margin) cover it.
+  const double length = params_.length_m + 2 * params_.margin_m;
+  const double width = params_.width_m + 2 * params_.margin_m;
+  constexpr int kCircles = 4;
+  const double piece = length / kCircles;
+  for (int k = 0; k < kCircles; ++k) {
+    circles_.emplace_back(params_.centre_ahead_m - length / 2 + piece * (k + 0.5), 0.0);
+  }
+  circle_radius_ = std::hypot(piece / 2, width / 2);
 }
 
 void HybridAStar::ComputeClearance() {
@@ -105,10 +101,38 @@ double HybridAStar::Clearance(const Eigen::Vector2d& p) const {
                       grid_.resolution_m * std::numbers::sqrt2 / 2);
 }
 
-bool HybridAStar::Free(const RigidTransform2& X_MV, bool with_margin) const {
-  const double radius = with_margin ? circle_radius_ : bare_radius_;
-  for (const Eigen::Vector2d& c : with_margin ? circles_ : bare_circles_) {
-    if (Clearance(X_MV * c) < radius) return false;
+bool HybridAStar::Free(const RigidTransform2& X_MV) const {
+  for (const Eigen::Vector2d& c : circles_) {
+    if (Clearance(X_MV * c) < circle_radius_) return false;
+  }
+  return true;
+}
+
+bool HybridAStar::BodyClear(const RigidTransform2& X_MV) const {
+  const double hl = params_.length_m / 2, hw = params_.width_m / 2;
+  const double reach = grid_.resolution_m * std::numbers::sqrt2 / 2;
+  const RigidTransform2 inv = X_MV.inverse();
+  Eigen::Vector2d lo(kInf, kInf), hi(-kInf, -kInf);
+  for (const auto& [u, v] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
+    const Eigen::Vector2d corner = X_MV * Eigen::Vector2d(params_.centre_ahead_m + u * hl, v * hw);
+    lo = lo.cwiseMin(corner);
+    hi = hi.cwiseMax(corner);
+  }
+  const Eigen::Vector2d a = (lo - grid_.origin_m) / grid_.resolution_m;
+  const Eigen::Vector2d b = (hi - grid_.origin_m) / grid_.resolution_m;
+  const int c0 = static_cast<int>(std::floor(a.x())) - 1;
+  const int c1 = static_cast<int>(std::floor(b.x())) + 1;
+  const int r0 = static_cast<int>(std::floor(a.y())) - 1;
+  const int r1 = static_cast<int>(std::floor(b.y())) + 1;
+  for (int r = r0; r <= r1; ++r) {
+    for (int c = c0; c <= c1; ++c) {
+      const bool outside = c < 0 || r < 0 || c >= grid_.width || r >= grid_.height;
+      if (!outside && grid_.IsFree(c, r)) continue;
+      const Eigen::Vector2d q = inv * grid_.CellCentre(c, r);
+      if (std::abs(q.x() - params_.centre_ahead_m) <= hl + reach && std::abs(q.y()) <= hw + reach) {
+        return false;
+      }
+    }
   }
   return true;
 }
@@ -153,7 +177,7 @@ std::vector<double> HybridAStar::GridDistances(const Eigen::Vector2d& goal) cons
 
 PlanResult HybridAStar::Plan(const RigidTransform2& start, const RigidTransform2& goal) const {
   PlanResult result;
-  if (!Free(start, false)) {
+  if (!BodyClear(start)) {
     result.failure = "the start pose is not clear of the obstacles";
     return result;
   }
@@ -224,9 +248,8 @@ PlanResult HybridAStar::Plan(const RigidTransform2& start, const RigidTransform2
         m.yaw = WrapAngle(m.yaw);
         if (closed.contains(key_of(m))) continue;
         const double from_start = driven[static_cast<std::size_t>(at)] + params_.step_m;
-        if (!Free(RigidTransform2::FromXyYaw(m.x, m.y, m.yaw), from_start >= params_.leave_m)) {
-          continue;
-        }
+        const RigidTransform2 M = RigidTransform2::FromXyYaw(m.x, m.y, m.yaw);
+        if (from_start >= params_.leave_m ? !Free(M) : !BodyClear(M)) continue;
         m.gear = gear;
         m.steer = steer;
         m.parent = at;

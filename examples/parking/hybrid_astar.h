@@ -79,11 +79,15 @@ class HybridAStar {
   /// The grid as planned on (the map's and what `AddObstacles` added).
   [[nodiscard]] const maps::OccupancyGrid& grid() const { return grid_; }
 
-  /// Whether the car's body (with the margin, or without) at rear-axle pose `X_MV` is clear of
-  /// the grid's occupied cells and inside the grid. A plan may start within the margin of an
-  /// obstacle (the car stopped close to one it just saw): within `leave_m` of its start its
-  /// poses need only the body clear.
-  [[nodiscard]] bool Free(const RigidTransform2& X_MV, bool with_margin = true) const;
+  /// Whether the car's body with the margin at rear-axle pose `X_MV` is clear of the grid's
+  /// occupied cells and inside the grid (its cover of circles on the distance field: fast and
+  /// conservative, by up to about 9 cm at the bumpers).
+  [[nodiscard]] bool Free(const RigidTransform2& X_MV) const;
+  /// Whether the body itself, without the margin, is clear: no occupied cell's square within
+  /// its rectangle (conservative by half a cell's diagonal). A plan may start within the margin
+  /// of an obstacle (the car stopped close to one it just saw): within `leave_m` of its start
+  /// its poses need only this.
+  [[nodiscard]] bool BodyClear(const RigidTransform2& X_MV) const;
 
   [[nodiscard]] const HybridAStarParams& params() const { return params_; }
 
@@ -98,9 +102,9 @@ class HybridAStar {
 
   maps::OccupancyGrid grid_;
   HybridAStarParams params_;
-  std::vector<double> clearance_;                        // per cell
-  std::vector<Eigen::Vector2d> circles_, bare_circles_;  // centres in the car's frame
-  double circle_radius_ = 0.0, bare_radius_ = 0.0;       // with the margin, without
+  std::vector<double> clearance_;         // per cell
+  std::vector<Eigen::Vector2d> circles_;  // centres in the car's frame
+  double circle_radius_ = 0.0;
 };
 
 }  // namespace autodrive::examples

@@ -107,6 +107,7 @@ TEST(HybridAStar, ABodyOnABoxIsNotFreeAndAGoalInsideOneIsRefused) {
   const HybridAStar planner(maps::MakeOccupancyGrid(ParkingSchool(), 0.025, false), p);
   // The box at (1, 1): the car's centre on it, then 0.4 m clear of it.
   EXPECT_FALSE(planner.Free(RigidTransform2::FromXyYaw(1.0 - p.centre_ahead_m, 1.0, 0.0)));
+  EXPECT_FALSE(planner.BodyClear(RigidTransform2::FromXyYaw(1.0 - p.centre_ahead_m, 1.0, 0.0)));
   EXPECT_TRUE(
       Touches(ParkingSchool(), RigidTransform2::FromXyYaw(1.0 - p.centre_ahead_m, 1.0, 0.0), p))
       << "the test's own check sees the overlap too";
@@ -125,9 +126,9 @@ TEST(HybridAStar, PlansAwayFromAnObstacleSeenWithinItsMargin) {
   HybridAStar planner(maps::MakeOccupancyGrid(ParkingSchool(), 0.025, false), p);
   const RigidTransform2 start = RigidTransform2::FromXyYaw(0.6, 2.0, 0.0);
   const double front = 0.6 + p.centre_ahead_m + p.length_m / 2;
-  planner.AddObstacles({Eigen::Vector2d(front + 0.12, 2.0)}, 0.01);  // 11 cm from the bumper
+  planner.AddObstacles({Eigen::Vector2d(front + 0.05, 2.0)}, 0.01);  // 4 cm from the bumper
   EXPECT_FALSE(planner.Free(start)) << "within the margin";
-  EXPECT_TRUE(planner.Free(start, false)) << "the body itself clear";
+  EXPECT_TRUE(planner.BodyClear(start)) << "the body itself clear";
   const PlanResult plan =
       planner.Plan(start, RigidTransform2::FromXyYaw(3.6, 2.0, std::numbers::pi));
   ASSERT_FALSE(plan.path.empty()) << plan.failure;
