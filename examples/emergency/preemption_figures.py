@@ -8,9 +8,11 @@ Per seed:
   - the SUMO cars' mean time loss and waiting time, with and without (SUMO's tripinfo, as the
     runner reads it): the cross streets' extra delay;
   - per intersection asked, how long after its request the lamps were back on the plan: the end of
-    the last moment at which any of that intersection's heads showed something else than in the
-    run without requests (logs/lamps.csv of both).
-Prints one row per seed and the means, as Markdown tables.
+    the last stretch (0.2 s or longer) during which one of that intersection's heads showed
+    something else than in the run without requests (logs/lamps.csv of both); the run's end when
+    they never were.
+Prints one row per seed and the means, as Markdown tables; a `+` marks an intersection still off
+its plan when the run ended.
 
 Usage: examples/emergency/preemption_figures.py SWEEP_DIR [--city config/cities/small_town.yaml]
 """
@@ -40,18 +42,24 @@ def state_at(changes, t):
     return s
 
 
-def last_difference(a, b, heads, start, end, step=0.02):
-    """The last time in [start, end] at which a head of `heads` shows differently in a and b."""
-    last = None
+def last_difference(a, b, heads, start, end, shortest=0.2):
+    """The end of the last stretch in [start, end] at least `shortest` long during which a head of
+    `heads` shows differently in a and b (shorter ones are the same change a step or two apart)."""
     times = sorted({t for h in heads for t, _ in a.get(h, []) + b.get(h, []) if start <= t <= end})
-    # Compare just after every change of either run (the states are piecewise constant).
-    for t in times:
-        for h in heads:
-            if state_at(a.get(h, []), t + step / 2) != state_at(b.get(h, []), t + step / 2):
-                # differs from t until the next change of either run
-                nxt = [u for u in times if u > t]
-                last = nxt[0] if nxt else end
-                break
+    times.append(end)
+    last = None
+    since = None  # start of the stretch of difference under way
+    for i, t in enumerate(times[:-1]):
+        differs = any(state_at(a.get(h, []), t + 1e-6) != state_at(b.get(h, []), t + 1e-6)
+                      for h in heads)
+        if differs and since is None:
+            since = t
+        if not differs and since is not None:
+            if t - since >= shortest:
+                last = t
+            since = None
+    if since is not None and end - since >= shortest:
+        last = end
     return last
 
 
@@ -94,7 +102,8 @@ def main():
             x = where.get((q["vehicle"], q["request_id"]))
             heads = heads_of.get(x) if x is not None else set().union(*heads_of.values())
             last = last_difference(la, lb, heads, q["t_s"], end)
-            back.append(None if last is None else last - q["t_s"])
+            # (seconds, whether it was still off its plan at the run's end)
+            back.append((0.0, False) if last is None else (last - q["t_s"], last >= end))
         rows.append({
             "seed": seed,
             "ev_time_to_goal": (mw.get("time_to_goal_s"), mo.get("time_to_goal_s")),
@@ -121,7 +130,7 @@ def main():
               f"{f(r['ev_stopped'][0])} / {f(r['ev_stopped'][1])} | "
               f"{f(r['bg_time_loss'][0])} / {f(r['bg_time_loss'][1])} | "
               f"{f(r['bg_waiting'][0])} / {f(r['bg_waiting'][1])} | "
-              f"{', '.join(f(b) for b in r['back_to_plan'])} |")
+              f"{', '.join(f(b) + ('+' if censored else '') for b, censored in r['back_to_plan'])} |")
 
     def mean_of(key, i):
         v = [r[key][i] for r in rows if r[key][i] is not None]
@@ -140,10 +149,12 @@ def main():
         m, sd, n = diff(key)
         print(f"- {what}: with {f(mean_of(key, 0))}, without {f(mean_of(key, 1))}; "
               f"difference {m:+.1f} (sd {sd:.1f}, {n} seeds)")
-    back = [b for r in rows for b in r["back_to_plan"] if b is not None]
-    if back:
-        print(f"- back on plan after a request: mean {statistics.mean(back):.1f} s, max "
-              f"{max(back):.1f} s ({len(back)} requests)")
+    back = [b for r in rows for b, censored in r["back_to_plan"] if not censored]
+    never = sum(1 for r in rows for _, censored in r["back_to_plan"] if censored)
+    print(f"- back on plan after a request: {len(back)} requests, mean "
+          f"{statistics.mean(back) if back else float('nan'):.1f} s, max "
+          f"{max(back) if back else float('nan'):.1f} s; {never} still off their plan at the "
+          "run's end (+ in the table)")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,139 @@
+#include "examples/parking/particle_filter.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <unordered_set>
+
+#include <opencv2/imgproc.hpp>
+
+#include "common/error.h"
+
+namespace autodrive::examples {
+
+ParticleFilter::ParticleFilter(const maps::OccupancyGrid& grid, const ParticleFilterParams& params)
+    : grid_(grid), params_(params), rng_(params.seed) {
+  AUTODRIVE_THROW_UNLESS(grid_.width > 0 && grid_.height > 0, "the occupancy grid is empty");
+  AUTODRIVE_THROW_UNLESS(
+      params_.min_particles >= 1 && params_.max_particles >= params_.min_particles,
+      "particle filter: 1 <= min_particles <= max_particles");
+  cv::Mat free(grid_.height, grid_.width, CV_8U);
+  for (int r = 0; r < grid_.height; ++r) {
+    for (int c = 0; c < grid_.width; ++c)
+      free.at<std::uint8_t>(r, c) = grid_.IsFree(c, r) ? 255 : 0;
+  }
+  cv::Mat distance;
+  cv::distanceTransform(free, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  distance_.resize(static_cast<std::size_t>(grid_.width) * static_cast<std::size_t>(grid_.height));
+  for (int r = 0; r < grid_.height; ++r) {
+    for (int c = 0; c < grid_.width; ++c) {
+      distance_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_.width) +
+                static_cast<std::size_t>(c)] =
+          distance.at<float>(r, c) * static_cast<float>(grid_.resolution_m);
+    }
+  }
+}
+
+double ParticleFilter::FieldDistance(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d cell = (p - grid_.origin_m) / grid_.resolution_m;
+  const int c = static_cast<int>(std::floor(cell.x()));
+  const int r = static_cast<int>(std::floor(cell.y()));
+  if (c < 0 || r < 0 || c >= grid_.width || r >= grid_.height) return 1.0;
+  return distance_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_.width) +
+                   static_cast<std::size_t>(c)];
+}
+
+void ParticleFilter::Init(const RigidTransform2& X_MV, double sigma_xy_m, double sigma_yaw_rad) {
+  std::normal_distribution<double> xy(0.0, sigma_xy_m), yaw(0.0, sigma_yaw_rad);
+  particles_.clear();
+  for (std::size_t i = 0; i < params_.max_particles; ++i) {
+    particles_.push_back(
+        {RigidTransform2::FromXyYaw(X_MV.translation().x() + xy(rng_),
+                                    X_MV.translation().y() + xy(rng_), X_MV.yaw() + yaw(rng_)),
+         1.0 / static_cast<double>(params_.max_particles)});
+  }
+}
+
+void ParticleFilter::Predict(const RigidTransform2& delta) {
+  const double trans = delta.translation().norm();
+  const double rot = std::abs(delta.yaw());
+  const double sigma_t =
+      params_.alpha_trans_per_m * trans + params_.alpha_trans_per_rad * rot + 1e-4;
+  const double sigma_r = params_.alpha_rot_per_rad * rot + params_.alpha_rot_per_m * trans + 1e-4;
+  std::normal_distribution<double> nt(0.0, sigma_t), nr(0.0, sigma_r);
+  for (Particle& p : particles_) {
+    const RigidTransform2 noisy =
+        RigidTransform2::FromXyYaw(delta.translation().x() + nt(rng_),
+                                   delta.translation().y() + nt(rng_), delta.yaw() + nr(rng_));
+    p.X_MV = p.X_MV * noisy;
+  }
+}
+
+std::size_t ParticleFilter::KldCount(std::size_t bins) const {
+  if (bins <= 1) return params_.min_particles;
+  const double k = static_cast<double>(bins - 1);
+  const double a = 2.0 / (9.0 * k);
+  const double n =
+      k / (2 * params_.kld_epsilon) * std::pow(1 - a + std::sqrt(a) * params_.kld_z, 3);
+  return std::clamp(static_cast<std::size_t>(std::ceil(n)), params_.min_particles,
+                    params_.max_particles);
+}
+
+void ParticleFilter::Update(std::span<const float> ranges) {
+  if (particles_.empty() || ranges.empty()) return;
+  const auto beams = static_cast<double>(ranges.size());
+  const double two_sigma2 = 2 * params_.hit_sigma_m * params_.hit_sigma_m;
+  std::vector<double> log_w(particles_.size(), 0.0);
+  for (std::size_t i = 0; i < particles_.size(); ++i) {
+    const RigidTransform2& X = particles_[i].X_MV;
+    double sum = 0.0;
+    for (std::size_t b = 0; b < ranges.size(); b += static_cast<std::size_t>(params_.beam_stride)) {
+      const double r = ranges[b];
+      if (!std::isfinite(r) || r < 0.15 || r > params_.max_range_m) continue;
+      const double a = 2 * std::numbers::pi * static_cast<double>(b) / beams;
+      const Eigen::Vector2d end =
+          X * Eigen::Vector2d(params_.lidar_x_m + r * std::cos(a), r * std::sin(a));
+      const double d = FieldDistance(end);
+      sum += std::log(std::exp(-d * d / two_sigma2) + params_.z_random);
+    }
+    log_w[i] = sum;
+  }
+  const double top = *std::max_element(log_w.begin(), log_w.end());
+  std::vector<double> w(particles_.size());
+  for (std::size_t i = 0; i < w.size(); ++i) w[i] = std::exp(log_w[i] - top);
+  // KLD-sampling: draw by weight until the sample is large enough for the bins it fills.
+  std::discrete_distribution<std::size_t> pick(w.begin(), w.end());
+  std::unordered_set<std::int64_t> bins;
+  std::vector<Particle> next;
+  while (next.size() < params_.max_particles) {
+    const Particle& p = particles_[pick(rng_)];
+    next.push_back({p.X_MV, 1.0});
+    const auto bx =
+        static_cast<std::int64_t>(std::floor(p.X_MV.translation().x() / params_.bin_xy_m));
+    const auto by =
+        static_cast<std::int64_t>(std::floor(p.X_MV.translation().y() / params_.bin_xy_m));
+    const auto bt =
+        static_cast<std::int64_t>(std::floor(WrapAngle(p.X_MV.yaw()) / params_.bin_yaw_rad));
+    bins.insert((bx * 100'003 + by) * 1'009 + bt + 500);
+    if (next.size() >= KldCount(bins.size())) break;
+  }
+  for (Particle& p : next) p.weight = 1.0 / static_cast<double>(next.size());
+  particles_ = std::move(next);
+}
+
+RigidTransform2 ParticleFilter::Estimate() const {
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();
+  double s = 0, c = 0, total = 0;
+  for (const Particle& p : particles_) {
+    xy += p.weight * p.X_MV.translation();
+    s += p.weight * std::sin(p.X_MV.yaw());
+    c += p.weight * std::cos(p.X_MV.yaw());
+    total += p.weight;
+  }
+  if (total <= 0) return RigidTransform2::FromXyYaw(0, 0, 0);
+  xy /= total;
+  return RigidTransform2::FromXyYaw(xy.x(), xy.y(), std::atan2(s, c));
+}
+
+}  // namespace autodrive::examples
