@@ -347,11 +347,15 @@ DriverDecision LaneDriver::Step(const RigidTransform2& X_MV, const SignalLookup&
         // (Ignoring stop signs, it rolls through a flashing red as through a stop sign.)
         bool cross_yellow = false;
         if (shown && shown->state == State::kYellow) {
-          // Too close to stop, or its tail passes the line before the yellow ends.
+          // Its tail passes the line before the yellow ends, or it cannot stop before the line
+          // itself (braking at about 0.5 m/s²; not the stop gap short of it). A car creeping to
+          // the line, or standing at it (for a queue beyond the box), stops: it would start
+          // across on a yellow it cannot clear.
           const double to_clear = to_line + options_.front_overhang_m + options_.rear_overhang_m;
-          cross_yellow =
-              to_line < options_.stop_gap_m + 0.02 ||
-              (shown->min_end_s && speed_mps_ > 0.01 && to_clear / speed_mps_ < *shown->min_end_s);
+          const double braking = speed_mps_ * speed_mps_ / (2 * 0.5) + 0.005;
+          cross_yellow = (speed_mps_ > 0.01 && shown->min_end_s &&
+                          to_clear / speed_mps_ < *shown->min_end_s) ||
+                         (speed_mps_ > 0.01 && to_line < braking);
         }
         stop = !as_stop_sign && !go && !cross_yellow && to_line > 0;
         if (stop) {
@@ -360,6 +364,16 @@ DriverDecision LaneDriver::Step(const RigidTransform2& X_MV, const SignalLookup&
           // Not over the line yet: a vehicle in the box has the right of way.
           stop = true;
           decision.reason = DriverDecision::Reason::kGiveWay;
+        } else if (to_line > 0 && !lidar.empty() && !options_.ignore_obstacles) {
+          // Nor into the box while its way out has no room for it (a queue there): it would
+          // stand in the box, or on the line when its light turns red.
+          const double through =
+              to_line + (k + 1 < route_.size() ? PieceLength(route_[k + 1]) : 1.0) +
+              options_.front_overhang_m + options_.rear_overhang_m + options_.obstacle_stop_m;
+          if (GapAhead(X_MV, lidar, front_s, through) < through) {
+            stop = true;
+            decision.reason = DriverDecision::Reason::kGiveWay;
+          }
         }
       }
     } else if (x.control == maps::Control::kStop && !options_.ignore_stop_signs) {

@@ -249,7 +249,15 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
       io.Command(decision.throttle, decision.steering);
       if (requester) requester->Step(driver, v2i, now);
       if (decision.reason != reason) {
-        spdlog::debug("{}: {} on {}", vehicle, ToString(decision.reason), driver.lane_name());
+        std::string line;
+        if (const auto ahead = driver.NextStopLine()) {
+          const auto shown = v2i.Indication(*ahead->ingress, ahead->movement, now);
+          line = fmt::format(" ({:.3f} m before the line of {}, {:.3f} m/s, signal {})",
+                             ahead->to_line_m, ahead->ingress->name, driver.speed_mps(),
+                             shown ? static_cast<int>(shown->state) : -1);
+        }
+        spdlog::debug("{}: {} on {} at {:.2f} s{}", vehicle, ToString(decision.reason),
+                      driver.lane_name(), ToSeconds(now - Time{}), line);
         reason = decision.reason;
       }
     };
