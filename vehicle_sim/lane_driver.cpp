@@ -364,16 +364,6 @@ DriverDecision LaneDriver::Step(const RigidTransform2& X_MV, const SignalLookup&
           // Not over the line yet: a vehicle in the box has the right of way.
           stop = true;
           decision.reason = DriverDecision::Reason::kGiveWay;
-        } else if (to_line > 0 && !lidar.empty() && !options_.ignore_obstacles) {
-          // Nor into the box while its way out has no room for it (a queue there): it would
-          // stand in the box, or on the line when its light turns red.
-          const double through =
-              to_line + (k + 1 < route_.size() ? PieceLength(route_[k + 1]) : 1.0) +
-              options_.front_overhang_m + options_.rear_overhang_m + options_.obstacle_stop_m;
-          if (GapAhead(X_MV, lidar, front_s, through) < through) {
-            stop = true;
-            decision.reason = DriverDecision::Reason::kGiveWay;
-          }
         }
       }
     } else if (x.control == maps::Control::kStop && !options_.ignore_stop_signs) {

@@ -107,7 +107,7 @@ struct DriverDecision {
     kCruise,
     kRedLight,
     kStopSign,
-    kGiveWay,  ///< at a green light, for what is in the intersection's box or its way out
+    kGiveWay,  ///< at a green light, for what is in the intersection's box
     kObstacle,
     kAdvisory,  ///< held to the speed asked of `Step` (e.g. GLOSA's)
     kGoal,      ///< at the end of its route (`stop_at_route_end`)
