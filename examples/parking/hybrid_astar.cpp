@@ -7,9 +7,8 @@
 #include <queue>
 #include <unordered_set>
 
-#include <opencv2/imgproc.hpp>
-
 #include "common/error.h"
+#include "examples/parking/grid_distance.h"
 
 namespace autodrive::examples {
 
@@ -46,21 +45,16 @@ HybridAStar::HybridAStar(maps::OccupancyGrid grid, const HybridAStarParams& para
 }
 
 void HybridAStar::ComputeClearance() {
-  // Distance from each free cell's centre to the nearest occupied cell's centre (exact L2).
-  cv::Mat free(grid_.height, grid_.width, CV_8U);
-  for (int r = 0; r < grid_.height; ++r) {
-    for (int c = 0; c < grid_.width; ++c)
-      free.at<std::uint8_t>(r, c) = grid_.IsFree(c, r) ? 255 : 0;
-  }
-  cv::Mat distance;
-  cv::distanceTransform(free, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  const std::vector<float> distance = DistanceToOccupied(grid_);
   clearance_.resize(static_cast<std::size_t>(grid_.width) * static_cast<std::size_t>(grid_.height));
   for (int r = 0; r < grid_.height; ++r) {
     for (int c = 0; c < grid_.width; ++c) {
       // Distance to the nearest cell's centre, less that cell's reach (half its diagonal):
       // a lower bound of the distance to what the cell holds.
-      const double d = distance.at<float>(r, c) * grid_.resolution_m -
-                       grid_.resolution_m * std::numbers::sqrt2 / 2;
+      const double d =
+          distance[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_.width) +
+                   static_cast<std::size_t>(c)] -
+          grid_.resolution_m * std::numbers::sqrt2 / 2;
       clearance_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_.width) +
                  static_cast<std::size_t>(c)] = grid_.IsFree(c, r) ? std::max(d, 0.0) : 0.0;
     }

@@ -6,9 +6,8 @@
 #include <numbers>
 #include <unordered_set>
 
-#include <opencv2/imgproc.hpp>
-
 #include "common/error.h"
+#include "examples/parking/grid_distance.h"
 
 namespace autodrive::examples {
 
@@ -18,21 +17,7 @@ ParticleFilter::ParticleFilter(const maps::OccupancyGrid& grid, const ParticleFi
   AUTODRIVE_THROW_UNLESS(
       params_.min_particles >= 1 && params_.max_particles >= params_.min_particles,
       "particle filter: 1 <= min_particles <= max_particles");
-  cv::Mat free(grid_.height, grid_.width, CV_8U);
-  for (int r = 0; r < grid_.height; ++r) {
-    for (int c = 0; c < grid_.width; ++c)
-      free.at<std::uint8_t>(r, c) = grid_.IsFree(c, r) ? 255 : 0;
-  }
-  cv::Mat distance;
-  cv::distanceTransform(free, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  distance_.resize(static_cast<std::size_t>(grid_.width) * static_cast<std::size_t>(grid_.height));
-  for (int r = 0; r < grid_.height; ++r) {
-    for (int c = 0; c < grid_.width; ++c) {
-      distance_[static_cast<std::size_t>(r) * static_cast<std::size_t>(grid_.width) +
-                static_cast<std::size_t>(c)] =
-          distance.at<float>(r, c) * static_cast<float>(grid_.resolution_m);
-    }
-  }
+  distance_ = DistanceToOccupied(grid_);
 }
 
 double ParticleFilter::FieldDistance(const Eigen::Vector2d& p) const {
