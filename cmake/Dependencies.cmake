@@ -54,6 +54,8 @@ find_package(ZLIB REQUIRED)
 # systemd integration of the daemons (READY, WATCHDOG, STOPPING): libsystemd-dev.
 pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET GLOBAL libsystemd)
 find_package(Threads REQUIRED)
+# The behavioural-cloning example's network (examples/cloning): libtorch, CPU (libtorch-dev).
+find_package(Torch REQUIRED CONFIG)
 if(AUTODRIVE_BUILD_TESTS)
   find_package(GTest REQUIRED CONFIG)
 endif()
@@ -64,4 +66,4 @@ endif()
 message(STATUS "AutoDRIVE dependencies: CycloneDDS ${CycloneDDS_VERSION}, idlc ${AUTODRIVE_IDLC}, "
                "libsumocpp ${SUMO_LIBSUMOCPP}, Eigen ${Eigen3_VERSION}, CGAL ${CGAL_VERSION}, "
                "ODE ${ODE_VERSION}, OpenCV ${OpenCV_VERSION}, apriltag ${apriltag_VERSION}, "
-               "pugixml ${pugixml_VERSION}")
+               "pugixml ${pugixml_VERSION}, libtorch ${Torch_VERSION}")

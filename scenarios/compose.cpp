@@ -84,13 +84,14 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
                          *v.spawn.lane));
     }
     const maps::Lane* before = nullptr;
-    for (std::size_t k = 0; k < v.route.size(); ++k) {
-      const std::string ki = fmt::format("[{}]", k);
-      const maps::Lane* lane = map.FindLane(v.route[k]);
+    // With laps, the first lane follows the last (checked as the route's lane after its end).
+    for (std::size_t k = 0; k < v.route.size() + (v.laps > 1 ? 1 : 0); ++k) {
+      const std::string ki = fmt::format("[{}]", k % v.route.size());
+      const maps::Lane* lane = map.FindLane(v.route[k % v.route.size()]);
       if (lane == nullptr) {
         refuse({"vehicles", vi, "route", ki},
                fmt::format("map {} has no lane \"{}\" (autodrive-map info lists them)", map.name,
-                           v.route[k]));
+                           v.route[k % v.route.size()]));
       }
       if (before != nullptr) {
         const bool successor = std::find(before->successors.begin(), before->successors.end(),
@@ -101,8 +102,9 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
         if (!successor && !movement) {
           refuse({"vehicles", vi, "route", ki},
                  fmt::format("lane {} does not follow {} (neither a successor nor the end of a "
-                             "movement from it)",
-                             lane->name, before->name));
+                             "movement from it){}",
+                             lane->name, before->name,
+                             k == v.route.size() ? ": laps need a closed route" : ""));
         }
       }
       before = lane;
@@ -191,13 +193,15 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
       spawn["yaw_rad"] = *v.spawn.yaw_rad;
     }
     car["spawn"] = spawn;
+    if (v.sensors) car["sensors"] = YAML::Load(config::SaveString(*v.sensors));
     vehicles.push_back(car);
   }
   sim["vehicles"] = vehicles;
   YAML::Node variability =
       sim["variability"] ? sim["variability"] : YAML::Node(YAML::NodeType::Map);
-  variability["preset"] =
-      scenario.noise == vehicle_sim::VariabilityPreset::kPaper ? "paper" : "none";
+  for (const auto& [preset, name] : ConfigEnumNames(scenario.noise)) {
+    if (preset == scenario.noise) variability["preset"] = std::string(name);
+  }
   YAML::Node obstacles(YAML::NodeType::Sequence);
   if (variability["obstacles"]) obstacles = variability["obstacles"];
   for (const auto& o : scenario.TimedObstacles()) {
@@ -406,7 +410,7 @@ ComposedCity ComposeCity(const Scenario& scenario, const fs::path& scenario_file
         {"{seed}", std::to_string(scenario.seed)},
         {"{goal}", v.goal ? fmt::format("{},{},{}", v.goal->x_m, v.goal->y_m, v.goal->yaw_rad)
                           : std::string()},
-        {"{route}", fmt::format("{}", fmt::join(v.route, ","))},
+        {"{route}", fmt::format("{}", fmt::join(v.DrivenRoute(), ","))},
         {"{lockstep}", AgentController(v.name)},
         {"{run}", fs::absolute(run_dir).lexically_normal().string()},
         {"{scenario}", fs::absolute(scenario_file).lexically_normal().string()}};

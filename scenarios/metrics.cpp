@@ -19,6 +19,7 @@
 #include "common/config.h"
 #include "common/dds/conversions.h"
 #include "common/error.h"
+#include "maps/polyline.h"
 
 namespace autodrive::scenarios {
 
@@ -176,12 +177,6 @@ std::pair<double, double> ProjectOnto(const Points& line, const Vector2d& p, dou
   return {best_s, best_d};
 }
 
-double Length(const Points& line) {
-  double l = 0;
-  for (std::size_t i = 0; i + 1 < line.size(); ++i) l += (line[i + 1] - line[i]).norm();
-  return l;
-}
-
 double Percentile(std::vector<double> v, double p) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::sort(v.begin(), v.end());
@@ -215,6 +210,24 @@ struct TrafficRow {
 
 }  // namespace
 
+RouteProgress::RouteProgress(const RunWorld::Car& car, const MetricConstants& k)
+    : car_(&car),
+      tolerance_m_(k.route_tolerance_m),
+      goal_progress_m_(k.goal_progress_m),
+      length_(maps::PolylineLength(car.route)) {}
+
+void RouteProgress::Update(double x_m, double y_m) {
+  if (car_->route.empty()) return;
+  const auto [at, d] =
+      ProjectOnto(car_->route, Vector2d(x_m, y_m), progress_ - 0.1, progress_ + 0.5);
+  if (d <= tolerance_m_) progress_ = std::max(progress_, at);
+}
+
+bool RouteProgress::AtGoal(double x_m, double y_m, double yaw_rad) const {
+  return !car_->route.empty() && progress_ >= length_ - goal_progress_m_ &&
+         car_->AtGoal(x_m, y_m, yaw_rad);
+}
+
 json RunWorld::ToJson() const {
   json j;
   j["end_s"] = end_s;
@@ -230,7 +243,8 @@ json RunWorld::ToJson() const {
                            ? json::array({c.goal_pose->x(), c.goal_pose->y(), c.goal_pose->z()})
                            : json(nullptr)},
          {"goal_tolerance_rad", c.goal_tolerance_rad},
-         {"route", PointsToJson(c.route)}});
+         {"route", PointsToJson(c.route)},
+         {"lap_ends_m", c.lap_ends_m}});
   }
   j["statics"] = json::array();
   for (const Static& s : statics) {
@@ -286,6 +300,7 @@ RunWorld RunWorld::FromJson(const json& j) {
       car.goal_tolerance_rad = c.value("goal_tolerance_rad", car.goal_tolerance_rad);
     }
     car.route = PointsFromJson(c.at("route"));
+    if (c.contains("lap_ends_m")) car.lap_ends_m = c.at("lap_ends_m").get<std::vector<double>>();
     w.cars.push_back(std::move(car));
   }
   for (const auto& s : j.at("statics")) {
@@ -555,8 +570,9 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
     bool moving = false, moved = false;
     std::optional<double> goal_t;
     // Route: progress along it, goal.
-    const double route_length = Length(car.route);
-    double progress = 0;
+    RouteProgress route(car, k);
+    const double route_length = route.length_m();
+    std::vector<double> lap_ends_t;  // when each lap's end was passed
     for (std::size_t i = 0; i < samples.size(); ++i) {
       const Sample& s = samples[i];
       const double speed = std::abs(s.vx);
@@ -580,10 +596,14 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         loss += dt * (1.0 - std::min(speed / car.top_speed_mps, 1.0));
       }
       if (!car.route.empty()) {
-        const Vector2d rear(s.x, s.y);
-        const auto [at, d] = ProjectOnto(car.route, rear, progress - 0.1, progress + 0.5);
-        if (d <= k.route_tolerance_m) progress = std::max(progress, at);
-        if (!goal_t && car.AtGoal(s.x, s.y, s.yaw)) goal_t = s.t;
+        route.Update(s.x, s.y);
+        const double progress = route.progress_m();
+        if (!goal_t && route.AtGoal(s.x, s.y, s.yaw)) goal_t = s.t;
+        const std::size_t lap = lap_ends_t.size();
+        if (lap < car.lap_ends_m.size() &&
+            (progress >= car.lap_ends_m[lap] || (goal_t && lap + 1 == car.lap_ends_m.size()))) {
+          lap_ends_t.push_back(s.t);
+        }
       } else if (car.goal_pose && !goal_t && speed < k.stopped_mps && car.AtGoal(s.x, s.y, s.yaw)) {
         goal_t = s.t;  // a goal pose: reached standing there
       }
@@ -752,7 +772,7 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         car.goal_pose ? (goal_t ? 1.0 : 0.0)
         : car.route.empty()
             ? 1.0
-            : (goal_t ? 1.0 : std::min(progress / std::max(route_length, 1e-9), 1.0));
+            : (goal_t ? 1.0 : std::min(route.progress_m() / std::max(route_length, 1e-9), 1.0));
     const double off_fraction = distance > 0 ? std::min(off_distance / distance, 1.0) : 0.0;
     const auto n_red = static_cast<int>(red.size());
     const auto n_stop = static_cast<int>(stop_signs.size());
@@ -771,6 +791,15 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
     v["route_length_m"] = R(route_length);
     v["route_completion"] = R(completion);
     v["goal_reached"] = goal_t.has_value();
+    if (!car.lap_ends_m.empty()) {
+      // Each lap's time: from the start (the first lap) or the end of the lap before.
+      json laps = json::array();
+      for (std::size_t l = 0; l < lap_ends_t.size(); ++l) {
+        laps.push_back(R(lap_ends_t[l] - (l == 0 ? 0.0 : lap_ends_t[l - 1])));
+      }
+      v["laps_completed"] = static_cast<int>(lap_ends_t.size());
+      v["lap_times_s"] = laps;
+    }
     if (car.goal_pose && !samples.empty()) {
       // Where it ended against the goal pose.
       const Sample& last = samples.back();

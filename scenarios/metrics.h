@@ -36,6 +36,8 @@ struct RunWorld {
     /// tolerance (its distance tolerance is `goal_tolerance_m`).
     std::optional<Eigen::Vector3d> goal_pose{};
     double goal_tolerance_rad = 0.0873;
+    /// With laps: the distance along `route` at which each lap ends (the last: its length).
+    std::vector<double> lap_ends_m{};
     /// Whether it has a goal (a route, or a goal pose).
     [[nodiscard]] bool HasGoal() const { return goal_pose.has_value() || !route.empty(); }
     /// Whether the car with its rear axle at (x, y) heading `yaw` is at its goal (standing still
@@ -120,7 +122,33 @@ struct MetricConstants {
   double scale = 14.0;             ///< lab to full scale (infractions per km)
   /// A route point counts as passed within this distance (CARLA's 10 m / 14).
   double route_tolerance_m = 10.0 / 14.0;
+  /// The goal at a route's end counts only with the route passed to within this of its end (a
+  /// closed route driven in laps passes its end point every lap).
+  double goal_progress_m = 1.0;
   double rolling_resistance = 0.02;  ///< energy proxy's rolling term
+};
+
+/// A car's progress along its route as the metrics measure it (`route_completion`): the
+/// furthest point of the route its rear axle passed within `route_tolerance_m`, moving at most
+/// 0.5 m ahead at a time; and whether it is at its goal, which needs the route driven to within
+/// `goal_progress_m` of its end (a closed route driven in laps passes its end every lap). The
+/// runner ends a run by it as the metrics judge it.
+class RouteProgress {
+ public:
+  RouteProgress(const RunWorld::Car& car, const MetricConstants& k);
+  /// The car's rear axle is at (x, y).
+  void Update(double x_m, double y_m);
+  [[nodiscard]] double progress_m() const { return progress_; }
+  [[nodiscard]] double length_m() const { return length_; }
+  /// At the route's end, having driven it; the car at (x, y) heading `yaw`.
+  [[nodiscard]] bool AtGoal(double x_m, double y_m, double yaw_rad) const;
+
+ private:
+  const RunWorld::Car* car_;
+  double tolerance_m_;
+  double goal_progress_m_;
+  double length_;
+  double progress_ = 0.0;
 };
 
 /// Computes every metric: `{"vehicles": {name: {...}}, "run": {...}, "v2i": {...}}`.

@@ -30,6 +30,7 @@
 #include "common/process.h"
 #include "common/shutdown.h"
 #include "maps/map_io.h"
+#include "maps/polyline.h"
 #include "vehicle_sim/raycast.h"
 #include "vehicle_sim/sim_config.h"
 #include "vehicle_sim/variability.h"
@@ -141,7 +142,19 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
                                  [&](const auto& c) { return c.name == v.name; });
     const vehicle_sim::VehicleParams& p = it->params;
     w.cars.push_back({v.name, p.body_length_m, p.body_width_m, p.body_centre_ahead_of_rear_axle_m,
-                      p.top_speed_mps, RoutePoints(map, v.route), v.goal_tolerance_m});
+                      p.top_speed_mps, RoutePoints(map, v.DrivenRoute()), v.goal_tolerance_m});
+    if (v.laps > 1) {
+      // Lap k ends where lap k + 1's first lane starts (the last lap at the route's end).
+      std::vector<std::string> lanes;
+      const double first = maps::PolylineLength(map.FindLane(v.route.front())->centreline);
+      for (int lap = 1; lap < v.laps; ++lap) {
+        lanes.insert(lanes.end(), v.route.begin(), v.route.end());
+        std::vector<std::string> to_next = lanes;
+        to_next.push_back(v.route.front());
+        w.cars.back().lap_ends_m.push_back(maps::PolylineLength(RoutePoints(map, to_next)) - first);
+      }
+      w.cars.back().lap_ends_m.push_back(maps::PolylineLength(w.cars.back().route));
+    }
     if (v.goal) {
       w.cars.back().goal_pose = Eigen::Vector3d(v.goal->x_m, v.goal->y_m, v.goal->yaw_rad);
       w.cars.back().goal_tolerance_m = v.goal->tolerance_m;
@@ -486,6 +499,8 @@ RunResult RunScenario(const RunOptions& options) {
   std::string end_reason = "time_limit";
   Time last_step{};
   bool goals_end = false;
+  std::vector<RouteProgress> routes;  // each car's, as the metrics measure it
+  for (const RunWorld::Car& car : world.cars) routes.emplace_back(car, MetricConstants{});
   std::int64_t steps = 0;
   std::string failure;
   try {
@@ -519,11 +534,13 @@ RunResult RunScenario(const RunOptions& options) {
             bool any = false, all = true;
             for (std::size_t i = 0; i < world.cars.size(); ++i) {
               const RunWorld::Car& car = world.cars[i];
+              const Recorder::Pose& p = recorder.poses()[i];
+              if (p.known) routes[i].Update(p.x_m, p.y_m);
               if (!car.HasGoal()) continue;
               any = true;
-              const Recorder::Pose& p = recorder.poses()[i];
-              all = all && p.known && std::abs(p.speed_mps) < 0.01 &&
-                    car.AtGoal(p.x_m, p.y_m, p.yaw_rad);
+              const bool at_goal = car.route.empty() ? car.AtGoal(p.x_m, p.y_m, p.yaw_rad)
+                                                     : routes[i].AtGoal(p.x_m, p.y_m, p.yaw_rad);
+              all = all && p.known && std::abs(p.speed_mps) < 0.01 && at_goal;
             }
             if (any && all) {
               goals_end = true;

@@ -41,6 +41,13 @@ void VehicleSpec::Validate() const {
   if (goal && !route.empty()) {
     throw InputError("goal: a car has a route (its goal the route's end) or a goal pose, not both");
   }
+  if (laps > 1 && route.empty()) throw InputError("laps: laps of a route; this car has none");
+}
+
+std::vector<std::string> VehicleSpec::DrivenRoute() const {
+  std::vector<std::string> out;
+  for (int lap = 0; lap < laps; ++lap) out.insert(out.end(), route.begin(), route.end());
+  return out;
 }
 
 void EventSpec::Validate() const {

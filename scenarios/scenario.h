@@ -86,23 +86,33 @@ struct VehicleSpec {
   /// successor); the goal is the end of the last. Empty: no route (route completion is not
   /// measured, the car has no goal).
   std::vector<std::string> route;
+  /// The route driven this many times over (a closed loop: its first lane follows its last);
+  /// the goal is the end of the last lap, and the report gives each lap's time.
+  int laps = 1;
   /// The goal is reached when the car's front is within this distance of the last lane's end.
   double goal_tolerance_m = 0.15;
   /// Or a goal pose (no route then): route completion is 1 once it is reached, else 0.
   std::optional<GoalPoseSpec> goal;
   /// Without an agent the car stands where it spawned (no commands: held still).
   std::optional<AgentSpec> agent;
+  /// The car's sensors (the simulator's `sensors` of a car, every key optional over the
+  /// defaults), replacing the base city's for this car: a front camera turned on, say.
+  std::optional<vehicle_sim::SensorConfig> sensors;
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Required("name", name);
     a.Required("spawn", spawn);
     a.Optional("route", route);
+    a.Optional("laps", laps, config::Range{1, 1000});
     a.Optional("goal_tolerance_m", goal_tolerance_m, config::Range{0.01, 10.0});
     a.Optional("goal", goal);
     a.Optional("agent", agent);
+    a.Optional("sensors", sensors);
   }
   void Validate() const;
+  /// The lanes driven: the route, `laps` times over.
+  [[nodiscard]] std::vector<std::string> DrivenRoute() const;
   bool operator==(const VehicleSpec&) const = default;
 };
 

@@ -238,6 +238,25 @@ TEST(ComposedCity, RoutesAndEventsAreCheckedAgainstTheMapAndCity) {
                                                "overhead}, {at_s: 5, action: camera_back, camera: "
                                                "overhead}]\n"),
             "(composed)");
+  // Laps of a route that does not close (r2c0 does not follow r2c3) are refused; the figure of
+  // eight closes.
+  std::string open_laps = kCar;
+  open_laps.replace(open_laps.find("    agent:"), 0, "    laps: 2\n");
+  EXPECT_NE(ComposeRefusal(open_laps).find("does not follow r2c3:W>E:0 (neither a successor nor "
+                                           "the end of a movement from it): laps need a closed "
+                                           "route"),
+            std::string::npos)
+      << ComposeRefusal(open_laps);
+  EXPECT_EQ(ComposeRefusal(R"(vehicles:
+  - name: nigel_1
+    spawn: {lane: "r2c0:N>E:0", along_m: 0.3}
+    route: ["r2c0:N>E:0", "r2c1:W>E:0", "r2c3:W>E:0", "r2c4:W>S:0", "r3c4:N>S:0", "r4c4:N>W:0",
+            "r4c3:E>W:0", "r4c2:E>N:0", "r3c2:S>N:0", "r1c2:S>N:0", "r0c2:S>W:0", "r0c1:E>W:0",
+            "r0c0:E>S:0", "r1c0:N>S:0"]
+    laps: 3
+    agent: {driver: []}
+)"),
+            "(composed)");
   // Obstacle events name no intersection: they compose.
   EXPECT_EQ(
       ComposeRefusal(std::string(kCar) + "obstacles: [{name: box, x_m: 3.5, y_m: 2.35}]\n"
@@ -395,6 +414,57 @@ TEST(Metrics, AGoalPoseIsReachedStandingThereWithinBothTolerances) {
   ASSERT_TRUE(back.cars[0].goal_pose);
   EXPECT_EQ(*back.cars[0].goal_pose, *w.cars[0].goal_pose);
   EXPECT_EQ(back.cars[0].goal_tolerance_rad, 0.0873);
+}
+
+// Laps of a closed route (a 1 m square, anticlockwise from the origin, 3 laps): each lap's time
+// from when its end was passed; the route's end point, passed every lap, is the goal only at the
+// last.
+TEST(Metrics, LapsOfAClosedRouteAreTimedAndItsEndIsTheGoalOnlyAtTheLast) {
+  test::TempDir dir("metrics_laps");
+  WriteLamps(dir.path(), "0.000000,3,3\n");
+  const std::vector<Eigen::Vector2d> corners{{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0, 0}};
+  RunWorld w;
+  RunWorld::Car car;
+  car.name = "nigel_1";
+  for (int lap = 0; lap < 3; ++lap)
+    car.route.insert(car.route.end(), corners.begin(), corners.end());
+  car.goal_tolerance_m = 0.1;
+  car.lap_ends_m = {4, 8, 12};
+  w.cars.push_back(car);
+  w.end_s = 80;
+  // 0.2 m/s round the square from (0.1, 0): 20 s a lap; `laps` laps, then standing.
+  const auto drive = [&](double laps, double seconds) {
+    std::ofstream f(dir.path() / "ground_truth.csv");
+    f << "t_s,vehicle,x_m,y_m,yaw_rad,vx_mps,vy_mps,yaw_rate_radps\n";
+    for (int i = 0; i * 0.01 <= seconds + 1e-9; ++i) {
+      const double t = i * 0.01;
+      const double s = std::min(0.1 + 0.2 * t, 0.1 + 4 * laps);
+      const double along = std::fmod(s, 4.0);
+      const int side = std::min(static_cast<int>(along), 3);
+      const Eigen::Vector2d a = corners[static_cast<std::size_t>(side)];
+      const Eigen::Vector2d b = corners[static_cast<std::size_t>(side) + 1];
+      const Eigen::Vector2d p = a + (along - side) * (b - a);
+      const double speed = s < 0.1 + 4 * laps ? 0.2 : 0.0;
+      f << fmt::format("{:.6f},nigel_1,{:.6f},{:.6f},{:.6f},{:.6f},0,0\n", t, p.x(), p.y(),
+                       std::atan2(b.y() - a.y(), b.x() - a.x()), speed);
+    }
+  };
+  drive(2.5, 60);  // two and a half laps
+  json v = ComputeMetrics(w, dir.path())["vehicles"]["nigel_1"];
+  EXPECT_EQ(v["goal_reached"], false) << "it passed the route's end point twice, not its goal";
+  EXPECT_EQ(v["laps_completed"], 2);
+  ASSERT_EQ(v["lap_times_s"].size(), 2u);
+  // Lap 1 ends at 3.9 m driven (it started 0.1 m in), lap 2 at 7.9 m.
+  EXPECT_NEAR(v["lap_times_s"][0].get<double>(), 19.5, 0.02);
+  EXPECT_NEAR(v["lap_times_s"][1].get<double>(), 20.0, 0.02);
+  EXPECT_NEAR(v["route_completion"].get<double>(), 10.1 / 12, 0.01);
+  drive(3 - 0.25 / 4, 80);  // to the goal: the front 0.23 m ahead of the rear axle
+  v = ComputeMetrics(w, dir.path())["vehicles"]["nigel_1"];
+  EXPECT_EQ(v["goal_reached"], true);
+  EXPECT_EQ(v["laps_completed"], 3);
+  EXPECT_EQ(v["route_completion"], 1.0);
+  const RunWorld back = RunWorld::FromJson(w.ToJson());
+  EXPECT_EQ(back.cars[0].lap_ends_m, w.cars[0].lap_ends_m);
 }
 
 TEST(Metrics, RedLightWhenTheTailCrossesTheLineOnRed) {

@@ -464,5 +464,70 @@ TEST_F(SimProcess, RenderNamesTheCamerasThereAreForAnUnknownOne) {
       << text;
 }
 
+// `record`: a driving data set of one car alone, driven along its route by the lane driver
+// from the route's first lane, one labels.csv row per frame, the frames at the size asked; the
+// route's end reached (else exit 1), an unknown lane refused.
+TEST_F(SimProcess, RecordWritesADrivingDataSetAlongTheRoute) {
+  const auto out = dir_ / "lap";
+  const std::string city = Config("config/cities/driving_school.yaml");
+  const auto [code, text] = RunCaptured({Bin("autodrive-sim"), "record", "--city", city, "--route",
+                                         "r2c1:W>E:0,r2c3:W>E:0", "--seed", "3", "--width", "96",
+                                         "--height", "54", "--out", out.string(), "--quiet"});
+  ASSERT_EQ(code, 0) << text;
+  std::ifstream labels(out / "labels.csv");
+  std::string line;
+  std::getline(labels, line);
+  EXPECT_EQ(line, "frame,stamp_s,throttle,steering,speed_mps,yaw_rate_radps,x_m,y_m,yaw_rad");
+  int rows = 0;
+  double x = 0, y = 0, last_t = -1, min_steering = 1, max_steering = -1;
+  while (std::getline(labels, line)) {
+    double f = 0, t = 0, throttle = 0, steering = 0, v = 0, w = 0, yaw = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &f, &t, &throttle,
+                          &steering, &v, &w, &x, &y, &yaw),
+              9)
+        << line;
+    EXPECT_EQ(f, rows);
+    EXPECT_GT(t, last_t);
+    last_t = t;
+    min_steering = std::min(min_steering, steering);
+    max_steering = std::max(max_steering, steering);
+    const auto png = out / fmt::format("frame_{:06d}.png", rows);
+    ASSERT_TRUE(std::filesystem::exists(png)) << rows;
+    ++rows;
+  }
+  // Two straight tiles and the crossing between them: 2.7 m at about 0.15 m/s, 15 frames a
+  // second.
+  EXPECT_GT(rows, 150);
+  EXPECT_FALSE(std::filesystem::exists(out / fmt::format("frame_{:06d}.png", rows)));
+  // It ends as the driver begins to stop for the route's end (x 4.0; its front 0.23 m ahead of
+  // the rear axle, the stop over the last 0.3 m): the stop itself is not recorded.
+  EXPECT_GT(x, 3.3);
+  EXPECT_LT(x, 3.9);
+  EXPECT_NEAR(y, 2.35, 0.05);
+  // The perturbed car corrects: the driver's steering goes both ways.
+  EXPECT_LT(min_steering, -0.05);
+  EXPECT_GT(max_steering, 0.05);
+  // The frames' size is the one asked (the PNG's IHDR).
+  std::ifstream png(out / "frame_000000.png", std::ios::binary);
+  unsigned char header[24] = {};
+  png.read(reinterpret_cast<char*>(header), sizeof header);
+  EXPECT_EQ((header[16] << 24) | (header[17] << 16) | (header[18] << 8) | header[19], 96);
+  EXPECT_EQ((header[20] << 24) | (header[21] << 16) | (header[22] << 8) | header[23], 54);
+
+  const auto [bad, bad_text] =
+      RunCaptured({Bin("autodrive-sim"), "record", "--city", city, "--route", "r9c9:W>E:0", "--out",
+                   (dir_ / "bad").string(), "--quiet"});
+  EXPECT_EQ(bad, 1);
+  EXPECT_NE(bad_text.find("--route: the map driving_school has no lane 'r9c9:W>E:0'"),
+            std::string::npos)
+      << bad_text;
+  const auto [short_code, short_text] = RunCaptured(
+      {Bin("autodrive-sim"), "record", "--city", city, "--route", "r2c1:W>E:0,r2c3:W>E:0",
+       "--max-duration", "2", "--out", (dir_ / "short").string(), "--quiet"});
+  EXPECT_EQ(short_code, 1);
+  EXPECT_NE(short_text.find("the route's end was not reached in 2 s"), std::string::npos)
+      << short_text;
+}
+
 }  // namespace
 }  // namespace autodrive::test

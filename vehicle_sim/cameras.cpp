@@ -4,6 +4,7 @@
 
 #include "common/error.h"
 #include "maps/map.h"
+#include "vehicle_sim/variability.h"
 #include "vehicle_sim/world.h"
 
 namespace autodrive::vehicle_sim {
@@ -40,7 +41,7 @@ SimCameras::SimCameras(const SimConfig& sim, const maps::Map& map, const World& 
       cam.front = front;
       cam.X_PC = c.mount.OpticalPose();
       cam.intrinsics = Named(cam.name, [&] { return c.lens.Intrinsics(); });
-      cam.film = c.film;
+      cam.film = LitFilm(c.film, sim);
       cam.period = Period(c.rate_hz);
       cameras_.push_back(cam);
     }
@@ -51,7 +52,7 @@ SimCameras::SimCameras(const SimConfig& sim, const maps::Map& map, const World& 
     cam.frame_id = c.name;
     cam.X_PC = c.mount.OpticalPose();
     cam.intrinsics = Named(cam.name, [&] { return c.Intrinsics(); });
-    cam.film = c.film;
+    cam.film = LitFilm(c.film, sim);
     cam.period = Period(c.rate_hz);
     cam.lost_from = c.lost_from_s;
     cam.lost_until = c.lost_until_s;

@@ -151,6 +151,22 @@ DatasetSummary RenderDataset(const SimCity& city, const maps::Map& map,
   AUTODRIVE_THROW_UNLESS(truth.good(),
                          "cannot write " << (options.out_dir / "ground_truth.csv").string());
   truth << "frame,stamp_s,vehicle,tag_id,x_m,y_m,yaw_rad\n";
+  // An on-board camera's car: its driver's commands are the data set's labels.
+  std::ofstream labels;
+  if (cam.vehicle) {
+    labels.open(options.out_dir / "labels.csv");
+    AUTODRIVE_THROW_UNLESS(labels.good(),
+                           "cannot write " << (options.out_dir / "labels.csv").string());
+    labels << "frame,stamp_s,throttle,steering,speed_mps,yaw_rate_radps,x_m,y_m,yaw_rad\n";
+  }
+  std::vector<CommandNoise> noise;
+  for (std::size_t i = 0; i < sim.vehicles.size(); ++i) {
+    noise.emplace_back(sim.variability, sim.vehicles[i].params, sim.seed, static_cast<int>(i));
+  }
+  std::vector<VehicleCommand> commanded(sim.vehicles.size());
+  std::mt19937_64 perturbation_rng(
+      StreamSeed(sim.seed, cam.vehicle.value_or(-1), kPerturbationStream));
+  double perturbation = 0.0;
 
   const int total = static_cast<int>(options.duration / cam.period) + 1;
   const std::int64_t steps_per_period =
@@ -165,10 +181,23 @@ DatasetSummary RenderDataset(const SimCity& city, const maps::Map& map,
   double render_ms = 0;
   const std::vector<CarLights> lights(sim.vehicles.size(), CarLights{1, 0});  // headlights on
   const Duration end = world.time() + options.duration;
+  const Duration start = world.time();
   while (world.time() <= end) {
+    if (options.done && options.done(world)) break;
     FixedCycleLamps(map, world.time(), lamps);
+    if (cam.vehicle && options.steering_perturbation > 0) {
+      // Ornstein-Uhlenbeck over one control period.
+      const double a = ToSeconds(options.control_period) / ToSeconds(options.perturbation_time);
+      perturbation += -a * perturbation +
+                      Gaussian(perturbation_rng, options.steering_perturbation * std::sqrt(2 * a));
+    }
     for (std::size_t i = 0; i < sim.vehicles.size(); ++i) {
-      world.SetCommand(static_cast<int>(i), driver(i, world, scans[i], lamps, world.time()));
+      commanded[i] = driver(i, world, scans[i], lamps, world.time());
+      VehicleCommand executed = commanded[i];
+      if (cam.vehicle && static_cast<int>(i) == *cam.vehicle) {
+        executed.steering = std::clamp(executed.steering + perturbation, -1.0, 1.0);
+      }
+      world.SetCommand(static_cast<int>(i), noise[i].Apply(executed));
     }
     for (std::int64_t k = 0; k < steps_per_period && world.time() <= end; ++k) {
       world.Step();
@@ -202,12 +231,26 @@ DatasetSummary RenderDataset(const SimCity& city, const maps::Map& map,
               << Csv(p.y()) << ',' << Csv(std::atan2(R(1, 0), R(0, 0))) << '\n';
         ++summary.rows;
       }
+      if (cam.vehicle) {
+        const auto car = static_cast<std::size_t>(*cam.vehicle);
+        const VehicleState& state = world.State(*cam.vehicle);
+        labels << summary.frames << ',' << Csv(ToSeconds(world.time())) << ','
+               << Csv(commanded[car].throttle) << ',' << Csv(commanded[car].steering) << ','
+               << Csv(state.v_V_mps.x()) << ',' << Csv(state.w_V_radps.z()) << ','
+               << Csv(state.X_MV.translation().x()) << ',' << Csv(state.X_MV.translation().y())
+               << ',' << Csv(YawFromQuaternion(state.X_MV.rotation())) << '\n';
+      }
       ++summary.frames;
       if (progress) progress(summary.frames, total);
     }
   }
   truth.close();
   AUTODRIVE_THROW_UNLESS(!truth.fail(), "writing ground_truth.csv failed");
+  if (labels.is_open()) {
+    labels.close();
+    AUTODRIVE_THROW_UNLESS(!labels.fail(), "writing labels.csv failed");
+  }
+  summary.duration = world.time() - start;
   summary.render_ms_mean = summary.frames > 0 ? render_ms / summary.frames : 0.0;
   return summary;
 }

@@ -21,7 +21,13 @@
 ///   (`camera::SaveOpenCvCalibration`);
 /// - `camera_pose.yaml`: where the camera is: `parent_frame` (`map`, or the car's name for an
 ///   on-board camera), the mount (`x_m` ... `yaw_rad`, REP 103 body frame) and `X_parent_optical`,
-///   the 4 x 4 pose of the optical frame in the parent frame.
+///   the 4 x 4 pose of the optical frame in the parent frame;
+/// - for an on-board camera, `labels.csv`: a driving data set's labels (behavioural cloning,
+///   docs/vehicle_sim.md "Driving data sets"), one row per frame:
+///   `frame,stamp_s,throttle,steering,speed_mps,yaw_rate_radps,x_m,y_m,yaw_rad`: the driver's
+///   command for the car at that frame (normalised, as the devkit's topics carry them; the
+///   variability's command noise is added after it, so a label is what the driver meant), the
+///   car's forward speed and yaw rate, and its rear axle's pose in the map frame.
 
 #include <cstdint>
 #include <filesystem>
@@ -59,11 +65,21 @@ struct DatasetOptions {
   Duration duration = std::chrono::seconds(10);
   std::filesystem::path out_dir;
   Duration control_period = std::chrono::milliseconds(10);
+  /// Noise injection for driving data sets (DART: Laskey et al., "DART: Noise Injection for
+  /// Robust Imitation Learning", CoRL 2017): the on-board camera's car steers with a slowly
+  /// varying perturbation added (Ornstein-Uhlenbeck, standard deviation this many normalised
+  /// steering units, correlation time `perturbation_time`) while its label stays the driver's
+  /// command, so that the data set shows the driver bringing the car back. 0: none.
+  double steering_perturbation = 0.0;
+  Duration perturbation_time = std::chrono::seconds(1);
+  /// Checked once per control period: the data set ends early when it says so.
+  std::function<bool(const World&)> done;
 };
 
 struct DatasetSummary {
   int frames = 0;
   std::size_t rows = 0;
+  Duration duration{0};         ///< simulated time driven
   double render_ms_mean = 0.0;  ///< wall time per frame
 };
 

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <map>
+#include <numbers>
 #include <set>
 #include <utility>
 
@@ -54,30 +55,73 @@ void ServiceOptions::Validate() const {
 }
 
 namespace {
-double Preset(const std::optional<double>& given, VariabilityPreset preset, double paper) {
+// A figure given, else its value in the preset: the parking study's (`paper`) and the
+// behavioural-cloning study's (`cloning`, which keeps the parking study's command noise).
+double Preset(const std::optional<double>& given, VariabilityPreset preset, double paper,
+              double cloning) {
   if (given) return *given;
-  return preset == VariabilityPreset::kPaper ? paper : 0.0;
+  switch (preset) {
+    case VariabilityPreset::kPaper:
+      return paper;
+    case VariabilityPreset::kCloning:
+      return cloning;
+    case VariabilityPreset::kNone:
+      break;
+  }
+  return 0.0;
+}
+
+// SplitMix64's finaliser.
+std::uint64_t Mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
 }
 }  // namespace
 
-// The paper's parking study (NIGEL.md, "Variability used in the paper's parking study").
-double VariabilityConfig::DriveNoiseMps() const { return Preset(drive_noise_mps, preset, 0.013); }
-double VariabilityConfig::SteeringNoiseRad() const {
-  return Preset(steering_noise_rad, preset, 0.018);
-}
-double VariabilityConfig::WallPositionNoiseM() const {
-  return Preset(wall_position_noise_m, preset, 0.01);
-}
-double VariabilityConfig::WallHeadingNoiseRad() const {
-  return Preset(wall_heading_noise_rad, preset, 0.087);
-}
-double VariabilityConfig::LidarRangeNoiseM() const {
-  return Preset(lidar_range_noise_m, preset, 0.025);
+std::uint64_t StreamSeed(std::uint64_t seed, int vehicle, int stream) {
+  return Mix(Mix(Mix(seed) ^ static_cast<std::uint64_t>(vehicle)) ^
+             static_cast<std::uint64_t>(stream));
 }
 
+double Gaussian(std::mt19937_64& rng, double sigma) {
+  if (sigma == 0.0) return 0.0;
+  return std::normal_distribution<double>(0.0, sigma)(rng);
+}
+
+// The papers' figures (NIGEL.md, "Variability used in the paper's parking study" and the
+// behavioural-cloning study beside it).
+double VariabilityConfig::DriveNoiseMps() const {
+  return Preset(drive_noise_mps, preset, 0.013, 0.013);
+}
+double VariabilityConfig::SteeringNoiseRad() const {
+  return Preset(steering_noise_rad, preset, 0.018, 0.018);
+}
+double VariabilityConfig::WallPositionNoiseM() const {
+  return Preset(wall_position_noise_m, preset, 0.01, 0.0);
+}
+double VariabilityConfig::WallHeadingNoiseRad() const {
+  return Preset(wall_heading_noise_rad, preset, 0.087, 0.0);
+}
+double VariabilityConfig::LidarRangeNoiseM() const {
+  return Preset(lidar_range_noise_m, preset, 0.025, 0.0);
+}
 int VariabilityConfig::RandomObstacles() const {
   if (random_obstacles) return *random_obstacles;
   return preset == VariabilityPreset::kPaper ? 3 : 0;
+}
+double VariabilityConfig::LightIntensitySpread() const {
+  return Preset(light_intensity_spread, preset, 0.0, 0.4);
+}
+double VariabilityConfig::LightDirectionSpreadRad() const {
+  return Preset(light_direction_spread_rad, preset, 0.0, std::numbers::pi);
+}
+double VariabilityConfig::StartPositionNoiseM() const {
+  return Preset(start_position_noise_m, preset, 0.0, 0.03);
+}
+double VariabilityConfig::StartHeadingNoiseRad() const {
+  return Preset(start_heading_noise_rad, preset, 0.0, 0.087);
 }
 
 void SimConfig::Validate() const {
@@ -249,6 +293,16 @@ std::vector<RigidTransform2> SpawnPoses(const SimConfig& sim, const maps::Map& m
       used_tiles.insert({lane.tile.row, lane.tile.col});
       poses.push_back(pose_on(lane, lane.length_m / 2, v.name));
     }
+  }
+  const double position_sigma = sim.variability.StartPositionNoiseM();
+  const double heading_sigma = sim.variability.StartHeadingNoiseRad();
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    std::mt19937_64 rng(StreamSeed(sim.seed, static_cast<int>(i), kStartStream));
+    const double dx = Gaussian(rng, position_sigma);
+    const double dy = Gaussian(rng, position_sigma);
+    const double dyaw = Gaussian(rng, heading_sigma);
+    const Eigen::Vector2d p = poses[i].translation();
+    poses[i] = RigidTransform2::FromXyYaw(p.x() + dx, p.y() + dy, poses[i].yaw() + dyaw);
   }
   return poses;
 }

@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -163,10 +164,14 @@ struct UnmappedObstacle {
 enum class VariabilityPreset {
   kNone,   ///< every figure 0 unless given
   kPaper,  ///< the paper's parking study (NIGEL.md): the figures below
+  /// the paper's behavioural-cloning study (NIGEL.md): the light's intensity and direction and
+  /// the car's start varied, with the parking study's command noise
+  kCloning,
 };
 constexpr auto ConfigEnumNames(VariabilityPreset) {
   return std::array{std::pair{VariabilityPreset::kNone, std::string_view{"none"}},
-                    std::pair{VariabilityPreset::kPaper, std::string_view{"paper"}}};
+                    std::pair{VariabilityPreset::kPaper, std::string_view{"paper"}},
+                    std::pair{VariabilityPreset::kCloning, std::string_view{"cloning"}}};
 }
 
 /// A point the random obstacles keep clear of (`sim.variability.keep_clear`).
@@ -207,6 +212,17 @@ struct VariabilityConfig {
   /// Points the random obstacles keep 0.5 m from, as from the cars' starts: the scenario runner
   /// gives its cars' goal poses (a bay an obstacle filled could not be parked in).
   std::vector<ClearPoint> keep_clear;
+  /// The lab's light, drawn once per run for every camera's film: its intensity scaled by a
+  /// factor uniform in [1 - s, 1 + s] (the film's `exposure`: the renderer keeps the ground's
+  /// colours in any light, so the brightness a camera records is its exposure). Cloning: 0.4.
+  std::optional<double> light_intensity_spread;
+  /// The directional light's azimuth turned by an angle uniform in [-s, s] and its elevation
+  /// moved by one uniform in [-s/4, s/4] (kept in [0.2, 1.5] rad). Cloning: pi (any azimuth).
+  std::optional<double> light_direction_spread_rad;
+  /// Each car's start (its `spawn`, or the default one) moved by N(0, σ) in x and y and turned
+  /// by N(0, σ). Cloning: 0.03 m and 0.087 rad.
+  std::optional<double> start_position_noise_m;
+  std::optional<double> start_heading_noise_rad;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -219,6 +235,11 @@ struct VariabilityConfig {
     a.Optional("obstacles", obstacles);
     a.Optional("random_obstacles", random_obstacles, config::Range{0, 1000});
     a.Optional("keep_clear", keep_clear);
+    a.Optional("light_intensity_spread", light_intensity_spread, config::Range{0.0, 0.95});
+    a.Optional("light_direction_spread_rad", light_direction_spread_rad,
+               config::Range{0.0, 3.1416});
+    a.Optional("start_position_noise_m", start_position_noise_m, config::Range{0.0, 1.0});
+    a.Optional("start_heading_noise_rad", start_heading_noise_rad, config::Range{0.0, 3.2});
   }
   bool operator==(const VariabilityConfig&) const = default;
 
@@ -229,6 +250,10 @@ struct VariabilityConfig {
   [[nodiscard]] double WallHeadingNoiseRad() const;
   [[nodiscard]] double LidarRangeNoiseM() const;
   [[nodiscard]] int RandomObstacles() const;
+  [[nodiscard]] double LightIntensitySpread() const;
+  [[nodiscard]] double LightDirectionSpreadRad() const;
+  [[nodiscard]] double StartPositionNoiseM() const;
+  [[nodiscard]] double StartHeadingNoiseRad() const;
 };
 
 struct SimConfig {
@@ -283,6 +308,21 @@ struct SimCity {
 /// order). @throws InputError naming the car for a lane the map does not have, a distance
 /// beyond the lane's end, or a map with too few lanes.
 [[nodiscard]] std::vector<RigidTransform2> SpawnPoses(const SimConfig& sim, const maps::Map& map);
+
+/// A seed for stream `stream` of car `vehicle` (or of the world, vehicle -1) from the
+/// simulation's seed: streams do not overlap, and one's draws never shift another's.
+[[nodiscard]] std::uint64_t StreamSeed(std::uint64_t seed, int vehicle, int stream);
+/// A draw from N(0, sigma); draws nothing when sigma is 0, so that noise turned off leaves no
+/// trace in the stream.
+[[nodiscard]] double Gaussian(std::mt19937_64& rng, double sigma);
+/// The streams of the variability's draws: the world's (vehicle -1) and each car's (a car's
+/// streams 1-3 are its sensors', sensors.cpp).
+inline constexpr int kWallStream = 1;
+inline constexpr int kObstacleStream = 2;
+inline constexpr int kLightStream = 3;
+inline constexpr int kCommandStream = 4;
+inline constexpr int kStartStream = 5;
+inline constexpr int kPerturbationStream = 6;
 
 /// The look of car `i` of `sim` with its defaults filled in: colour from the palette, tag
 /// tag36h11 id n for `nigel_<n>` (none with `roof_tag: false`), tag height the body's height.

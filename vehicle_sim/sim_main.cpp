@@ -1,14 +1,18 @@
 // autodrive-sim: the simulator of Nigel. With --city it runs the city's cars as a DDS service
 // (the devkit topics, /clock, the cameras); `replay` runs one car headless from a command file;
-// `render` writes one camera's frames and the ground truth as an offline data set.
+// `render` writes one camera's frames and the ground truth as an offline data set; `record` a
+// driving data set for behavioural cloning.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -83,6 +87,44 @@ int Replay(const std::string& city_path, const std::string& vehicle_name,
   return 0;
 }
 
+// The built-in driver's options for car `i` of the city: its own figures.
+DriverOptions CarDriverOptions(const SimCity& city, std::size_t i) {
+  DriverOptions o;
+  const VehicleParams& p = city.sim.vehicles[i].params;
+  o.seed = city.sim.seed + i;
+  o.wheelbase_m = p.wheelbase_m;
+  o.steering_limit_rad = p.steering_limit_rad;
+  o.front_overhang_m = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
+  return o;
+}
+
+// The built-in driver's decision for car `car` on its ground truth, its LIDAR and the lamps.
+DriverDecision DriveOnTruth(LaneDriver& driver, const World& world, std::size_t car,
+                            std::span<const float> lidar, std::span<const HeadLamps> lamps,
+                            Duration now) {
+  const VehicleState& s = world.State(static_cast<int>(car));
+  return driver.Step(
+      RigidTransform2::FromXyYaw(s.X_MV.translation().x(), s.X_MV.translation().y(),
+                                 YawFromQuaternion(s.X_MV.rotation())),
+      [&](SignalHeadId h) -> std::optional<std::int32_t> {
+        for (const HeadLamps& l : lamps) {
+          if (l.head == h) return l.green ? 3 : l.yellow ? 2 : 1;
+        }
+        return std::nullopt;
+      },
+      lidar, now);
+}
+
+// A data set's progress on stderr: rewritten on a terminal, a line every 100 frames in a log.
+std::function<void(int, int)> DatasetProgress(const char* what, bool quiet) {
+  const bool tty = isatty(fileno(stderr)) != 0;
+  return [=](int done, int total) {
+    if (quiet || (!tty && done % 100 != 0)) return;
+    std::fprintf(stderr, "%s%s: %d / %d frames%s", tty ? "\r" : "", what, done, total,
+                 tty ? "" : "\n");
+  };
+}
+
 int Render(const std::string& city_path, const DatasetOptions& options,
            const std::string& commands_path, const std::string& commanded_vehicle, bool quiet) {
   const SimCity city = LoadSimCity(city_path);
@@ -91,13 +133,7 @@ int Render(const std::string& city_path, const DatasetOptions& options,
   // LIDAR, with the fixed-time lamps), or the command file for one of them.
   std::vector<vehicle_sim::LaneDriver> drivers;
   for (std::size_t i = 0; i < city.sim.vehicles.size(); ++i) {
-    vehicle_sim::DriverOptions o;
-    const VehicleParams& p = city.sim.vehicles[i].params;
-    o.seed = city.sim.seed + i;
-    o.wheelbase_m = p.wheelbase_m;
-    o.steering_limit_rad = p.steering_limit_rad;
-    o.front_overhang_m = p.body_centre_ahead_of_rear_axle_m + p.body_length_m / 2;
-    drivers.emplace_back(map, o);
+    drivers.emplace_back(map, CarDriverOptions(city, i));
   }
   std::vector<TimedCommand> commands;
   std::optional<std::size_t> commanded;
@@ -120,31 +156,106 @@ int Render(const std::string& city_path, const DatasetOptions& options,
       }
       return held;
     }
-    const VehicleState& s = world.State(static_cast<int>(car));
-    const auto decision = drivers[car].Step(
-        RigidTransform2::FromXyYaw(s.X_MV.translation().x(), s.X_MV.translation().y(),
-                                   YawFromQuaternion(s.X_MV.rotation())),
-        [&](SignalHeadId h) -> std::optional<std::int32_t> {
-          for (const HeadLamps& l : lamps) {
-            if (l.head == h) return l.green ? 3 : l.yellow ? 2 : 1;
-          }
-          return std::nullopt;
-        },
-        lidar, now);
-    return {decision.throttle, decision.steering};
+    const DriverDecision d = DriveOnTruth(drivers[car], world, car, lidar, lamps, now);
+    return {d.throttle, d.steering};
   };
-  const bool tty = isatty(fileno(stderr)) != 0;
-  const auto progress = [&](int done, int total) {
-    if (quiet || (!tty && done % 100 != 0)) return;
-    std::fprintf(stderr, "%srender: %d / %d frames%s", tty ? "\r" : "", done, total,
-                 tty ? "" : "\n");
-  };
-  const DatasetSummary summary = RenderDataset(city, map, options, driver, progress);
+  const DatasetSummary summary =
+      RenderDataset(city, map, options, driver, DatasetProgress("render", quiet));
   if (!quiet) {
     std::fprintf(stderr,
                  "%srender: %d frames of %s (%.1f ms each) and %zu ground-truth rows in %s\n",
-                 tty ? "\r" : "", summary.frames, options.camera.c_str(), summary.render_ms_mean,
-                 summary.rows, options.out_dir.string().c_str());
+                 isatty(fileno(stderr)) != 0 ? "\r" : "", summary.frames, options.camera.c_str(),
+                 summary.render_ms_mean, summary.rows, options.out_dir.string().c_str());
+  }
+  return 0;
+}
+
+// `record`: a driving data set for behavioural cloning (docs/vehicle_sim.md, "Driving data
+// sets"): one car alone on the map, driven by the built-in lane driver round its route, its
+// front camera's frames with the driver's commands as labels.
+struct RecordOptions {
+  std::string city;
+  std::string vehicle = "nigel_1";
+  std::string out;
+  std::vector<std::string> route;
+  int laps = 1;
+  double along_m = 0.3;
+  std::optional<std::uint64_t> seed;
+  std::string variability = "cloning";
+  int width_px = 160;
+  int height_px = 90;
+  double rate_hz = 15.0;
+  double max_duration_s = 900.0;
+  bool obey_lights = false;
+  double steering_perturbation = 0.3;
+  bool quiet = false;
+};
+
+int Record(const RecordOptions& o) {
+  SimCity city = LoadSimCity(o.city);
+  const maps::Map map = maps::LoadMapOrLayout(city.map_path);
+  auto car = std::find_if(city.sim.vehicles.begin(), city.sim.vehicles.end(),
+                          [&](const SimVehicleConfig& v) { return v.name == o.vehicle; });
+  AUTODRIVE_THROW_UNLESS(car != city.sim.vehicles.end(),
+                         o.city << ": no vehicle '" << o.vehicle << "' in the sim section");
+  city.sim.vehicles = {*car};  // alone on the track, at the start of its route
+  city.sim.vehicles[0].spawn = SpawnConfig{};
+  city.sim.vehicles[0].spawn->lane = o.route.front();
+  city.sim.vehicles[0].spawn->along_m = o.along_m;
+  if (o.seed) city.sim.seed = *o.seed;
+  bool known = false;
+  for (const auto& [preset, name] : ConfigEnumNames(VariabilityPreset{})) {
+    if (name == o.variability) {
+      city.sim.variability.preset = preset;
+      known = true;
+    }
+  }
+  AUTODRIVE_THROW_UNLESS(known,
+                         "--variability: " << o.variability << " is not none, paper or cloning");
+  OnboardCameraConfig& camera = city.sim.vehicles[0].sensors.front_camera;
+  camera.enabled = true;
+  camera.rate_hz = o.rate_hz;
+  camera.lens.calibration.reset();
+  camera.lens.width_px = o.width_px;
+  camera.lens.height_px = o.height_px;
+  DriverOptions options = CarDriverOptions(city, 0);
+  options.ignore_lights = !o.obey_lights;
+  options.stop_at_route_end = true;
+  for (int lap = 0; lap < o.laps; ++lap) {
+    for (const std::string& name : o.route) {
+      const maps::Lane* lane = map.FindLane(name);
+      AUTODRIVE_THROW_UNLESS(lane != nullptr,
+                             "--route: the map " << map.name << " has no lane '" << name << "'");
+      options.route.push_back(lane->id);
+    }
+  }
+  LaneDriver lane_driver(map, options);
+  bool at_goal = false;
+  const DatasetDriver driver = [&](std::size_t index, const World& world,
+                                   std::span<const float> lidar, std::span<const HeadLamps> lamps,
+                                   Duration now) -> VehicleCommand {
+    const DriverDecision d = DriveOnTruth(lane_driver, world, index, lidar, lamps, now);
+    at_goal = d.reason == DriverDecision::Reason::kGoal;
+    return {d.throttle, d.steering};
+  };
+  DatasetOptions dataset;
+  dataset.camera = o.vehicle + "/front_camera";
+  dataset.duration = FromSeconds(o.max_duration_s);
+  dataset.out_dir = o.out;
+  dataset.done = [&](const World&) { return at_goal; };
+  dataset.steering_perturbation = o.steering_perturbation;
+  const DatasetSummary summary =
+      RenderDataset(city, map, dataset, driver, DatasetProgress("record", o.quiet));
+  if (!o.quiet) {
+    std::fprintf(stderr, "%srecord: %d frames over %.1f s%s (%.1f ms each) in %s\n",
+                 isatty(fileno(stderr)) != 0 ? "\r" : "", summary.frames,
+                 ToSeconds(summary.duration), at_goal ? ", the route driven" : "",
+                 summary.render_ms_mean, o.out.c_str());
+  }
+  if (!o.route.empty() && !at_goal) {
+    std::fprintf(stderr, "autodrive-sim: record: the route's end was not reached in %.0f s\n",
+                 o.max_duration_s);
+    return 1;
   }
   return 0;
 }
@@ -337,10 +448,70 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   render->add_flag("-q,--quiet", render_quiet, "no progress on stderr");
 
+  auto* record = app.add_subcommand(
+      "record",
+      "record a driving data set for behavioural cloning: one car alone, driven round --route by "
+      "the built-in lane driver, its front camera's frames as PNG with labels.csv (the "
+      "driver's throttle and steering, the car's speed and pose) (docs/vehicle_sim.md)");
+  RecordOptions record_options;
+  record->add_option("--city", record_options.city, "city file (its map and sim section)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  record->add_option("--vehicle", record_options.vehicle, "the car (the others are left out)")
+      ->capture_default_str();
+  record->add_option("--out", record_options.out, "directory to write (created)")->required();
+  record
+      ->add_option("--route", record_options.route,
+                   "lanes to drive, in order (a closed loop with --laps); the recording ends "
+                   "at the last lane's end")
+      ->delimiter(',')
+      ->required();
+  record
+      ->add_option("--along", record_options.along_m,
+                   "the car starts this far along the route's first lane, metres")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
+  record->add_option("--laps", record_options.laps, "the route driven this many times")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  record->add_option("--seed", record_options.seed,
+                     "the simulation's seed (light, start, noise); default the city's");
+  record
+      ->add_option("--variability", record_options.variability,
+                   "the variability preset: none, paper or cloning (light intensity and "
+                   "direction, start pose, command noise)")
+      ->capture_default_str();
+  record->add_option("--width", record_options.width_px, "frame width, pixels")
+      ->check(CLI::Range(16, 1920))
+      ->capture_default_str();
+  record->add_option("--height", record_options.height_px, "frame height, pixels")
+      ->check(CLI::Range(16, 1080))
+      ->capture_default_str();
+  record->add_option("--rate", record_options.rate_hz, "frames per simulated second")
+      ->check(CLI::Range(0.5, 60.0))
+      ->capture_default_str();
+  record
+      ->add_option("--max-duration", record_options.max_duration_s,
+                   "simulated seconds at most (the route not driven by then: exit 1)")
+      ->check(CLI::Range(1.0, 86400.0))
+      ->capture_default_str();
+  record
+      ->add_option("--steering-perturbation", record_options.steering_perturbation,
+                   "noise injection (DART): a slowly varying perturbation of this standard "
+                   "deviation (normalised units, 1 s correlation) on the steering the car "
+                   "executes, not on the label: the data shows the driver recovering; 0: none")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  record->add_flag("--obey-lights", record_options.obey_lights,
+                   "the driver stops for red lights (fixed-time lamps); by default it drives "
+                   "through, as a camera-only model cannot wait out a red");
+  record->add_flag("-q,--quiet", record_options.quiet, "no progress on stderr");
+
   CLI11_PARSE(app, argc, argv);
   try {
     InitLogging("autodrive-sim", ParseLogLevel(log_level));
     if (replay->parsed()) return Replay(city, vehicle, commands, out, log_rate_hz, quiet);
+    if (record->parsed()) return Record(record_options);
     if (render->parsed()) {
       render_options.duration = FromSeconds(render_duration_s);
       render_options.out_dir = render_out;

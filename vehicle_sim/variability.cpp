@@ -11,32 +11,24 @@
 
 namespace autodrive::vehicle_sim {
 
-namespace {
-
-// SplitMix64's finaliser.
-std::uint64_t Mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
-// Streams of the world (vehicle -1).
-constexpr int kWallStream = 1;
-constexpr int kObstacleStream = 2;
-// Streams of a car; 1-3 are its sensors' (sensors.cpp).
-constexpr int kCommandStream = 4;
-
-}  // namespace
-
-double Gaussian(std::mt19937_64& rng, double sigma) {
-  if (sigma == 0.0) return 0.0;
-  return std::normal_distribution<double>(0.0, sigma)(rng);
-}
-
-std::uint64_t StreamSeed(std::uint64_t seed, int vehicle, int stream) {
-  return Mix(Mix(Mix(seed) ^ static_cast<std::uint64_t>(vehicle)) ^
-             static_cast<std::uint64_t>(stream));
+FilmOptions LitFilm(const FilmOptions& film, const SimConfig& sim) {
+  const double intensity = sim.variability.LightIntensitySpread();
+  const double direction = sim.variability.LightDirectionSpreadRad();
+  if (intensity == 0.0 && direction == 0.0) return film;
+  std::mt19937_64 rng(StreamSeed(sim.seed, -1, kLightStream));
+  const auto uniform = [&](double half) {
+    return std::uniform_real_distribution<double>(-half, half)(rng);
+  };
+  const double scale = 1.0 + uniform(intensity);
+  const double azimuth = uniform(direction);
+  const double elevation = uniform(direction / 4);
+  FilmOptions out = film;
+  // The renderer shows the ground in its own colours in any light (the shade is relative to the
+  // ground's), so the light's intensity is what the film gets of it: the exposure.
+  out.exposure = std::clamp(out.exposure * scale, 0.001, 20.0);
+  out.light_azimuth_rad += azimuth;
+  out.light_elevation_rad = std::clamp(out.light_elevation_rad + elevation, 0.2, 1.5);
+  return out;
 }
 
 maps::Map PerturbWalls(const maps::Map& map, double position_sigma_m, double heading_sigma_rad,

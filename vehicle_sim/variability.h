@@ -35,6 +35,11 @@ namespace autodrive::vehicle_sim {
 /// or removed (`UnmappedObstacle::timed`).
 void AddObstacles(std::span<const UnmappedObstacle> obstacles, World& world);
 
+/// `film` in the lab's light of this run: the variability's light intensity and direction
+/// (`light_intensity_spread`, `light_direction_spread_rad`), drawn once from the seed, so every
+/// camera of a run sees the same light. `film` itself when both spreads are 0.
+[[nodiscard]] FilmOptions LitFilm(const FilmOptions& film, const SimConfig& sim);
+
 /// Car `vehicle`'s sensors with the variability's LIDAR range noise where the car sets none.
 [[nodiscard]] SensorConfig EffectiveSensors(const SimConfig& sim, std::size_t vehicle);
 
@@ -53,13 +58,5 @@ class CommandNoise {
   double steering_sigma_;
   std::mt19937_64 rng_;
 };
-
-/// A seed for stream `stream` of car `vehicle` (or of the world, vehicle -1) from the
-/// simulation's seed: streams do not overlap, and one's draws never shift another's.
-[[nodiscard]] std::uint64_t StreamSeed(std::uint64_t seed, int vehicle, int stream);
-
-/// A draw from N(0, sigma); draws nothing when sigma is 0, so that noise turned off leaves no
-/// trace in the stream.
-[[nodiscard]] double Gaussian(std::mt19937_64& rng, double sigma);
 
 }  // namespace autodrive::vehicle_sim

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -208,6 +209,48 @@ TEST(Variability, ThePaperPresetsObstaclesStandOffEveryLaneAndPath) {
       }
     }
   }
+}
+
+// The cloning preset: the paper's command noise, the light and the start varied, nothing else.
+// The light is drawn once per run (every camera the same), the start per car; over 400 seeds the
+// figures are what the preset says.
+TEST(Variability, TheCloningPresetVariesTheLightAndTheStartAcrossSeeds) {
+  const auto cloning = config::LoadString<VariabilityConfig>("preset: cloning\n", "test.yaml");
+  EXPECT_EQ(cloning.DriveNoiseMps(), 0.013);
+  EXPECT_EQ(cloning.WallPositionNoiseM(), 0.0);
+  EXPECT_EQ(cloning.LidarRangeNoiseM(), 0.0);
+  EXPECT_EQ(cloning.RandomObstacles(), 0);
+  EXPECT_EQ(cloning.LightIntensitySpread(), 0.4);
+  EXPECT_EQ(cloning.StartPositionNoiseM(), 0.03);
+
+  const maps::Map map = ParkingSchool();
+  SimConfig sim;
+  sim.vehicles[0].spawn = SpawnConfig{std::nullopt, 0.0, 1.0, 2.0, 0.5};
+  const FilmOptions film;
+  EXPECT_EQ(LitFilm(film, sim), film) << "no variability: the film as configured";
+  sim.variability = cloning;
+  std::vector<double> exposure, azimuth, x, yaw;
+  for (std::uint64_t seed = 1; seed <= 400; ++seed) {
+    sim.seed = seed;
+    const FilmOptions lit = LitFilm(film, sim);
+    EXPECT_EQ(LitFilm(film, sim), lit) << "one light per run";
+    EXPECT_EQ(lit.ambient, film.ambient);
+    EXPECT_GE(lit.light_elevation_rad, 0.2);
+    EXPECT_LE(lit.light_elevation_rad, 1.5);
+    exposure.push_back(lit.exposure);
+    azimuth.push_back(lit.light_azimuth_rad - film.light_azimuth_rad);
+    const RigidTransform2 start = SpawnPoses(sim, map)[0];
+    x.push_back(start.translation().x() - 1.0);
+    yaw.push_back(start.yaw() - 0.5);
+  }
+  // Uniform in [0.6, 1.4] and [-pi, pi]: standard deviations 0.4 / sqrt(3) and pi / sqrt(3).
+  EXPECT_NEAR(*std::min_element(exposure.begin(), exposure.end()), 0.6, 0.02);
+  EXPECT_NEAR(*std::max_element(exposure.begin(), exposure.end()), 1.4, 0.02);
+  EXPECT_NEAR(Of(exposure).sd, 0.4 / std::sqrt(3.0), 0.02);
+  EXPECT_NEAR(Of(azimuth).sd, std::numbers::pi / std::sqrt(3.0), 0.15);
+  EXPECT_NEAR(Of(x).sd, 0.03, 0.004);
+  EXPECT_NEAR(Of(yaw).sd, 0.087, 0.01);
+  EXPECT_NEAR(Of(x).mean, 0.0, 0.006);
 }
 
 }  // namespace
