@@ -1,4 +1,5 @@
-// The V2I examples (examples/: follower, GLOSA, emergency, transit) driving their shipped
+// The V2I examples (examples/: follower, GLOSA, emergency, transit) and the paper's two case
+// studies (parking on the car's own localisation, behavioural cloning) driving their shipped
 // scenarios through the scenario runner, judged by its metrics (docs/scenarios.md), never by
 // what the agents say: each on the public topics only, against the real SCM, lights, simulator
 // and SUMO, in lockstep. The sweeps over 20 seeds behind examples/README.md's figures are not
@@ -41,7 +42,8 @@ struct Outcome {
 class V2iExamples : public ::testing::Test {
  protected:
   // The shipped scenario `name`, its city found from the test's folder, `edit` applied.
-  Outcome RunShipped(const std::string& name, const std::function<void(std::string&)>& edit = {}) {
+  Outcome RunShipped(const std::string& name, const std::function<void(std::string&)>& edit = {},
+                     const std::vector<std::string>& env = {}) {
     std::string text = config::ReadFile(test::SourceDir() / "config/scenarios" / (name + ".yaml"));
     text.replace(text.find("city: ../cities/"), 16,
                  "city: " + (test::SourceDir() / "config/cities/").string());
@@ -49,9 +51,11 @@ class V2iExamples : public ::testing::Test {
     const fs::path file = dir_.path() / (name + ".yaml");
     config::WriteFile(file, text);
     const fs::path out = dir_.path() / name;
+    std::vector<std::string> environment = env;
+    environment.push_back(fmt::format("AUTODRIVE_TEST_TAG={}", dir_.str()));
     ChildProcess p(
         {Bin("autodrive-scenario"), "run", file.string(), "--out", out.string(), "--quiet"},
-        {fmt::format("AUTODRIVE_TEST_TAG={}", dir_.str())});
+        environment);
     Outcome r;
     while (auto line = p.ReadLine(milliseconds(600'000))) r.output += *line + "\n";
     r.code = p.Wait(milliseconds(60'000)).value_or(-1);
@@ -138,6 +142,60 @@ TEST_F(V2iExamples, TheBusAsksEachSignalOnItsWayForPriority) {
     EXPECT_EQ(q["type"], "priority") << q.dump();
     EXPECT_TRUE(q["to_green_s"].is_number()) << q.dump();
   }
+}
+
+// The parking agent on its own localisation (a particle filter on encoders, imu and LIDAR from
+// the first ips fix, SLAM beside it): no contact, its estimates traced each step and SLAM's map
+// written in map_server's format as it stops.
+TEST_F(V2iExamples, TheParkingAgentDrivesOnItsOwnLocalisationAndWritesSlamsMap) {
+  const Outcome r = RunShipped("parking_school_pf");
+  EXPECT_TRUE(r.code == 0 || r.code == 1) << r.output;  // judged, whether parked or not
+  EXPECT_EQ(r.run["collisions"], 0) << r.output;
+  const fs::path run = dir_.path() / "parking_school_pf" / "run";
+  EXPECT_GT(config::ReadFile(run / "localisation.csv").size(), 1000u);
+  EXPECT_TRUE(fs::exists(run / "slam.pgm"));
+  EXPECT_TRUE(fs::exists(run / "slam.yaml"));
+  EXPECT_NE(r.agent_log.find("SLAM's map: "), std::string::npos) << r.agent_log;
+}
+
+// Behavioural cloning end to end on the real programs: a lap recorded, a model trained on it for
+// an epoch, and the agent driving from the front camera in the shipped scenario (one lap, 40 s):
+// every frame reaches the network and the car moves.
+TEST_F(V2iExamples, TheCloningAgentDrivesFromItsFrontCamera) {
+  const std::string lap = (dir_.path() / "lap").string();
+  const std::string model = (dir_.path() / "model.pt").string();
+  const auto run = [](const std::vector<std::string>& argv) {
+    ChildProcess p(argv, {});
+    std::string text;
+    while (auto line = p.ReadLine(milliseconds(600'000))) text += *line + "\n";
+    return std::pair{p.Wait(milliseconds(60'000)).value_or(-1), text};
+  };
+  const auto [record, record_text] = run(
+      {Bin("autodrive-sim"), "record", "--city",
+       (test::SourceDir() / "config/cities/driving_school.yaml").string(), "--route",
+       "r2c0:N>E:0,r2c1:W>E:0,r2c3:W>E:0,r2c4:W>S:0,r3c4:N>S:0,r4c4:N>W:0,r4c3:E>W:0,r4c2:E>N:0,"
+       "r3c2:S>N:0,r1c2:S>N:0,r0c2:S>W:0,r0c1:E>W:0,r0c0:E>S:0,r1c0:N>S:0",
+       "--seed", "101", "--out", lap, "--quiet"});
+  ASSERT_EQ(record, 0) << record_text;
+  const auto [train, train_text] = run({Bin("autodrive-example-cloning-train"), "--data", lap,
+                                        "--epochs", "1", "--out", model, "--threads", "1"});
+  ASSERT_EQ(train, 0) << train_text;
+  EXPECT_NE(train_text.find("epoch 1: training loss"), std::string::npos) << train_text;
+  const Outcome r =
+      RunShipped("cloning_driving_school",
+                 [](std::string& text) {
+                   text.replace(text.find("time_limit_s: 560"), 17, "time_limit_s: 40");
+                   text.replace(text.find("laps: 5"), 7, "laps: 1");
+                 },
+                 {"AUTODRIVE_CLONING_MODEL=" + model});
+  EXPECT_TRUE(r.code == 0 || r.code == 1) << r.output;
+  EXPECT_EQ(r.report["end"]["reason"], "time_limit") << r.output;
+  EXPECT_GT(r.run["distance_m"].get<double>(), 2.0) << r.run.dump();
+  // 15 frames a second for 40 s, each through the network.
+  const std::size_t at = r.agent_log.find(" frames through the network");
+  ASSERT_NE(at, std::string::npos) << r.agent_log;
+  const std::size_t from = r.agent_log.rfind(' ', at - 1) + 1;
+  EXPECT_GE(std::stoi(r.agent_log.substr(from, at - from)), 590) << r.agent_log;
 }
 
 }  // namespace

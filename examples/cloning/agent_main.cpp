@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
     std::vector<double> inference_ms;
     std::size_t refused = 0;
     const auto decide = [&](Time now) {
+      io.Take();  // (the pose and scan, which this agent does not use)
       // The newest frame only: a model that falls behind drives on the latest view.
       std::optional<dds::Message<msg::Image>> newest;
       while (auto m = camera.TakeOne()) newest = std::move(m);

@@ -29,7 +29,7 @@ class CarIo {
  public:
   CarIo(const dds::Participant& participant, VehicleId vehicle, PoseSource pose);
 
-  /// Takes what arrived: the newest pose and scan.
+  /// Takes what arrived: the newest pose and scan. Call it at every decision.
   void Take();
   /// The car's rear-axle pose in the map frame, once one came.
   [[nodiscard]] std::optional<RigidTransform2> pose() const;

@@ -3,12 +3,15 @@
 // sees something the map does not have on the path ahead, stops, adds it to the grid and plans
 // again. Its pose from the car's ips and imu (the lab's positioning system) or the Eye. See
 // README.md.
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -18,11 +21,14 @@
 
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
+#include "common/dds/reader.h"
+#include "common/dds/topics.h"
 #include "common/error.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "examples/common/car_io.h"
 #include "examples/parking/hybrid_astar.h"
+#include "examples/parking/localiser.h"
 #include "examples/parking/tracker.h"
 #include "maps/map_io.h"
 #include "maps/occupancy.h"
@@ -71,9 +77,18 @@ int main(int argc, char** argv) {
   app.add_option("--goal", goal_v, "the goal: the rear axle's pose X,Y,YAW (m, m, rad)")
       ->required()
       ->delimiter(',');
-  app.add_option("--pose", pose_source, "ips (its ips and imu) or eye (the Eye's fleet)")
-      ->check(CLI::IsMember({"ips", "eye"}))
+  std::string trace_path, slam_prefix;
+  app.add_option("--pose", pose_source,
+                 "ips (its ips and imu), eye (the Eye's fleet), or pf (its own: a particle filter "
+                 "on the map from its encoders, imu and LIDAR, started from the first ips fix)")
+      ->check(CLI::IsMember({"ips", "eye", "pf"}))
       ->capture_default_str();
+  app.add_option("--trace", trace_path,
+                 "with --pose pf: a CSV of its estimates at each decision (t_s, the filter's "
+                 "and SLAM's poses, the particles), to compare with the ground truth");
+  app.add_option("--slam-map", slam_prefix,
+                 "with --pose pf: at the end, SLAM's map as PREFIX.pgm and PREFIX.yaml (ROS "
+                 "map_server's format) and its agreement with the map's grid on the log");
   app.add_option("--margin", plan_params.margin_m, "kept clear round the body (m)")
       ->check(CLI::Range(0.0, 0.3))
       ->capture_default_str();
@@ -103,6 +118,9 @@ int main(int argc, char** argv) {
       car = v.params;
       lidar_x = v.sensors.lidar.x_m;
     }
+    if (pose_source != "pf" && (!trace_path.empty() || !slam_prefix.empty())) {
+      throw InputError("--trace and --slam-map go with --pose pf");
+    }
     plan_params.wheelbase_m = track_params.wheelbase_m = car.wheelbase_m;
     plan_params.steering_limit_rad = track_params.steering_limit_rad = car.steering_limit_rad;
     plan_params.length_m = car.body_length_m;
@@ -118,6 +136,26 @@ int main(int argc, char** argv) {
     examples::CarIo io(
         participant, id,
         pose_source == "eye" ? examples::PoseSource::kEye : examples::PoseSource::kIps);
+    // Its own localisation (--pose pf): encoders and the imu's heading for odometry, the LIDAR.
+    std::unique_ptr<examples::Localiser> localiser;
+    std::unique_ptr<dds::Reader<msg::JointState>> left_encoder, right_encoder;
+    std::optional<double> left_angle, right_angle;
+    std::ofstream trace;
+    if (pose_source == "pf") {
+      examples::LocaliserParams lp;
+      lp.wheel_radius_m = car.wheel_radius_m;
+      lp.filter.lidar_x_m = lidar_x;
+      localiser = std::make_unique<examples::Localiser>(mapped, lp);
+      left_encoder =
+          std::make_unique<dds::Reader<msg::JointState>>(participant, dds::topics::LeftEncoder(id));
+      right_encoder = std::make_unique<dds::Reader<msg::JointState>>(participant,
+                                                                     dds::topics::RightEncoder(id));
+      if (!trace_path.empty()) {
+        trace.open(trace_path);
+        if (!trace) throw InputError(trace_path + ": cannot write the trace");
+        trace << "t_s,x_m,y_m,yaw_rad,slam_x_m,slam_y_m,slam_yaw_rad,particles\n";
+      }
+    }
 
     enum class Phase { kWaiting, kDriving, kBlocked, kParked } phase = Phase::kWaiting;
     std::optional<RigidTransform2> last_pose;
@@ -125,8 +163,7 @@ int main(int argc, char** argv) {
     double speed = 0.0;
     int replans = 0;
     int corrections = 0;
-    std::size_t last_scan = 0;  // scans seen, by their first range (a cheap change test)
-    float last_first = -1.0f;
+    float last_first = -1.0f;  // a new scan, told by its first range (a cheap change test)
     const auto plan = [&](const RigidTransform2& from) {
       const examples::PlanResult p = planner.Plan(from, goal);
       if (p.path.empty()) {
@@ -140,7 +177,33 @@ int main(int argc, char** argv) {
     };
     const auto decide = [&](Time now) {
       io.Take();
-      const std::optional<RigidTransform2> X = io.pose();
+      const auto scan = io.scan();
+      const bool new_scan = !scan.empty() && scan[0] != last_first;
+      if (new_scan) last_first = scan[0];
+      std::optional<RigidTransform2> X = io.pose();
+      if (localiser) {
+        // The filter's pose, started from the first ips fix; the ips is not used after.
+        if (!X && !localiser->started()) return;
+        if (!localiser->started()) localiser->Start(*X);
+        const auto angle = [](dds::Reader<msg::JointState>& r, std::optional<double>& out) {
+          while (auto m = r.TakeOne()) {
+            if ((*m)->position._length > 0) out = (*m)->position._buffer[0];
+          }
+        };
+        angle(*left_encoder, left_angle);
+        angle(*right_encoder, right_angle);
+        if (left_angle && right_angle && X)
+          localiser->Odometry(*left_angle, *right_angle, X->yaw());
+        if (new_scan) localiser->Scan(scan);
+        X = localiser->Estimate();
+        if (trace.is_open()) {
+          const RigidTransform2& S = localiser->SlamPose();
+          trace << fmt::format("{:.3f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{}\n",
+                               ToSeconds(now.time_since_epoch()), X->translation().x(),
+                               X->translation().y(), X->yaw(), S.translation().x(),
+                               S.translation().y(), S.yaw(), localiser->filter().size());
+        }
+      }
       if (!X) return;
       if (last_pose && last_time && now > *last_time) {
         const double v =
@@ -155,10 +218,7 @@ int main(int argc, char** argv) {
       }
       // A new scan: anything the map has not on the path's next 0.4 m stops the car and is
       // planned round.
-      const auto scan = io.scan();
-      if (phase == Phase::kDriving && !scan.empty() && scan[0] != last_first) {
-        last_first = scan[0];
-        ++last_scan;
+      if (phase == Phase::kDriving && new_scan) {
         std::vector<Eigen::Vector2d> unmapped;
         for (std::size_t i = 0; i < scan.size(); ++i) {
           const double r = scan[i];
@@ -236,15 +296,23 @@ int main(int argc, char** argv) {
           if (plan(*X)) return;
         }
         phase = Phase::kParked;
-        spdlog::info("{}: parked {:.1f} mm and {:.2f} deg from the goal ({} new plans)", vehicle,
+        spdlog::info("{}: parked {:.1f} mm and {:.2f} deg from the goal ({} new plans){}", vehicle,
                      (X->translation() - goal.translation()).norm() * 1000,
-                     std::abs(WrapAngle(X->yaw() - goal.yaw())) * 180 / std::numbers::pi, replans);
+                     std::abs(WrapAngle(X->yaw() - goal.yaw())) * 180 / std::numbers::pi, replans,
+                     localiser ? " by its own localisation" : "");
       }
     };
     spdlog::info("autodrive-example-parking drives {} to ({:.3f}, {:.3f}, {:.3f}) on map {}{}",
                  vehicle, goal_v[0], goal_v[1], goal_v[2], map.name,
                  lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
-    return io.Run(participant, lockstep, rate_hz, decide, stop);
+    const int code = io.Run(participant, lockstep, rate_hz, decide, stop);
+    if (localiser && localiser->started()) {
+      const examples::MapAgreement a = examples::CompareMaps(localiser->slam(), mapped);
+      spdlog::info("{}: SLAM's map: {:.1f}% of the {} cells it saw agree with the map's grid",
+                   vehicle, a.share() * 100, a.seen);
+      if (!slam_prefix.empty()) examples::WriteMapServerMap(localiser->slam(), slam_prefix);
+    }
+    return code;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "autodrive-example-parking: %s\n", e.what());
     return 1;

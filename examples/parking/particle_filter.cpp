@@ -69,17 +69,47 @@ void ParticleFilter::Update(std::span<const float> ranges) {
   if (particles_.empty() || ranges.empty()) return;
   const auto beams = static_cast<double>(ranges.size());
   const double two_sigma2 = 2 * params_.hit_sigma_m * params_.hit_sigma_m;
-  std::vector<double> log_w(particles_.size(), 0.0);
-  for (std::size_t i = 0; i < particles_.size(); ++i) {
+  // Each used beam's end point's distance to the map, per particle.
+  std::vector<std::size_t> used;
+  for (std::size_t b = 0; b < ranges.size(); b += static_cast<std::size_t>(params_.beam_stride)) {
+    const double r = ranges[b];
+    if (std::isfinite(r) && r >= 0.15 && r <= params_.max_range_m) used.push_back(b);
+  }
+  const std::size_t n = particles_.size(), m = used.size();
+  std::vector<float> distance(n * m);
+  for (std::size_t i = 0; i < n; ++i) {
     const RigidTransform2& X = particles_[i].X_MV;
-    double sum = 0.0;
-    for (std::size_t b = 0; b < ranges.size(); b += static_cast<std::size_t>(params_.beam_stride)) {
-      const double r = ranges[b];
-      if (!std::isfinite(r) || r < 0.15 || r > params_.max_range_m) continue;
-      const double a = 2 * std::numbers::pi * static_cast<double>(b) / beams;
+    for (std::size_t k = 0; k < m; ++k) {
+      const double r = ranges[used[k]];
+      const double a = 2 * std::numbers::pi * static_cast<double>(used[k]) / beams;
       const Eigen::Vector2d end =
           X * Eigen::Vector2d(params_.lidar_x_m + r * std::cos(a), r * std::sin(a));
-      const double d = FieldDistance(end);
+      distance[i * m + k] = static_cast<float>(FieldDistance(end));
+    }
+  }
+  // Beam skipping (as ROS's AMCL does): a beam that ends near the map for too few particles
+  // sees something the map has not (an unmapped box, a wall that stands a little elsewhere) and
+  // is left out for all of them, unless that would leave out most beams.
+  std::vector<bool> skip(m, false);
+  if (params_.beam_skip_distance_m > 0) {
+    std::size_t skipped = 0;
+    for (std::size_t k = 0; k < m; ++k) {
+      std::size_t near = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        near += distance[i * m + k] <= params_.beam_skip_distance_m;
+      skip[k] = static_cast<double>(near) < params_.beam_skip_threshold * static_cast<double>(n);
+      skipped += skip[k];
+    }
+    if (static_cast<double>(skipped) > params_.beam_skip_error_threshold * static_cast<double>(m)) {
+      std::fill(skip.begin(), skip.end(), false);
+    }
+  }
+  std::vector<double> log_w(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    double sum = 0.0;
+    for (std::size_t k = 0; k < m; ++k) {
+      if (skip[k]) continue;
+      const double d = distance[i * m + k];
       sum += std::log(std::exp(-d * d / two_sigma2) + params_.z_random);
     }
     log_w[i] = sum;

@@ -38,6 +38,12 @@ struct ParticleFilterParams {
   double z_random = 0.05;     ///< weight of a beam that matches nothing
   double max_range_m = 3.0;   ///< beams beyond are left out
   int beam_stride = 6;        ///< every 6th beam of 360: 60 beams
+  /// Beam skipping (ROS AMCL's): a beam is left out when its end point lies within
+  /// `beam_skip_distance_m` of the map for fewer than `beam_skip_threshold` of the particles,
+  /// unless more than `beam_skip_error_threshold` of the beams would be. 0: no skipping.
+  double beam_skip_distance_m = 0.0;
+  double beam_skip_threshold = 0.3;
+  double beam_skip_error_threshold = 0.9;
   double lidar_x_m = 0.1445;  ///< the LIDAR ahead of the rear axle
   std::uint64_t seed = 1;
 };

@@ -1,0 +1,85 @@
+#pragma once
+/// @file
+/// The parking case study's own localisation and mapping, on the car's public topics alone: its
+/// wheel encoders and IMU heading (odometry), and its LIDAR. From a first fix (the lab's
+/// positioning at the start), a particle filter (particle_filter.h) localises the car against
+/// the map's occupancy grid, and Hector-style SLAM (slam.h) builds a map of its own from the same
+/// scans; the agent drives on the particle filter's pose.
+
+#include <optional>
+#include <span>
+#include <string>
+
+#include "common/geometry.h"
+#include "examples/parking/particle_filter.h"
+#include "examples/parking/slam.h"
+#include "maps/occupancy.h"
+
+namespace autodrive::examples {
+
+/// The filter's figures in the agent: beam skipping on (the world's walls may stand a few
+/// centimetres from where the map has them: the paper's variability).
+[[nodiscard]] inline ParticleFilterParams AgentFilterParams() {
+  ParticleFilterParams p;
+  p.beam_skip_distance_m = 0.05;
+  p.beam_skip_threshold = 0.6;
+  return p;
+}
+
+struct LocaliserParams {
+  ParticleFilterParams filter = AgentFilterParams();
+  double wheel_radius_m = 0.0325;
+  double start_sigma_xy_m = 0.03;  ///< the first fix's uncertainty
+  double start_sigma_yaw_rad = 0.05;
+};
+
+/// How much of a built map agrees with the map's own grid: over the cells the SLAM saw, the share
+/// whose free-or-occupied agrees (the grids must have the same cells).
+struct MapAgreement {
+  std::size_t seen = 0;
+  std::size_t agree = 0;
+  [[nodiscard]] double share() const {
+    return seen > 0 ? static_cast<double>(agree) / static_cast<double>(seen) : 0.0;
+  }
+};
+[[nodiscard]] MapAgreement CompareMaps(const ScanMatchingSlam& slam,
+                                       const maps::OccupancyGrid& truth);
+
+/// Writes SLAM's map in ROS map_server's format: `prefix`.pgm (8-bit, north row first: 0
+/// occupied, 254 free, 205 not seen) and `prefix`.yaml (image, resolution, origin, thresholds).
+/// @throws InputError naming a file that cannot be written.
+void WriteMapServerMap(const ScanMatchingSlam& slam, const std::string& prefix);
+
+/// SLAM's parameters for a map of the grid's extent and resolution.
+[[nodiscard]] SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m);
+
+class Localiser {
+ public:
+  Localiser(const maps::OccupancyGrid& grid, const LocaliserParams& params);
+
+  /// The first fix: the filter starts round it, SLAM from it.
+  void Start(const RigidTransform2& X_MV);
+  [[nodiscard]] bool started() const { return estimate_.has_value(); }
+  /// The rear wheels' angles (rad, as the encoders give them) and the IMU's heading: the
+  /// odometry since the last call moves the filter's particles and SLAM's guess.
+  void Odometry(double left_wheel_rad, double right_wheel_rad, double yaw_rad);
+  /// A new scan: weighs the particles and resamples; matches and writes it into SLAM's map.
+  void Scan(std::span<const float> ranges);
+
+  /// The particle filter's estimate (what the car drives on). Precondition: started.
+  [[nodiscard]] const RigidTransform2& Estimate() const { return *estimate_; }
+  /// SLAM's pose.
+  [[nodiscard]] const RigidTransform2& SlamPose() const { return *slam_pose_; }
+  [[nodiscard]] const ParticleFilter& filter() const { return filter_; }
+  [[nodiscard]] const ScanMatchingSlam& slam() const { return slam_; }
+
+ private:
+  LocaliserParams params_;
+  ParticleFilter filter_;
+  ScanMatchingSlam slam_;
+  std::optional<RigidTransform2> estimate_, slam_pose_;
+  std::optional<RigidTransform2> slam_guess_;     // SLAM's pose moved by the odometry since
+  std::optional<Eigen::Vector3d> last_odometry_;  // left, right, yaw
+};
+
+}  // namespace autodrive::examples
