@@ -35,7 +35,11 @@ DeviceStatusInbox::DeviceStatusInbox(const dds::Participant& participant, const 
 }
 
 DeviceStatusInbox::~DeviceStatusInbox() {
-  // Deleting the reader waits for a running listener, which uses the members below it.
+  // Detach the listener while `reader_` still points at the reader: detaching waits for a
+  // running one, which takes through `reader_`. (unique_ptr::reset nulls the pointer before it
+  // deletes the reader, so a listener still running in the deletion took through a null
+  // pointer: the SCM's segfaults in Cyclone's recvUC thread at 0x24 as it stopped.)
+  reader_->OnDataAvailable({});
   reader_.reset();
 }
 
