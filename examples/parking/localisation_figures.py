@@ -66,7 +66,8 @@ def main():
     root = sys.argv[1]
     runs = [root] if os.path.exists(os.path.join(root, "report.json")) else \
         sorted(glob.glob(os.path.join(root, "runs", "*")))
-    rows = [run_figures(r) for r in runs if os.path.exists(os.path.join(r, "run", "localisation.csv"))]
+    rows = [run_figures(r) for r in runs if os.path.exists(os.path.join(r, "run", "localisation.csv"))
+            and os.path.exists(os.path.join(r, "report.json"))]  # finished runs
     if not rows:
         sys.exit(f"{root}: no run with run/localisation.csv")
     rows.sort(key=lambda r: r["seed"])
