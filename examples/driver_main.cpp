@@ -166,12 +166,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
+  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
+  // thread that does not block SIGTERM may take it with its default action, and the program
+  // dies without its last words (shutdown.h).
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&] { stop.store(true); });
   try {
     InitLogging("autodrive-example-driver", ParseLogLevel(log_level));
     const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
     const maps::Map map = maps::LoadMapOrLayout(city.map_path);
-    std::atomic<bool> stop{false};
-    ShutdownSignals signals([&] { stop.store(true); });
     dds::Participant participant(dds_cli.Participant());
 
     for (const std::string& name : only) {

@@ -64,6 +64,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
+  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
+  // thread that does not block SIGTERM may take it with its default action, and the program
+  // dies without its last words (shutdown.h).
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&] { stop.store(true); });
   try {
     InitLogging("autodrive-example-cloning", ParseLogLevel(log_level));
     if (model.empty()) {
@@ -80,8 +85,6 @@ int main(int argc, char** argv) {
     net->eval();
     spdlog::info("{}: driving with the model {}", vehicle, model);
 
-    std::atomic<bool> stop{false};
-    ShutdownSignals signals([&] { stop.store(true); });
     dds::Participant participant(dds_cli.Participant());
     examples::CarIo io(participant, id, examples::PoseSource::kIps);
     dds::Reader<msg::Image> camera(participant, dds::topics::FrontCamera(id));

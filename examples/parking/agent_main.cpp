@@ -104,6 +104,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
+  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
+  // thread that does not block SIGTERM may take it with its default action, and the program
+  // dies without its last words (shutdown.h).
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&] { stop.store(true); });
   try {
     InitLogging("autodrive-example-parking", ParseLogLevel(log_level));
     if (goal_v.size() != 3) throw InputError("--goal: give X,Y,YAW (m, m, rad)");
@@ -130,8 +135,6 @@ int main(int argc, char** argv) {
     examples::HybridAStar planner(mapped, plan_params);
     examples::PathTracker tracker(track_params);
 
-    std::atomic<bool> stop{false};
-    ShutdownSignals signals([&] { stop.store(true); });
     dds::Participant participant(dds_cli.Participant());
     examples::CarIo io(
         participant, id,

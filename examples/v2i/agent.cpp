@@ -158,6 +158,11 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
       ->capture_default_str();
   dds_cli.Add(app);
   CLI11_PARSE(app, argc, argv);
+  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
+  // thread that does not block SIGTERM may take it with its default action, and the program
+  // dies without its last words (shutdown.h).
+  std::atomic<bool> stop{false};
+  ShutdownSignals signals([&] { stop.store(true); });
 
   try {
     InitLogging(names.program, ParseLogLevel(log_level));
@@ -195,8 +200,6 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     glosa.body_length_m = params.body_length_m;
     requests.cruise_mps = throttle * params.top_speed_mps;
 
-    std::atomic<bool> stop{false};
-    ShutdownSignals signals([&] { stop.store(true); });
     dds::Participant participant(dds_cli.Participant());
     vehicle_sim::LaneDriver driver(map, options);
     V2iView v2i(participant);
