@@ -55,6 +55,14 @@ class Writer {
     internal::ThrowIfError(dds_write(writer_.handle(), &sample), "dds_write");
   }
   void Write(const Message<T>& message) { Write(message.get()); }
+  /// Writes `sample` with `source_time` as its DDS source timestamp: the time the sample stands
+  /// for, for a type without a header (a reader sees it in `SampleInfo::source_timestamp_ns`).
+  void WriteAt(const T& sample, Time source_time) {
+    internal::ThrowIfError(
+        dds_write_ts(writer_.handle(), &sample,
+                     static_cast<dds_time_t>(source_time.time_since_epoch().count())),
+        "dds_write_ts");
+  }
 
   /// Readers currently matched.
   [[nodiscard]] std::uint32_t matched_readers() const {

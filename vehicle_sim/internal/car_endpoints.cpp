@@ -89,7 +89,9 @@ void CarEndpoints::Publish(const SensorReadings& r, const ImuConfig& c, Time ori
   }
   if (r.ips) {
     const Eigen::Vector3d& p = r.ips->position_m;
-    ips_.Write(msg::Point{p.x(), p.y(), p.z()});
+    // geometry_msgs/Point has no header: the source timestamp says when the position was
+    // taken (the SCM observes it then), however late a loaded simulator publishes it.
+    ips_.WriteAt(msg::Point{p.x(), p.y(), p.z()}, origin + r.ips->stamp);
   }
   if (r.imu) {
     msg::Imu m{};
