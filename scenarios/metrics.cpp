@@ -269,6 +269,10 @@ json RunWorld::ToJson() const {
     j["lanes"].push_back(
         {{"name", l.name}, {"width_m", l.width_m}, {"centreline", PointsToJson(l.centreline)}});
   }
+  j["open_floors"] = json::array();
+  for (const Floor& f : open_floors) {
+    j["open_floors"].push_back({{"min", VecToJson(f.min)}, {"max", VecToJson(f.max)}});
+  }
   j["groups"] = json::array();
   for (const GroupHeads& g : groups) {
     j["groups"].push_back(
@@ -319,6 +323,9 @@ RunWorld RunWorld::FromJson(const json& j) {
   for (const auto& l : j.at("lanes")) {
     w.lanes.push_back({l.at("name").get<std::string>(), l.at("width_m").get<double>(),
                        PointsFromJson(l.at("centreline"))});
+  }
+  for (const auto& f : j.value("open_floors", json::array())) {  // not in older world.json
+    w.open_floors.push_back({VecFromJson(f.at("min")), VecFromJson(f.at("max"))});
   }
   for (const auto& g : j.at("groups")) {
     w.groups.push_back({g.at("intersection").get<int>(), g.at("group").get<int>(),
@@ -704,7 +711,7 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
       }
     }
     // Lane departures: the footprint's centre further than half a lane's width from every
-    // lane and movement centre line.
+    // lane and movement centre line, and not on an open floor.
     json departures = json::array();
     double off_distance = 0;
     {
@@ -717,6 +724,9 @@ json ComputeMetrics(const RunWorld& world, const std::filesystem::path& logs_dir
         const Vector2d heading(std::cos(s.yaw), std::sin(s.yaw));
         const Vector2d c = Vector2d(s.x, s.y) + car.centre_ahead_m * heading;
         double excess = kInf;
+        for (const RunWorld::Floor& f : world.open_floors) {
+          if (f.Contains(c)) excess = 0;
+        }
         for (std::size_t l = 0; l < world.lanes.size() && excess > 0; ++l) {
           if ((lane_bounds[l].c - c).norm() > lane_bounds[l].r + world.lanes[l].width_m) continue;
           excess = std::min(excess, PolylineDistanceAlong(world.lanes[l].centreline, c, heading) -

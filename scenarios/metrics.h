@@ -100,6 +100,15 @@ struct RunWorld {
   std::vector<Static> statics;
   std::vector<StopLine> stop_lines;
   std::vector<Lane> lanes;
+  /// Floors without lanes, where a car may drive anywhere (the map's open and parking tiles, as
+  /// axis-aligned squares): a car on one is on no lane, and departs none.
+  struct Floor {
+    Eigen::Vector2d min, max;
+    [[nodiscard]] bool Contains(const Eigen::Vector2d& p) const {
+      return p.x() >= min.x() && p.y() >= min.y() && p.x() <= max.x() && p.y() <= max.y();
+    }
+  };
+  std::vector<Floor> open_floors;
   std::vector<GroupHeads> groups;
   /// Each ingress lane by (intersection id, its lane id in the intersection's MAP message):
   /// the heads facing it.

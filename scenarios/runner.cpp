@@ -210,6 +210,16 @@ RunWorld MakeWorld(const Scenario& scenario, const vehicle_sim::SimConfig& sim,
   for (const maps::Movement& m : map.movements) {
     w.lanes.push_back({m.name, map.lane(m.from).width_m, m.path});
   }
+  for (int r = 0; r < map.rows; ++r) {
+    for (int c = 0; c < map.cols; ++c) {
+      const maps::ModuleType type =
+          map.cells[static_cast<std::size_t>(r)][static_cast<std::size_t>(c)].type;
+      if (type != maps::ModuleType::kOpen && type != maps::ModuleType::kParking) continue;
+      const Eigen::Vector2d centre = map.TileCentre({r, c});
+      const Eigen::Vector2d half = Eigen::Vector2d::Constant(map.tile_size_m / 2);
+      w.open_floors.push_back({centre - half, centre + half});
+    }
+  }
   w.groups = GroupHeads(city, map);
   return w;
 }

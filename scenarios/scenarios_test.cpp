@@ -642,6 +642,17 @@ TEST(Metrics, LaneDepartureAndRouteCompletion) {
   RunWorld back = Road();
   back.lanes[0].centreline = {{5, 0}, {0, 0}};
   EXPECT_EQ(ComputeMetrics(back, dir.path())["run"]["lane_departures"], 1);
+  // On an open floor (the Parking School's tiles) there is no lane to depart: 0.2 m off the
+  // lane's centre is no departure where the floor is open, one where it ends before the car does.
+  WriteDrive(dir.path(), 0.1, 10, 0.2);
+  RunWorld floor = Road();
+  floor.open_floors.push_back({{0, -0.5}, {5, 0.5}});
+  EXPECT_EQ(ComputeMetrics(floor, dir.path())["run"]["lane_departures"], 0);
+  // Written and read back with the world.
+  EXPECT_EQ(
+      ComputeMetrics(RunWorld::FromJson(floor.ToJson()), dir.path())["run"]["lane_departures"], 0);
+  floor.open_floors[0].max.x() = 0.5;
+  EXPECT_EQ(ComputeMetrics(floor, dir.path())["run"]["lane_departures"], 1);
 }
 
 TEST(Metrics, ALogEditedByHandIsRefusedNamingItsFileAndLine) {

@@ -144,13 +144,18 @@ TEST_F(V2iExamples, TheBusAsksEachSignalOnItsWayForPriority) {
   }
 }
 
-// The parking agent on its own localisation (a particle filter on encoders, imu and LIDAR from
-// the first ips fix, SLAM beside it): no contact, its estimates traced each step and SLAM's map
-// written in map_server's format as it stops.
+// The parking agent on its own localisation (SLAM maps the school standing at the first ips fix,
+// then a particle filter on encoders, imu and LIDAR localises against that map): parked by the
+// runner's judgement with no contact and no lane departure (the school is an open floor), its
+// estimates traced each step and SLAM's map written in map_server's format as it stops.
 TEST_F(V2iExamples, TheParkingAgentDrivesOnItsOwnLocalisationAndWritesSlamsMap) {
   const Outcome r = RunShipped("parking_school_pf");
-  EXPECT_TRUE(r.code == 0 || r.code == 1) << r.output;  // judged, whether parked or not
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.run["goals_reached"], 1) << r.output;
   EXPECT_EQ(r.run["collisions"], 0) << r.output;
+  EXPECT_EQ(r.run["lane_departures"], 0) << r.output;
+  EXPECT_NE(r.agent_log.find("occupied cells standing at its first fix"), std::string::npos)
+      << r.agent_log;
   const fs::path run = dir_.path() / "parking_school_pf" / "run";
   EXPECT_GT(config::ReadFile(run / "localisation.csv").size(), 1000u);
   EXPECT_TRUE(fs::exists(run / "slam.pgm"));

@@ -45,6 +45,8 @@ void CarIo::Take() {
   while (auto m = lidar_.TakeOne()) {
     const auto& r = (*m)->ranges;
     scan_.assign(r._buffer, r._buffer + r._length);
+    scan_stamp_ = dds::FromMsg((*m)->header.stamp);
+    scan_increment_s_ = (*m)->time_increment;
   }
 }
 

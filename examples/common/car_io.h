@@ -35,6 +35,10 @@ class CarIo {
   [[nodiscard]] std::optional<RigidTransform2> pose() const;
   /// The newest LIDAR scan (beam i at i degrees counter-clockwise from the front), empty before.
   [[nodiscard]] std::span<const float> scan() const { return scan_; }
+  /// When the newest scan's first beam was taken, and the time between two beams (s; 0 for a
+  /// scan taken at once): a rotating LIDAR takes its beams as the car moves.
+  [[nodiscard]] Time scan_stamp() const { return scan_stamp_; }
+  [[nodiscard]] double scan_increment_s() const { return scan_increment_s_; }
   /// Writes the commands (normalised, as the devkit's topics carry them).
   void Command(double throttle, double steering);
 
@@ -55,6 +59,8 @@ class CarIo {
   std::optional<Eigen::Vector2d> position_;
   std::optional<double> yaw_;
   std::vector<float> scan_;
+  Time scan_stamp_{};
+  double scan_increment_s_ = 0.0;
 };
 
 }  // namespace autodrive::examples

@@ -19,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/dds/conversions.h"
 #include "common/dds/participant.h"
 #include "common/dds/program_options.h"
 #include "common/dds/reader.h"
@@ -55,6 +56,20 @@ bool Unmapped(const maps::OccupancyGrid& grid, const Eigen::Vector2d& q, double 
   return true;
 }
 
+// The points with at least `min_points` - 1 others within `reach` (m): what stands there, not
+// a lone return far out in the LIDAR's noise.
+std::vector<Eigen::Vector2d> Clustered(const std::vector<Eigen::Vector2d>& points, double reach,
+                                       int min_points) {
+  std::vector<Eigen::Vector2d> out;
+  for (const Eigen::Vector2d& p : points) {
+    const auto near = std::count_if(points.begin(), points.end(), [&](const Eigen::Vector2d& q) {
+      return (q - p).squaredNorm() <= reach * reach;
+    });
+    if (near >= min_points) out.push_back(p);
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -80,8 +95,20 @@ int main(int argc, char** argv) {
   std::string trace_path, slam_prefix;
   app.add_option("--pose", pose_source,
                  "ips (its ips and imu), eye (the Eye's fleet), or pf (its own: a particle filter "
-                 "on the map from its encoders, imu and LIDAR, started from the first ips fix)")
+                 "on its encoders, imu and LIDAR, started from the first ips fix)")
       ->check(CLI::IsMember({"ips", "eye", "pf"}))
+      ->capture_default_str();
+  std::string filter_map = "built";
+  int mapping_scans = 10;
+  app.add_option("--filter-map", filter_map,
+                 "with --pose pf, what the filter weighs the LIDAR against: built (the map its "
+                 "SLAM builds from --mapping-scans scans at the first fix before it drives: the "
+                 "world as it stands) or city (the city map's occupancy grid)")
+      ->check(CLI::IsMember({"built", "city"}))
+      ->capture_default_str();
+  app.add_option("--mapping-scans", mapping_scans,
+                 "with --filter-map built: the scans it maps from, standing at the first fix")
+      ->check(CLI::Range(1, 100))
       ->capture_default_str();
   app.add_option("--trace", trace_path,
                  "with --pose pf: a CSV of its estimates at each decision (t_s, the filter's "
@@ -89,6 +116,14 @@ int main(int argc, char** argv) {
   app.add_option("--slam-map", slam_prefix,
                  "with --pose pf: at the end, SLAM's map as PREFIX.pgm and PREFIX.yaml (ROS "
                  "map_server's format) and its agreement with the map's grid on the log");
+  std::vector<double> correct_v{0.025, 4.0};
+  app.add_option("--correct-beyond", correct_v,
+                 "M,DEG: stopped at the path's end further than this from the goal (by its own "
+                 "pose), it plans a correction (twice at most); within it, it stays: a "
+                 "correction in a tight bay can end worse than where it stood")
+      ->delimiter(',')
+      ->expected(2)
+      ->capture_default_str();
   app.add_option("--margin", plan_params.margin_m, "kept clear round the body (m)")
       ->check(CLI::Range(0.0, 0.3))
       ->capture_default_str();
@@ -112,6 +147,9 @@ int main(int argc, char** argv) {
   try {
     InitLogging("autodrive-example-parking", ParseLogLevel(log_level));
     if (goal_v.size() != 3) throw InputError("--goal: give X,Y,YAW (m, m, rad)");
+    if (correct_v[0] <= 0 || correct_v[1] <= 0) {
+      throw InputError("--correct-beyond: give M,DEG, both positive");
+    }
     const RigidTransform2 goal = RigidTransform2::FromXyYaw(goal_v[0], goal_v[1], goal_v[2]);
     const VehicleId id = ParseVehicleName(vehicle);
     const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
@@ -143,11 +181,14 @@ int main(int argc, char** argv) {
     std::unique_ptr<examples::Localiser> localiser;
     std::unique_ptr<dds::Reader<msg::JointState>> left_encoder, right_encoder;
     std::optional<double> left_angle, right_angle;
+    std::optional<Time> encoder_time;
+    const maps::OccupancyGrid* built = nullptr;  // the map it built at its first fix
     std::ofstream trace;
     if (pose_source == "pf") {
       examples::LocaliserParams lp;
       lp.wheel_radius_m = car.wheel_radius_m;
       lp.filter.lidar_x_m = lidar_x;
+      lp.mapping_scans = filter_map == "built" ? mapping_scans : 0;
       localiser = std::make_unique<examples::Localiser>(mapped, lp);
       left_encoder =
           std::make_unique<dds::Reader<msg::JointState>>(participant, dds::topics::LeftEncoder(id));
@@ -168,7 +209,18 @@ int main(int argc, char** argv) {
     int corrections = 0;
     float last_first = -1.0f;  // a new scan, told by its first range (a cheap change test)
     const auto plan = [&](const RigidTransform2& from) {
-      const examples::PlanResult p = planner.Plan(from, goal);
+      examples::PlanResult p = planner.Plan(from, goal);
+      if (p.path.empty()) {
+        // Stopped close to something it has just seen, the car may have no way out with the
+        // whole margin: half of it, for this plan only.
+        planner.SetMargin(plan_params.margin_m / 2);
+        p = planner.Plan(from, goal);
+        planner.SetMargin(plan_params.margin_m);
+        if (!p.path.empty()) {
+          spdlog::info("{}: no path with a {:.0f} mm margin; with {:.0f} mm:", vehicle,
+                       plan_params.margin_m * 1000, plan_params.margin_m * 500);
+        }
+      }
       if (p.path.empty()) {
         spdlog::warn("{}: no path to the goal: {}", vehicle, p.failure);
         return false;
@@ -188,16 +240,37 @@ int main(int argc, char** argv) {
         // The filter's pose, started from the first ips fix; the ips is not used after.
         if (!X && !localiser->started()) return;
         if (!localiser->started()) localiser->Start(*X);
-        const auto angle = [](dds::Reader<msg::JointState>& r, std::optional<double>& out) {
+        const auto angle = [&](dds::Reader<msg::JointState>& r, std::optional<double>& out) {
           while (auto m = r.TakeOne()) {
-            if ((*m)->position._length > 0) out = (*m)->position._buffer[0];
+            if ((*m)->position._length == 0) continue;
+            out = (*m)->position._buffer[0];
+            encoder_time =
+                std::max(encoder_time.value_or(Time{}), dds::FromMsg((*m)->header.stamp));
           }
         };
         angle(*left_encoder, left_angle);
         angle(*right_encoder, right_angle);
         if (left_angle && right_angle && X)
-          localiser->Odometry(*left_angle, *right_angle, X->yaw());
-        if (new_scan) localiser->Scan(scan);
+          localiser->Odometry(*encoder_time, *left_angle, *right_angle, X->yaw());
+        if (new_scan) localiser->Scan(io.scan_stamp(), io.scan_increment_s(), scan);
+        if (!localiser->ready()) {  // standing while it maps
+          io.Command(0.0, 0.0);
+          return;
+        }
+        if (localiser->built_map() && !built) {
+          // What it saw standing at the fix goes into the planner's grid (the walls where they
+          // stand, the boxes in sight), and is not news when the LIDAR sees it again.
+          built = &*localiser->built_map();
+          std::vector<Eigen::Vector2d> seen;
+          for (int r = 0; r < built->height; ++r) {
+            for (int c = 0; c < built->width; ++c) {
+              if (!built->IsFree(c, r)) seen.push_back(built->CellCentre(c, r));
+            }
+          }
+          planner.AddObstacles(seen, 0.0);
+          spdlog::info("{}: mapped {} occupied cells standing at its first fix", vehicle,
+                       seen.size());
+        }
         X = localiser->Estimate();
         if (trace.is_open()) {
           const RigidTransform2& S = localiser->SlamPose();
@@ -230,8 +303,11 @@ int main(int argc, char** argv) {
               2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(scan.size());
           const Eigen::Vector2d q =
               *X * Eigen::Vector2d(lidar_x + r * std::cos(a), r * std::sin(a));
-          if (Unmapped(mapped, q, 0.08)) unmapped.push_back(q);
+          if (Unmapped(mapped, q, 0.08) && (!built || Unmapped(*built, q, 0.05))) {
+            unmapped.push_back(q);
+          }
         }
+        unmapped = Clustered(unmapped, 0.05, 3);
         bool in_way = false;
         double along = 0.0;
         const auto ahead = tracker.Ahead();
@@ -251,8 +327,15 @@ int main(int argc, char** argv) {
           }
         }
         if (in_way) {
-          spdlog::info("{}: something unmapped on the path ahead ({} points): planning round it",
-                       vehicle, unmapped.size());
+          Eigen::Vector2d lo = unmapped.front(), hi = unmapped.front();
+          for (const Eigen::Vector2d& q : unmapped) {
+            lo = lo.cwiseMin(q);
+            hi = hi.cwiseMax(q);
+          }
+          spdlog::info(
+              "{}: something unmapped on the path ahead ({} points in x {:.2f}..{:.2f}, y "
+              "{:.2f}..{:.2f}): planning round it",
+              vehicle, unmapped.size(), lo.x(), hi.x(), lo.y(), hi.y());
           // Not what lies against its own body (the LIDAR's noise, or a box it passes close by:
           // it is not touching it, and marking it would leave it no way out).
           const RigidTransform2 inv = X->inverse();
@@ -288,10 +371,10 @@ int main(int argc, char** argv) {
       const examples::TrackCommand c = tracker.Step(*X, speed);
       io.Command(c.throttle, c.steering);
       if (c.done) {
-        // Short of the planner's own tolerance at the end: a correction from here (twice at most).
+        // Further than --correct-beyond from the goal at the end: a correction (twice at most).
         const double off_m = (X->translation() - goal.translation()).norm();
         const double off_rad = std::abs(WrapAngle(X->yaw() - goal.yaw()));
-        if ((off_m > plan_params.goal_tolerance_m || off_rad > plan_params.goal_tolerance_rad) &&
+        if ((off_m > correct_v[0] || off_rad > correct_v[1] * std::numbers::pi / 180) &&
             corrections < 2) {
           ++corrections;
           spdlog::info("{}: {:.1f} mm and {:.2f} deg from the goal: a correction", vehicle,

@@ -33,7 +33,18 @@ HybridAStar::HybridAStar(maps::OccupancyGrid grid, const HybridAStarParams& para
       params_.step_m > 0 && params_.cell_m > 0 && params_.heading_bins >= 8,
       "hybrid A*: step, cell and heading bins must be positive (8 bins or more)");
   ComputeClearance();
+  CoverBody();
+}
+
+void HybridAStar::SetMargin(double margin_m) {
+  AUTODRIVE_THROW_UNLESS(margin_m >= 0, "hybrid A*: the margin must not be negative");
+  params_.margin_m = margin_m;
+  CoverBody();
+}
+
+void HybridAStar::CoverBody() {
   // Four circles along the body (with its margin) cover it.
+  circles_.clear();
   const double length = params_.length_m + 2 * params_.margin_m;
   const double width = params_.width_m + 2 * params_.margin_m;
   constexpr int kCircles = 4;

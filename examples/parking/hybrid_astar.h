@@ -90,9 +90,12 @@ class HybridAStar {
   [[nodiscard]] bool BodyClear(const RigidTransform2& X_MV) const;
 
   [[nodiscard]] const HybridAStarParams& params() const { return params_; }
+  /// Keeps `margin_m` clear round the body from the next `Plan` on.
+  void SetMargin(double margin_m);
 
  private:
   void ComputeClearance();
+  void CoverBody();  // the circles, from the body and its margin
   // Distance (m) from the centre of cell (col, row) to the nearest occupied cell's centre, 0 on
   // an occupied cell and outside the grid.
   [[nodiscard]] double Clearance(const Eigen::Vector2d& p) const;

@@ -2,15 +2,18 @@
 /// @file
 /// The parking case study's own localisation and mapping, on the car's public topics alone: its
 /// wheel encoders and IMU heading (odometry), and its LIDAR. From a first fix (the lab's
-/// positioning at the start), a particle filter (particle_filter.h) localises the car against
-/// the map's occupancy grid, and Hector-style SLAM (slam.h) builds a map of its own from the same
-/// scans; the agent drives on the particle filter's pose.
+/// positioning at the start), Hector-style SLAM (slam.h) builds a map of its own from the scans,
+/// and a particle filter (particle_filter.h) localises the car against the map SLAM built while
+/// the car stood at the fix (the paper's: the world as it stands, walls turned and all), or
+/// against the map's own occupancy grid; the agent drives on the particle filter's pose.
 
+#include <deque>
 #include <optional>
 #include <span>
 #include <string>
 
 #include "common/geometry.h"
+#include "common/time.h"
 #include "examples/parking/particle_filter.h"
 #include "examples/parking/slam.h"
 #include "maps/occupancy.h"
@@ -18,9 +21,11 @@
 namespace autodrive::examples {
 
 /// The filter's figures in the agent: beam skipping on (the world's walls may stand a few
-/// centimetres from where the map has them: the paper's variability).
+/// centimetres from where the map has them: the paper's variability), and beams out to 6 m (the
+/// Parking School's far walls, 3.4 m from its start, hold the car's position along the room).
 [[nodiscard]] inline ParticleFilterParams AgentFilterParams() {
   ParticleFilterParams p;
+  p.max_range_m = 6.0;
   p.beam_skip_distance_m = 0.05;
   p.beam_skip_threshold = 0.6;
   return p;
@@ -31,6 +36,9 @@ struct LocaliserParams {
   double wheel_radius_m = 0.0325;
   double start_sigma_xy_m = 0.03;  ///< the first fix's uncertainty
   double start_sigma_yaw_rad = 0.05;
+  /// Scans written into SLAM's map at the first fix (the car standing) before the filter starts
+  /// weighing against that map; 0: the filter weighs against the map's own grid from the start.
+  int mapping_scans = 0;
 };
 
 /// How much of a built map agrees with the map's own grid: over the cells the SLAM saw, the share
@@ -51,7 +59,8 @@ struct MapAgreement {
 void WriteMapServerMap(const ScanMatchingSlam& slam, const std::string& prefix);
 
 /// SLAM's parameters for a map of the grid's extent and resolution.
-[[nodiscard]] SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m);
+[[nodiscard]] SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m,
+                                 double max_range_m);
 
 class Localiser {
  public:
@@ -60,26 +69,44 @@ class Localiser {
   /// The first fix: the filter starts round it, SLAM from it.
   void Start(const RigidTransform2& X_MV);
   [[nodiscard]] bool started() const { return estimate_.has_value(); }
-  /// The rear wheels' angles (rad, as the encoders give them) and the IMU's heading: the
-  /// odometry since the last call moves the filter's particles and SLAM's guess.
-  void Odometry(double left_wheel_rad, double right_wheel_rad, double yaw_rad);
-  /// A new scan: weighs the particles and resamples; matches and writes it into SLAM's map.
-  void Scan(std::span<const float> ranges);
+  /// Started, and the map the filter weighs against built (at once with `mapping_scans` 0).
+  [[nodiscard]] bool ready() const { return started() && mapped_scans_ >= params_.mapping_scans; }
+  /// The rear wheels' angles (rad, as the encoders give them) and the IMU's heading at time `t`:
+  /// the odometry since the last call moves the filter's particles and SLAM's guess.
+  void Odometry(Time t, double left_wheel_rad, double right_wheel_rad, double yaw_rad);
+  /// A new scan whose beam i was taken at `stamp` + i `increment_s` (a rotating LIDAR: 0 for
+  /// one taken at once): each beam is moved by the odometry from where the car was when it was
+  /// taken to where it is now, then the scan weighs the particles (which are resampled) and is
+  /// matched and written into SLAM's map. While the map is being built (not ready), it is written
+  /// at the first fix instead.
+  void Scan(Time stamp, double increment_s, std::span<const float> ranges);
 
   /// The particle filter's estimate (what the car drives on). Precondition: started.
   [[nodiscard]] const RigidTransform2& Estimate() const { return *estimate_; }
   /// SLAM's pose.
   [[nodiscard]] const RigidTransform2& SlamPose() const { return *slam_pose_; }
   [[nodiscard]] const ParticleFilter& filter() const { return filter_; }
+  /// The map SLAM built at the first fix, once built (`mapping_scans` > 0): what the filter
+  /// weighs against, and what the car saw of the world before it moved.
+  [[nodiscard]] const std::optional<maps::OccupancyGrid>& built_map() const { return built_; }
   [[nodiscard]] const ScanMatchingSlam& slam() const { return slam_; }
 
  private:
+  // The odometry's pose at `t`, interpolated (held before the first and after the last).
+  [[nodiscard]] RigidTransform2 OdometryAt(Time t) const;
+
   LocaliserParams params_;
   ParticleFilter filter_;
   ScanMatchingSlam slam_;
   std::optional<RigidTransform2> estimate_, slam_pose_;
   std::optional<RigidTransform2> slam_guess_;     // SLAM's pose moved by the odometry since
   std::optional<Eigen::Vector3d> last_odometry_;  // left, right, yaw
+  std::optional<RigidTransform2> fix_;            // the first fix
+  // The odometry's own pose (its integral, from the identity) over the last seconds: where the
+  // car was when each beam of a scan was taken.
+  std::deque<std::pair<Time, RigidTransform2>> odometry_;
+  int mapped_scans_ = 0;
+  std::optional<maps::OccupancyGrid> built_;
 };
 
 }  // namespace autodrive::examples

@@ -20,6 +20,12 @@ ParticleFilter::ParticleFilter(const maps::OccupancyGrid& grid, const ParticleFi
   distance_ = DistanceToOccupied(grid_);
 }
 
+void ParticleFilter::SetMap(const maps::OccupancyGrid& grid) {
+  AUTODRIVE_THROW_UNLESS(grid.width > 0 && grid.height > 0, "the occupancy grid is empty");
+  grid_ = grid;
+  distance_ = DistanceToOccupied(grid_);
+}
+
 double ParticleFilter::FieldDistance(const Eigen::Vector2d& p) const {
   const Eigen::Vector2d cell = (p - grid_.origin_m) / grid_.resolution_m;
   const int c = static_cast<int>(std::floor(cell.x()));
@@ -66,25 +72,37 @@ std::size_t ParticleFilter::KldCount(std::size_t bins) const {
 }
 
 void ParticleFilter::Update(std::span<const float> ranges) {
-  if (particles_.empty() || ranges.empty()) return;
+  std::vector<Eigen::Vector2d> used;  // every beam_stride-th beam's end point
   const auto beams = static_cast<double>(ranges.size());
-  const double two_sigma2 = 2 * params_.hit_sigma_m * params_.hit_sigma_m;
-  // Each used beam's end point's distance to the map, per particle.
-  std::vector<std::size_t> used;
   for (std::size_t b = 0; b < ranges.size(); b += static_cast<std::size_t>(params_.beam_stride)) {
     const double r = ranges[b];
-    if (std::isfinite(r) && r >= 0.15 && r <= params_.max_range_m) used.push_back(b);
+    if (!std::isfinite(r) || r < 0.15 || r > params_.max_range_m) continue;
+    const double a = 2 * std::numbers::pi * static_cast<double>(b) / beams;
+    used.emplace_back(params_.lidar_x_m + r * std::cos(a), r * std::sin(a));
   }
+  Weigh(used);
+}
+
+void ParticleFilter::Update(std::span<const Eigen::Vector2d> points) {
+  std::vector<Eigen::Vector2d> used;
+  for (std::size_t b = 0; b < points.size(); b += static_cast<std::size_t>(params_.beam_stride)) {
+    if ((points[b] - Eigen::Vector2d(params_.lidar_x_m, 0)).norm() <= params_.max_range_m) {
+      used.push_back(points[b]);
+    }
+  }
+  Weigh(used);
+}
+
+void ParticleFilter::Weigh(std::span<const Eigen::Vector2d> used) {
+  if (particles_.empty() || used.empty()) return;
+  const double two_sigma2 = 2 * params_.hit_sigma_m * params_.hit_sigma_m;
+  // Each used end point's distance to the map, per particle.
   const std::size_t n = particles_.size(), m = used.size();
   std::vector<float> distance(n * m);
   for (std::size_t i = 0; i < n; ++i) {
     const RigidTransform2& X = particles_[i].X_MV;
     for (std::size_t k = 0; k < m; ++k) {
-      const double r = ranges[used[k]];
-      const double a = 2 * std::numbers::pi * static_cast<double>(used[k]) / beams;
-      const Eigen::Vector2d end =
-          X * Eigen::Vector2d(params_.lidar_x_m + r * std::cos(a), r * std::sin(a));
-      distance[i * m + k] = static_cast<float>(FieldDistance(end));
+      distance[i * m + k] = static_cast<float>(FieldDistance(X * used[k]));
     }
   }
   // Beam skipping (as ROS's AMCL does): a beam that ends near the map for too few particles

@@ -58,6 +58,8 @@ class ParticleFilter {
   /// The map's grid (occupied: what a LIDAR sees), and the filter's figures.
   ParticleFilter(const maps::OccupancyGrid& grid, const ParticleFilterParams& params = {});
 
+  /// Weighs against another grid from now on (the particles stay where they are).
+  void SetMap(const maps::OccupancyGrid& grid);
   /// Starts with `max_particles` drawn around `X_MV` (σ `sigma_xy_m` in x and y and
   /// `sigma_yaw_rad` in heading).
   void Init(const RigidTransform2& X_MV, double sigma_xy_m, double sigma_yaw_rad);
@@ -67,6 +69,10 @@ class ParticleFilter {
   /// Weighs the particles by `ranges` (beam i at i 2π / n counter-clockwise from the car's front;
   /// not finite: no return), then resamples to the KLD-sampling count.
   void Update(std::span<const float> ranges);
+  /// The same for a scan's end points given in the car's frame at the particles' time (e.g. a
+  /// rotating LIDAR's beams moved by the odometry to where the car is now): every
+  /// `beam_stride`-th point is used.
+  void Update(std::span<const Eigen::Vector2d> points);
 
   /// The weighted mean pose (the heading's mean on the circle).
   [[nodiscard]] RigidTransform2 Estimate() const;
@@ -74,6 +80,8 @@ class ParticleFilter {
   [[nodiscard]] const std::vector<Particle>& particles() const { return particles_; }
 
  private:
+  // Weighs the particles by these end points (car frame) and resamples.
+  void Weigh(std::span<const Eigen::Vector2d> used);
   [[nodiscard]] double FieldDistance(const Eigen::Vector2d& p) const;
   [[nodiscard]] std::size_t KldCount(std::size_t bins) const;
 

@@ -42,7 +42,7 @@ double ScanMatchingSlam::Value(const Level& l, const Eigen::Vector2d& p,
 }
 
 RigidTransform2 ScanMatchingSlam::Match(const Level& l, const RigidTransform2& guess,
-                                        const std::vector<Eigen::Vector2d>& points) const {
+                                        std::span<const Eigen::Vector2d> points) const {
   Eigen::Vector3d xi(guess.translation().x(), guess.translation().y(), guess.yaw());
   for (int it = 0; it < params_.iterations; ++it) {
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
@@ -68,7 +68,7 @@ RigidTransform2 ScanMatchingSlam::Match(const Level& l, const RigidTransform2& g
 }
 
 void ScanMatchingSlam::Write(Level& l, const RigidTransform2& X,
-                             const std::vector<Eigen::Vector2d>& points) const {
+                             std::span<const Eigen::Vector2d> points) const {
   const auto cell = [&](const Eigen::Vector2d& p) {
     const Eigen::Vector2d g = (p - params_.origin_m) / l.resolution;
     return Eigen::Vector2i(static_cast<int>(std::floor(g.x())),
@@ -98,8 +98,7 @@ void ScanMatchingSlam::Write(Level& l, const RigidTransform2& X,
   }
 }
 
-RigidTransform2 ScanMatchingSlam::Update(const RigidTransform2& guess,
-                                         std::span<const float> ranges) {
+std::vector<Eigen::Vector2d> ScanMatchingSlam::EndPoints(std::span<const float> ranges) const {
   std::vector<Eigen::Vector2d> points;  // end points in the car's frame
   const auto n = static_cast<double>(ranges.size());
   for (std::size_t i = 0; i < ranges.size(); ++i) {
@@ -108,6 +107,16 @@ RigidTransform2 ScanMatchingSlam::Update(const RigidTransform2& guess,
     const double a = 2 * std::numbers::pi * static_cast<double>(i) / n;
     points.emplace_back(params_.lidar_x_m + r * std::cos(a), r * std::sin(a));
   }
+  return points;
+}
+
+RigidTransform2 ScanMatchingSlam::Update(const RigidTransform2& guess,
+                                         std::span<const float> ranges) {
+  return Update(guess, EndPoints(ranges));
+}
+
+RigidTransform2 ScanMatchingSlam::Update(const RigidTransform2& guess,
+                                         std::span<const Eigen::Vector2d> points) {
   RigidTransform2 X = guess;
   if (started_) {
     for (const Level& l : levels_) X = Match(l, X, points);
@@ -115,6 +124,12 @@ RigidTransform2 ScanMatchingSlam::Update(const RigidTransform2& guess,
   for (Level& l : levels_) Write(l, X, points);
   started_ = true;
   return X;
+}
+
+void ScanMatchingSlam::Integrate(const RigidTransform2& X,
+                                 std::span<const Eigen::Vector2d> points) {
+  for (Level& l : levels_) Write(l, X, points);
+  started_ = true;
 }
 
 bool ScanMatchingSlam::Observed(int col, int row) const {

@@ -31,6 +31,14 @@ class ScanMatchingSlam {
   /// Matches `ranges` (beam i at i 2π / n from the car's front) to the map from `guess` (the
   /// first scan is taken at `guess`), writes the scan into the map, and returns the pose found.
   RigidTransform2 Update(const RigidTransform2& guess, std::span<const float> ranges);
+  /// The same for a scan's end points in the car's frame (e.g. a rotating LIDAR's beams moved
+  /// by the odometry to one pose of the car).
+  RigidTransform2 Update(const RigidTransform2& guess, std::span<const Eigen::Vector2d> points);
+  /// Writes end points (in the car's frame) into the map as seen from `X`, without matching (a
+  /// pose known otherwise).
+  void Integrate(const RigidTransform2& X, std::span<const Eigen::Vector2d> points);
+  /// A scan's end points in the car's frame (beams with a return within range).
+  [[nodiscard]] std::vector<Eigen::Vector2d> EndPoints(std::span<const float> ranges) const;
   /// The finest map as a grid: occupied where the log-odds say so, free where they say so or
   /// nothing was seen (see `Observed`).
   [[nodiscard]] maps::OccupancyGrid Grid() const;
@@ -47,8 +55,8 @@ class ScanMatchingSlam {
   [[nodiscard]] double Value(const Level& l, const Eigen::Vector2d& p,
                              Eigen::Vector2d* gradient) const;
   RigidTransform2 Match(const Level& l, const RigidTransform2& guess,
-                        const std::vector<Eigen::Vector2d>& points) const;
-  void Write(Level& l, const RigidTransform2& X, const std::vector<Eigen::Vector2d>& points) const;
+                        std::span<const Eigen::Vector2d> points) const;
+  void Write(Level& l, const RigidTransform2& X, std::span<const Eigen::Vector2d> points) const;
 
   SlamParams params_;
   std::vector<Level> levels_;  // coarse to fine
