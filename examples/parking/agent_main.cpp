@@ -268,8 +268,12 @@ int main(int argc, char** argv) {
             }
           }
           planner.AddObstacles(seen, 0.0);
-          spdlog::info("{}: mapped {} occupied cells standing at its first fix", vehicle,
-                       seen.size());
+          spdlog::info("{}: mapped {} occupied cells standing at its first fix{}", vehicle,
+                       seen.size(),
+                       localiser->mapping_restarts() == 0
+                           ? ""
+                           : fmt::format(" (begun again {} times: it moved while mapping)",
+                                         localiser->mapping_restarts()));
         }
         X = localiser->Estimate();
         if (trace.is_open()) {

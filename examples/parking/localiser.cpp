@@ -61,7 +61,8 @@ SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m, double max
 Localiser::Localiser(const maps::OccupancyGrid& grid, const LocaliserParams& params)
     : params_(params),
       filter_(grid, params.filter),
-      slam_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m)) {}
+      slam_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m)),
+      slam_params_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m)) {}
 
 void Localiser::Start(const RigidTransform2& X_MV) {
   filter_.Init(X_MV, params_.start_sigma_xy_m, params_.start_sigma_yaw_rad);
@@ -130,6 +131,17 @@ void Localiser::Scan(Time stamp, double increment_s, std::span<const float> rang
   }
   if (!ready()) {
     // Building the map at the fix: the car stands (the agent does not drive before it is ready).
+    // Moved since the fix (pushed, or still rolling when the agent began)? Begin again there.
+    const RigidTransform2 moved =
+        odometry_.empty() ? RigidTransform2::Identity() : odometry_.back().second;
+    if (moved.translation().norm() > 0.005 || std::abs(moved.yaw()) > 0.0087) {
+      ++mapping_restarts_;
+      fix_ = *fix_ * moved;
+      odometry_.assign(1, {odometry_.back().first, RigidTransform2::Identity()});
+      slam_ = ScanMatchingSlam(slam_params_);
+      slam_guess_ = slam_pose_ = fix_;
+      mapped_scans_ = 0;
+    }
     slam_.Integrate(*fix_, points);
     if (++mapped_scans_ == params_.mapping_scans) {
       built_ = slam_.Grid();

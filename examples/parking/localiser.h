@@ -86,6 +86,9 @@ class Localiser {
   /// SLAM's pose.
   [[nodiscard]] const RigidTransform2& SlamPose() const { return *slam_pose_; }
   [[nodiscard]] const ParticleFilter& filter() const { return filter_; }
+  /// How often the mapping began again because the odometry said the car moved while it mapped
+  /// (its map is its pose's: a car rolling while it maps smears it).
+  [[nodiscard]] int mapping_restarts() const { return mapping_restarts_; }
   /// The map SLAM built at the first fix, once built (`mapping_scans` > 0): what the filter
   /// weighs against, and what the car saw of the world before it moved.
   [[nodiscard]] const std::optional<maps::OccupancyGrid>& built_map() const { return built_; }
@@ -106,6 +109,8 @@ class Localiser {
   // car was when each beam of a scan was taken.
   std::deque<std::pair<Time, RigidTransform2>> odometry_;
   int mapped_scans_ = 0;
+  int mapping_restarts_ = 0;
+  SlamParams slam_params_;
   std::optional<maps::OccupancyGrid> built_;
 };
 
