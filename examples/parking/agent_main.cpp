@@ -30,6 +30,7 @@
 #include "examples/common/car_io.h"
 #include "examples/parking/hybrid_astar.h"
 #include "examples/parking/localiser.h"
+#include "examples/parking/parking_config.h"
 #include "examples/parking/tracker.h"
 #include "maps/map_io.h"
 #include "maps/occupancy.h"
@@ -82,8 +83,8 @@ int main(int argc, char** argv) {
   std::string city_path, vehicle, lockstep, log_level = "info", pose_source = "ips";
   std::vector<double> goal_v;
   double rate_hz = 20.0;
-  examples::HybridAStarParams plan_params;
-  examples::TrackerParams track_params;
+  std::string config_path;
+  std::optional<double> margin, throttle;
   dds::ProgramOptions dds_cli("/autodrive/example_parking");
   app.add_option("--city", city_path, "city file: its map, the car's figures from its sim section")
       ->required()
@@ -99,37 +100,29 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"ips", "eye", "pf"}))
       ->capture_default_str();
   std::string filter_map = "built";
-  int mapping_scans = 10;
   app.add_option("--filter-map", filter_map,
                  "with --pose pf, what the filter weighs the LIDAR against: built (the map its "
-                 "SLAM builds from --mapping-scans scans at the first fix before it drives: the "
-                 "world as it stands) or city (the city map's occupancy grid)")
+                 "SLAM builds from the config's localiser.mapping_scans scans at the first fix "
+                 "before it drives: the world as it stands) or city (the city map's grid)")
       ->check(CLI::IsMember({"built", "city"}))
       ->capture_default_str();
-  app.add_option("--mapping-scans", mapping_scans,
-                 "with --filter-map built: the scans it maps from, standing at the first fix")
-      ->check(CLI::Range(1, 100))
-      ->capture_default_str();
+  app.add_option("--config", config_path,
+                 "its tunables (planner, tracker, localiser, obstacles, arrival) from this YAML "
+                 "file; what it leaves out keeps the defaults, which are "
+                 "examples/parking/parking.yaml's")
+      ->check(CLI::ExistingFile);
   app.add_option("--trace", trace_path,
                  "with --pose pf: a CSV of its estimates at each decision (t_s, the filter's "
                  "and SLAM's poses, the particles), to compare with the ground truth");
   app.add_option("--slam-map", slam_prefix,
                  "with --pose pf: at the end, SLAM's map as PREFIX.pgm and PREFIX.yaml (ROS "
                  "map_server's format) and its agreement with the map's grid on the log");
-  std::vector<double> correct_v{0.025, 4.0};
-  app.add_option("--correct-beyond", correct_v,
-                 "M,DEG: stopped at the path's end further than this from the goal (by its own "
-                 "pose), it plans a correction (twice at most); within it, it stays: a "
-                 "correction in a tight bay can end worse than where it stood")
-      ->delimiter(',')
-      ->expected(2)
-      ->capture_default_str();
-  app.add_option("--margin", plan_params.margin_m, "kept clear round the body (m)")
-      ->check(CLI::Range(0.0, 0.3))
-      ->capture_default_str();
-  app.add_option("--throttle", track_params.cruise_throttle, "cruising throttle (normalised)")
-      ->check(CLI::Range(0.1, 1.0))
-      ->capture_default_str();
+  app.add_option("--margin", margin,
+                 "kept clear round the body (m), over the config's planner.margin_m (0.03)")
+      ->check(CLI::Range(0.0, 0.3));
+  app.add_option("--throttle", throttle,
+                 "cruising throttle (normalised), over the config's tracker.cruise_throttle (0.5)")
+      ->check(CLI::Range(0.1, 1.0));
   app.add_option("--rate-hz", rate_hz, "decisions per second (not in lockstep)")
       ->check(CLI::Range(1.0, 200.0))
       ->capture_default_str();
@@ -147,9 +140,14 @@ int main(int argc, char** argv) {
   try {
     InitLogging("autodrive-example-parking", ParseLogLevel(log_level));
     if (goal_v.size() != 3) throw InputError("--goal: give X,Y,YAW (m, m, rad)");
-    if (correct_v[0] <= 0 || correct_v[1] <= 0) {
-      throw InputError("--correct-beyond: give M,DEG, both positive");
-    }
+    examples::ParkingConfig tuning =
+        config_path.empty() ? examples::ParkingConfig{} : examples::LoadParkingConfig(config_path);
+    if (margin) tuning.planner.margin_m = *margin;
+    if (throttle) tuning.tracker.cruise_throttle = *throttle;
+    examples::HybridAStarParams& plan_params = tuning.planner;
+    examples::TrackerParams& track_params = tuning.tracker;
+    const examples::ObstacleParams& seen_params = tuning.obstacles;
+    const examples::ArrivalParams& arrival = tuning.arrival;
     const RigidTransform2 goal = RigidTransform2::FromXyYaw(goal_v[0], goal_v[1], goal_v[2]);
     const VehicleId id = ParseVehicleName(vehicle);
     const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
@@ -185,10 +183,10 @@ int main(int argc, char** argv) {
     const maps::OccupancyGrid* built = nullptr;  // the map it built at its first fix
     std::ofstream trace;
     if (pose_source == "pf") {
-      examples::LocaliserParams lp;
+      examples::LocaliserParams lp = tuning.localiser;
       lp.wheel_radius_m = car.wheel_radius_m;
       lp.filter.lidar_x_m = lidar_x;
-      lp.mapping_scans = filter_map == "built" ? mapping_scans : 0;
+      if (filter_map == "city") lp.mapping_scans = 0;
       localiser = std::make_unique<examples::Localiser>(mapped, lp);
       left_encoder =
           std::make_unique<dds::Reader<msg::JointState>>(participant, dds::topics::LeftEncoder(id));
@@ -296,26 +294,27 @@ int main(int argc, char** argv) {
         phase = plan(*X) ? Phase::kDriving : Phase::kBlocked;
         blocked_since = now;
       }
-      // A new scan: anything the map has not on the path's next 0.4 m stops the car and is
+      // A new scan: anything the map has not on the path's next metres stops the car and is
       // planned round.
       if (phase == Phase::kDriving && new_scan) {
         std::vector<Eigen::Vector2d> unmapped;
         for (std::size_t i = 0; i < scan.size(); ++i) {
           const double r = scan[i];
-          if (!std::isfinite(r) || r > 1.5) continue;
+          if (!std::isfinite(r) || r > seen_params.range_m) continue;
           const double a =
               2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(scan.size());
           const Eigen::Vector2d q =
               *X * Eigen::Vector2d(lidar_x + r * std::cos(a), r * std::sin(a));
-          if (Unmapped(mapped, q, 0.08) && (!built || Unmapped(*built, q, 0.05))) {
+          if (Unmapped(mapped, q, seen_params.off_map_m) &&
+              (!built || Unmapped(*built, q, seen_params.off_own_map_m))) {
             unmapped.push_back(q);
           }
         }
-        unmapped = Clustered(unmapped, 0.05, 3);
+        unmapped = Clustered(unmapped, seen_params.cluster_m, seen_params.cluster_points);
         bool in_way = false;
         double along = 0.0;
         const auto ahead = tracker.Ahead();
-        for (std::size_t k = 0; k < ahead.size() && along < 0.4 && !in_way; ++k) {
+        for (std::size_t k = 0; k < ahead.size() && along < seen_params.ahead_m && !in_way; ++k) {
           if (k > 0) {
             along += (ahead[k].X_MV.translation() - ahead[k - 1].X_MV.translation()).norm();
           }
@@ -346,10 +345,10 @@ int main(int argc, char** argv) {
           std::erase_if(unmapped, [&](const Eigen::Vector2d& q) {
             const Eigen::Vector2d b = inv * q;
             return std::abs(b.x() - plan_params.centre_ahead_m) <=
-                       plan_params.length_m / 2 + 0.06 &&
-                   std::abs(b.y()) <= plan_params.width_m / 2 + 0.06;
+                       plan_params.length_m / 2 + seen_params.body_clear_m &&
+                   std::abs(b.y()) <= plan_params.width_m / 2 + seen_params.body_clear_m;
           });
-          planner.AddObstacles(unmapped, 0.03);
+          planner.AddObstacles(unmapped, seen_params.mark_radius_m);
           phase = Phase::kBlocked;
           blocked_since = now;
         }
@@ -358,12 +357,12 @@ int main(int argc, char** argv) {
         io.Command(0.0, 0.0);
         // Once standing, plan again (every second until a path is found).
         if (speed < track_params.stand_mps && blocked_since &&
-            now - *blocked_since >= std::chrono::milliseconds(500)) {
+            now - *blocked_since >= FromSeconds(arrival.replan_after_s)) {
           ++replans;
           if (plan(*X)) {
             phase = Phase::kDriving;
           } else {
-            blocked_since = now + std::chrono::milliseconds(500);
+            blocked_since = now + std::chrono::seconds(1) - FromSeconds(arrival.replan_after_s);
           }
         }
         return;
@@ -375,11 +374,12 @@ int main(int argc, char** argv) {
       const examples::TrackCommand c = tracker.Step(*X, speed);
       io.Command(c.throttle, c.steering);
       if (c.done) {
-        // Further than --correct-beyond from the goal at the end: a correction (twice at most).
+        // Further than the arrival's figures from the goal at the end: a correction.
         const double off_m = (X->translation() - goal.translation()).norm();
         const double off_rad = std::abs(WrapAngle(X->yaw() - goal.yaw()));
-        if ((off_m > correct_v[0] || off_rad > correct_v[1] * std::numbers::pi / 180) &&
-            corrections < 2) {
+        if ((off_m > arrival.correct_beyond_m ||
+             off_rad > arrival.correct_beyond_deg * std::numbers::pi / 180) &&
+            corrections < arrival.corrections) {
           ++corrections;
           spdlog::info("{}: {:.1f} mm and {:.2f} deg from the goal: a correction", vehicle,
                        off_m * 1000, off_rad * 180 / std::numbers::pi);

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "common/config.h"
 #include "common/geometry.h"
 #include "maps/occupancy.h"
 
@@ -48,6 +49,22 @@ struct HybridAStarParams {
   double goal_tolerance_rad = 0.0524;  ///< 3°: the controller has the rest of 5 cm and 5°
   double leave_m = 0.2;  ///< driven from the start, within which the margin is not kept
   std::size_t max_expansions = 2'000'000;
+
+  /// The tunables (the car's figures come from its city). See examples/parking/parking.yaml.
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("margin_m", margin_m, config::Range{0.0, 0.3});
+    a.Optional("step_m", step_m, config::Range{0.005, 0.5});
+    a.Optional("cell_m", cell_m, config::Range{0.005, 0.5});
+    a.Optional("heading_bins", heading_bins, config::Range{8, 720});
+    a.Optional("reverse_cost", reverse_cost, config::Range{1.0, 100.0});
+    a.Optional("gear_change_cost_m", gear_change_cost_m, config::Range{0.0, 100.0});
+    a.Optional("steer_cost", steer_cost, config::Range{0.0, 100.0});
+    a.Optional("goal_tolerance_m", goal_tolerance_m, config::Range{0.001, 1.0});
+    a.Optional("goal_tolerance_rad", goal_tolerance_rad, config::Range{0.001, 1.0});
+    a.Optional("leave_m", leave_m, config::Range{0.0, 2.0});
+    a.Optional("max_expansions", max_expansions, config::Range<std::size_t>{1, 100'000'000});
+  }
 };
 
 /// One pose of the path, with the gear it is driven in (+1 forward, -1 backward) to reach it.

@@ -47,8 +47,9 @@ void WriteMapServerMap(const ScanMatchingSlam& slam, const std::string& prefix) 
   AUTODRIVE_THROW_UNLESS(!meta.fail(), yaml.string() << ": cannot write the map's description");
 }
 
-SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m, double max_range_m) {
-  SlamParams p;
+SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m, double max_range_m,
+                   SlamParams tuning) {
+  SlamParams p = tuning;
   p.resolution_m = grid.resolution_m;
   p.origin_m = grid.origin_m;
   p.width_m = grid.width * grid.resolution_m;
@@ -61,8 +62,9 @@ SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m, double max
 Localiser::Localiser(const maps::OccupancyGrid& grid, const LocaliserParams& params)
     : params_(params),
       filter_(grid, params.filter),
-      slam_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m)),
-      slam_params_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m)) {}
+      slam_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m, params.slam)),
+      slam_params_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m, params.slam)) {
+}
 
 void Localiser::Start(const RigidTransform2& X_MV) {
   filter_.Init(X_MV, params_.start_sigma_xy_m, params_.start_sigma_yaw_rad);

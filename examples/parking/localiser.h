@@ -39,7 +39,25 @@ struct LocaliserParams {
   /// Scans written into SLAM's map at the first fix (the car standing) before the filter starts
   /// weighing against that map; 0: the filter weighs against the map's own grid from the start.
   int mapping_scans = 0;
+  SlamParams slam;  ///< its tunables (its extent and range: the map's and the filter's)
+
+  /// The tunables (the wheel radius comes from the city). See examples/parking/parking.yaml.
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("start_sigma_xy_m", start_sigma_xy_m, config::Range{0.0, 1.0});
+    a.Optional("start_sigma_yaw_rad", start_sigma_yaw_rad, config::Range{0.0, 3.2});
+    a.Optional("mapping_scans", mapping_scans, config::Range{0, 100});
+    a.Optional("filter", filter);
+    a.Optional("slam", slam);
+  }
 };
+
+/// The localiser's figures in the agent: the filter's, and 10 scans mapped standing at the fix.
+[[nodiscard]] inline LocaliserParams AgentLocaliserParams() {
+  LocaliserParams p;
+  p.mapping_scans = 10;
+  return p;
+}
 
 /// How much of a built map agrees with the map's own grid: over the cells the SLAM saw, the share
 /// whose free-or-occupied agrees (the grids must have the same cells).
@@ -60,7 +78,7 @@ void WriteMapServerMap(const ScanMatchingSlam& slam, const std::string& prefix);
 
 /// SLAM's parameters for a map of the grid's extent and resolution.
 [[nodiscard]] SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m,
-                                 double max_range_m);
+                                 double max_range_m, SlamParams tuning = {});
 
 class Localiser {
  public:

@@ -18,6 +18,7 @@
 #include <span>
 #include <vector>
 
+#include "common/config.h"
 #include "common/geometry.h"
 #include "maps/occupancy.h"
 
@@ -46,6 +47,34 @@ struct ParticleFilterParams {
   double beam_skip_error_threshold = 0.9;
   double lidar_x_m = 0.1445;  ///< the LIDAR ahead of the rear axle
   std::uint64_t seed = 1;
+
+  /// The tunables (the LIDAR's place comes from the city). See examples/parking/parking.yaml.
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("min_particles", min_particles, config::Range<std::size_t>{1, 1'000'000});
+    a.Optional("max_particles", max_particles, config::Range<std::size_t>{1, 1'000'000});
+    a.Optional("kld_epsilon", kld_epsilon, config::Range{0.001, 1.0});
+    a.Optional("kld_z", kld_z, config::Range{0.1, 10.0});
+    a.Optional("bin_xy_m", bin_xy_m, config::Range{0.005, 2.0});
+    a.Optional("bin_yaw_rad", bin_yaw_rad, config::Range{0.005, 3.2});
+    a.Optional("alpha_trans_per_m", alpha_trans_per_m, config::Range{0.0, 10.0});
+    a.Optional("alpha_trans_per_rad", alpha_trans_per_rad, config::Range{0.0, 10.0});
+    a.Optional("alpha_rot_per_rad", alpha_rot_per_rad, config::Range{0.0, 10.0});
+    a.Optional("alpha_rot_per_m", alpha_rot_per_m, config::Range{0.0, 10.0});
+    a.Optional("hit_sigma_m", hit_sigma_m, config::Range{0.001, 1.0});
+    a.Optional("z_random", z_random, config::Range{0.0, 1.0});
+    a.Optional("max_range_m", max_range_m, config::Range{0.2, 50.0});
+    a.Optional("beam_stride", beam_stride, config::Range{1, 360});
+    a.Optional("beam_skip_distance_m", beam_skip_distance_m, config::Range{0.0, 1.0});
+    a.Optional("beam_skip_threshold", beam_skip_threshold, config::Range{0.0, 1.0});
+    a.Optional("beam_skip_error_threshold", beam_skip_error_threshold, config::Range{0.0, 1.0});
+    a.Optional("seed", seed);
+  }
+  void Validate() const {
+    if (max_particles < min_particles) {
+      throw ConfigError("max_particles must be at least min_particles");
+    }
+  }
 };
 
 struct Particle {

@@ -10,6 +10,7 @@
 #include <span>
 #include <vector>
 
+#include "common/config.h"
 #include "common/geometry.h"
 #include "maps/occupancy.h"
 
@@ -23,6 +24,16 @@ struct SlamParams {
   double log_odds_hit = 0.85, log_odds_miss = -0.4, log_odds_limit = 5.0;
   int iterations = 6;  ///< Gauss-Newton steps per resolution
   double lidar_x_m = 0.1445;
+
+  /// The tunables (its extent is the map's, its range the filter's). See
+  /// examples/parking/parking.yaml.
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("log_odds_hit", log_odds_hit, config::Range{0.01, 10.0});
+    a.Optional("log_odds_miss", log_odds_miss, config::Range{-10.0, -0.01});
+    a.Optional("log_odds_limit", log_odds_limit, config::Range{0.1, 100.0});
+    a.Optional("iterations", iterations, config::Range{1, 100});
+  }
 };
 
 class ScanMatchingSlam {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "common/config.h"
 #include "common/geometry.h"
 #include "examples/parking/hybrid_astar.h"
 
@@ -26,6 +27,17 @@ struct TrackerParams {
   double slow_down_m = 0.25;  ///< the throttle falls over this distance to a segment's end
   double arrive_m = 0.008;    ///< a segment's end is reached this close (along its heading)
   double stand_mps = 0.005;   ///< standing: slower than this
+
+  /// The tunables (the car's figures come from its city). See examples/parking/parking.yaml.
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("lookahead_m", lookahead_m, config::Range{0.01, 2.0});
+    a.Optional("cruise_throttle", cruise_throttle, config::Range{0.05, 1.0});
+    a.Optional("creep_throttle", creep_throttle, config::Range{0.01, 1.0});
+    a.Optional("slow_down_m", slow_down_m, config::Range{0.0, 5.0});
+    a.Optional("arrive_m", arrive_m, config::Range{0.0005, 0.5});
+    a.Optional("stand_mps", stand_mps, config::Range{0.0001, 0.5});
+  }
 };
 
 struct TrackCommand {
