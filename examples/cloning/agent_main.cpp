@@ -27,6 +27,7 @@
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "examples/cloning/model.h"
+#include "examples/common/agent_options.h"
 #include "examples/common/car_io.h"
 
 int main(int argc, char** argv) {
@@ -37,11 +38,11 @@ int main(int argc, char** argv) {
       "trained by autodrive-example-cloning-train (the paper's behavioural cloning). Public "
       "topics only: front_camera in, throttle_command and steering_command out. See "
       "examples/cloning/README.md."};
-  std::string vehicle, model, lockstep, log_level = "info";
-  double rate_hz = 30.0, max_throttle = 1.0;
+  std::string vehicle, model;
+  double max_throttle = 1.0;
   int threads = 1;
   std::string save_frames;
-  dds::ProgramOptions dds_cli("/autodrive/example_cloning");
+  examples::AgentOptions agent("/autodrive/example_cloning", 30.0);
   app.add_option("--vehicle", vehicle, "the car to drive: nigel_<n>")->required();
   app.add_option("--model", model,
                  "the model file (default: $AUTODRIVE_CLONING_MODEL, which a scenario's agent "
@@ -55,22 +56,13 @@ int main(int argc, char** argv) {
   app.add_option("--save-frames", save_frames,
                  "write each frame it drove on to this folder as frame_NNNNNN.png with "
                  "commands.csv (what the model saw and said)");
-  app.add_option("--rate-hz", rate_hz, "decisions per second (not in lockstep)")
-      ->check(CLI::Range(1.0, 200.0))
-      ->capture_default_str();
-  app.add_option("--lockstep", lockstep,
-                 "take part in the simulator's lockstep as the controller of this name");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
-      ->capture_default_str();
-  dds_cli.Add(app);
+  agent.Add(app);
   CLI11_PARSE(app, argc, argv);
-  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
-  // thread that does not block SIGTERM may take it with its default action, and the program
-  // dies without its last words (shutdown.h).
+  // The signals first, before anything can start a thread (agent_options.h).
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&] { stop.store(true); });
   try {
-    InitLogging("autodrive-example-cloning", ParseLogLevel(log_level));
+    InitLogging("autodrive-example-cloning", ParseLogLevel(agent.log_level));
     if (model.empty()) {
       const char* from_env = std::getenv("AUTODRIVE_CLONING_MODEL");
       if (from_env == nullptr || *from_env == '\0') {
@@ -85,7 +77,7 @@ int main(int argc, char** argv) {
     net->eval();
     spdlog::info("{}: driving with the model {}", vehicle, model);
 
-    dds::Participant participant(dds_cli.Participant());
+    dds::Participant participant(agent.dds.Participant());
     examples::CarIo io(participant, id, examples::PoseSource::kIps);
     dds::Reader<msg::Image> camera(participant, dds::topics::FrontCamera(id));
 
@@ -141,7 +133,7 @@ int main(int argc, char** argv) {
       }
       io.Command(throttle, steering);
     };
-    const int code = io.Run(participant, lockstep, rate_hz, decide, stop);
+    const int code = io.Run(participant, agent.lockstep, agent.rate_hz, decide, stop);
     io.Command(0.0, 0.0);
     if (!inference_ms.empty()) {
       std::vector<double> sorted = inference_ms;

@@ -27,6 +27,7 @@
 #include "common/error.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "examples/common/agent_options.h"
 #include "examples/common/car_io.h"
 #include "examples/parking/hybrid_astar.h"
 #include "examples/parking/localiser.h"
@@ -80,12 +81,11 @@ int main(int argc, char** argv) {
       "a new plan round what its LIDAR sees that the map has not. Public topics only: the car's "
       "ips, imu (or the Eye's fleet), lidar, throttle_command and steering_command. See "
       "examples/parking/README.md."};
-  std::string city_path, vehicle, lockstep, log_level = "info", pose_source = "ips";
+  std::string city_path, vehicle, pose_source = "ips";
   std::vector<double> goal_v;
-  double rate_hz = 20.0;
   std::string config_path;
   std::optional<double> margin, throttle;
-  dds::ProgramOptions dds_cli("/autodrive/example_parking");
+  examples::AgentOptions agent("/autodrive/example_parking", 20.0);
   app.add_option("--city", city_path, "city file: its map, the car's figures from its sim section")
       ->required()
       ->check(CLI::ExistingFile);
@@ -123,22 +123,13 @@ int main(int argc, char** argv) {
   app.add_option("--throttle", throttle,
                  "cruising throttle (normalised), over the config's tracker.cruise_throttle (0.5)")
       ->check(CLI::Range(0.1, 1.0));
-  app.add_option("--rate-hz", rate_hz, "decisions per second (not in lockstep)")
-      ->check(CLI::Range(1.0, 200.0))
-      ->capture_default_str();
-  app.add_option("--lockstep", lockstep,
-                 "take part in the simulator's lockstep as the controller of this name");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
-      ->capture_default_str();
-  dds_cli.Add(app);
+  agent.Add(app);
   CLI11_PARSE(app, argc, argv);
-  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
-  // thread that does not block SIGTERM may take it with its default action, and the program
-  // dies without its last words (shutdown.h).
+  // The signals first, before anything can start a thread (agent_options.h).
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&] { stop.store(true); });
   try {
-    InitLogging("autodrive-example-parking", ParseLogLevel(log_level));
+    InitLogging("autodrive-example-parking", ParseLogLevel(agent.log_level));
     if (goal_v.size() != 3) throw InputError("--goal: give X,Y,YAW (m, m, rad)");
     examples::ParkingConfig tuning =
         config_path.empty() ? examples::ParkingConfig{} : examples::LoadParkingConfig(config_path);
@@ -171,7 +162,7 @@ int main(int argc, char** argv) {
     examples::HybridAStar planner(mapped, plan_params);
     examples::PathTracker tracker(track_params);
 
-    dds::Participant participant(dds_cli.Participant());
+    dds::Participant participant(agent.dds.Participant());
     examples::CarIo io(
         participant, id,
         pose_source == "eye" ? examples::PoseSource::kEye : examples::PoseSource::kIps);
@@ -394,8 +385,8 @@ int main(int argc, char** argv) {
     };
     spdlog::info("autodrive-example-parking drives {} to ({:.3f}, {:.3f}, {:.3f}) on map {}{}",
                  vehicle, goal_v[0], goal_v[1], goal_v[2], map.name,
-                 lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
-    const int code = io.Run(participant, lockstep, rate_hz, decide, stop);
+                 agent.lockstep.empty() ? "" : " in lockstep as controller " + agent.lockstep);
+    const int code = io.Run(participant, agent.lockstep, agent.rate_hz, decide, stop);
     if (localiser && localiser->started()) {
       const examples::MapAgreement a = examples::CompareMaps(localiser->slam(), mapped);
       spdlog::info("{}: SLAM's map: {:.1f}% of the {} cells it saw agree with the map's grid",

@@ -20,6 +20,7 @@
 #include "common/geometry.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "examples/common/agent_options.h"
 #include "examples/common/car_io.h"
 #include "examples/v2i/glosa.h"
 #include "examples/v2i/requests.h"
@@ -95,17 +96,16 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
                     ? ", signal_request and signal_request_status"
                     : "") +
                ". See examples/README.md."};
-  std::string city_path, vehicle, lockstep, log_level = "info";
+  std::string city_path, vehicle;
   std::vector<std::string> route;
   bool stop_at_end = false;
-  double rate_hz = 20.0;
   double throttle = 0.6;
   std::uint64_t seed = 1;
   GlosaParams glosa;
   RequestParams requests;
   requests.kind = kind == AgentKind::kEmergency ? RequestParams::Kind::kPreemption
                                                 : RequestParams::Kind::kPriority;
-  dds::ProgramOptions dds_cli(names.enclave);
+  AgentOptions agent(names.enclave, 20.0);
   app.add_option("--city", city_path,
                  "city file: its map, and the car's figures from its sim section when it has "
                  "the car (else Nigel's)")
@@ -122,9 +122,6 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
       ->check(CLI::Range(0.05, 1.0))
       ->capture_default_str();
   app.add_option("--seed", seed, "seed of the choices past its route")->capture_default_str();
-  app.add_option("--rate-hz", rate_hz, "decisions per second (not in lockstep)")
-      ->check(CLI::Range(1.0, 200.0))
-      ->capture_default_str();
   if (kind == AgentKind::kGlosa) {
     app.add_option("--horizon-m", glosa.horizon_m,
                    "advise from this far before a signalised stop line (front bumper)")
@@ -151,21 +148,14 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
                  "fleet, /autodrive/eye/fleet: the overhead camera's measurement)")
       ->check(CLI::IsMember({"ips", "eye"}))
       ->capture_default_str();
-  app.add_option("--lockstep", lockstep,
-                 "take part in the simulator's lockstep as the controller of this name: decide "
-                 "once per simulated step, on the simulated time (--rate-hz is then unused)");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
-      ->capture_default_str();
-  dds_cli.Add(app);
+  agent.Add(app);
   CLI11_PARSE(app, argc, argv);
-  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
-  // thread that does not block SIGTERM may take it with its default action, and the program
-  // dies without its last words (shutdown.h).
+  // The signals first, before anything can start a thread (agent_options.h).
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&] { stop.store(true); });
 
   try {
-    InitLogging(names.program, ParseLogLevel(log_level));
+    InitLogging(names.program, ParseLogLevel(agent.log_level));
     const VehicleId id = ParseVehicleName(vehicle);
     const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
     const maps::Map map = maps::LoadMapOrLayout(city.map_path);
@@ -200,7 +190,7 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
     glosa.body_length_m = params.body_length_m;
     requests.cruise_mps = throttle * params.top_speed_mps;
 
-    dds::Participant participant(dds_cli.Participant());
+    dds::Participant participant(agent.dds.Participant());
     vehicle_sim::LaneDriver driver(map, options);
     V2iView v2i(participant);
     std::unique_ptr<SignalRequester> requester;
@@ -265,8 +255,8 @@ int RunAgent(int argc, char** argv, AgentKind kind) {
       }
     };
     spdlog::info("{} drives {} on map {}{}", names.program, vehicle, map.name,
-                 lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
-    const int code = io.Run(participant, lockstep, rate_hz, decide, stop);
+                 agent.lockstep.empty() ? "" : " in lockstep as controller " + agent.lockstep);
+    const int code = io.Run(participant, agent.lockstep, agent.rate_hz, decide, stop);
     if (requester) {
       const RequestCounts& c = requester->counts();
       spdlog::info(
