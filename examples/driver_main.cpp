@@ -25,6 +25,7 @@
 #include "common/geometry.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "examples/common/agent_options.h"
 #include "maps/map_io.h"
 #include "vehicle_sim/lane_driver.h"
 #include "vehicle_sim/sim_config.h"
@@ -121,17 +122,12 @@ int main(int argc, char** argv) {
       "DDS (the devkit topics), stopping at red lights, at stop signs and for what its LIDAR "
       "sees ahead. Runs until SIGINT or SIGTERM."};
   std::string city_path;
-  dds::ProgramOptions dds_cli("/autodrive/example_driver");
-  std::string log_level = "info";
-  double rate_hz = 20.0;
+  examples::AgentOptions agent("/autodrive/example_driver", 20.0);
   double throttle = 0.6;
   std::uint64_t seed = 1;
   app.add_option("--city", city_path, "city file (its map and the cars of its sim section)")
       ->required()
       ->check(CLI::ExistingFile);
-  app.add_option("--rate-hz", rate_hz, "decisions per second")
-      ->check(CLI::Range(1.0, 200.0))
-      ->capture_default_str();
   app.add_option("--throttle", throttle, "cruising throttle (normalised)")
       ->check(CLI::Range(0.05, 1.0))
       ->capture_default_str();
@@ -158,24 +154,16 @@ int main(int argc, char** argv) {
   app.add_option("--lateral-offset-m", faults.lateral_offset_m,
                  "fault on purpose: keep this far left of the lane centres (negative: right)")
       ->check(CLI::Range(-1.0, 1.0));
-  std::string lockstep;
-  app.add_option("--lockstep", lockstep,
-                 "take part in the simulator's lockstep as the controller of this name: decide "
-                 "once per simulated step, on the simulated time (--rate-hz is then unused)");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error|critical|off")
-      ->capture_default_str();
-  dds_cli.Add(app);
+  agent.Add(app);
   CLI11_PARSE(app, argc, argv);
-  // First, before anything starts a thread (a map's build may start TBB's, libtorch its own): a
-  // thread that does not block SIGTERM may take it with its default action, and the program
-  // dies without its last words (shutdown.h).
+  // The signals first, before anything can start a thread (examples/common/agent_options.h).
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&] { stop.store(true); });
   try {
-    InitLogging("autodrive-example-driver", ParseLogLevel(log_level));
+    InitLogging("autodrive-example-driver", ParseLogLevel(agent.log_level));
     const vehicle_sim::SimCity city = vehicle_sim::LoadSimCity(city_path);
     const maps::Map map = maps::LoadMapOrLayout(city.map_path);
-    dds::Participant participant(dds_cli.Participant());
+    dds::Participant participant(agent.dds.Participant());
 
     for (const std::string& name : only) {
       if (std::none_of(city.sim.vehicles.begin(), city.sim.vehicles.end(),
@@ -257,11 +245,11 @@ int main(int argc, char** argv) {
       }
     };
     spdlog::info("driving {} cars on map {}{}", cars.size(), map.name,
-                 lockstep.empty() ? "" : " in lockstep as controller " + lockstep);
-    if (!lockstep.empty()) return Lockstep(participant, lockstep, cars, decide, stop);
+                 agent.lockstep.empty() ? "" : " in lockstep as controller " + agent.lockstep);
+    if (!agent.lockstep.empty()) return Lockstep(participant, agent.lockstep, cars, decide, stop);
     const auto start = std::chrono::steady_clock::now();
     const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(1.0 / rate_hz));
+        std::chrono::duration<double>(1.0 / agent.rate_hz));
     auto next = start;
     while (!stop.load()) {
       decide(std::chrono::steady_clock::now() - start);

@@ -30,6 +30,7 @@
 #include "examples/common/agent_options.h"
 #include "examples/common/car_io.h"
 #include "examples/parking/hybrid_astar.h"
+#include "examples/parking/local_planner.h"
 #include "examples/parking/localiser.h"
 #include "examples/parking/parking_config.h"
 #include "examples/parking/tracker.h"
@@ -38,41 +39,7 @@
 #include "vehicle_sim/sensors.h"
 #include "vehicle_sim/sim_config.h"
 
-namespace {
-
 using namespace autodrive;
-
-// Whether `q` is more than `reach` from every occupied cell of `grid` (something the map has
-// not: a wall seen through the LIDAR's noise stays the wall's).
-bool Unmapped(const maps::OccupancyGrid& grid, const Eigen::Vector2d& q, double reach) {
-  const int n = static_cast<int>(std::ceil(reach / grid.resolution_m));
-  const Eigen::Vector2d cell = (q - grid.origin_m) / grid.resolution_m;
-  const int c0 = static_cast<int>(std::floor(cell.x()));
-  const int r0 = static_cast<int>(std::floor(cell.y()));
-  if (c0 < 0 || r0 < 0 || c0 >= grid.width || r0 >= grid.height) return false;
-  for (int r = std::max(0, r0 - n); r <= std::min(grid.height - 1, r0 + n); ++r) {
-    for (int c = std::max(0, c0 - n); c <= std::min(grid.width - 1, c0 + n); ++c) {
-      if (!grid.IsFree(c, r) && (grid.CellCentre(c, r) - q).norm() <= reach) return false;
-    }
-  }
-  return true;
-}
-
-// The points with at least `min_points` - 1 others within `reach` (m): what stands there, not
-// a lone return far out in the LIDAR's noise.
-std::vector<Eigen::Vector2d> Clustered(const std::vector<Eigen::Vector2d>& points, double reach,
-                                       int min_points) {
-  std::vector<Eigen::Vector2d> out;
-  for (const Eigen::Vector2d& p : points) {
-    const auto near = std::count_if(points.begin(), points.end(), [&](const Eigen::Vector2d& q) {
-      return (q - p).squaredNorm() <= reach * reach;
-    });
-    if (near >= min_points) out.push_back(p);
-  }
-  return out;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -288,38 +255,10 @@ int main(int argc, char** argv) {
       // A new scan: anything the map has not on the path's next metres stops the car and is
       // planned round.
       if (phase == Phase::kDriving && new_scan) {
-        std::vector<Eigen::Vector2d> unmapped;
-        for (std::size_t i = 0; i < scan.size(); ++i) {
-          const double r = scan[i];
-          if (!std::isfinite(r) || r > seen_params.range_m) continue;
-          const double a =
-              2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(scan.size());
-          const Eigen::Vector2d q =
-              *X * Eigen::Vector2d(lidar_x + r * std::cos(a), r * std::sin(a));
-          if (Unmapped(mapped, q, seen_params.off_map_m) &&
-              (!built || Unmapped(*built, q, seen_params.off_own_map_m))) {
-            unmapped.push_back(q);
-          }
-        }
-        unmapped = Clustered(unmapped, seen_params.cluster_m, seen_params.cluster_points);
-        bool in_way = false;
-        double along = 0.0;
-        const auto ahead = tracker.Ahead();
-        for (std::size_t k = 0; k < ahead.size() && along < seen_params.ahead_m && !in_way; ++k) {
-          if (k > 0) {
-            along += (ahead[k].X_MV.translation() - ahead[k - 1].X_MV.translation()).norm();
-          }
-          const RigidTransform2 inv = ahead[k].X_MV.inverse();
-          for (const Eigen::Vector2d& q : unmapped) {
-            const Eigen::Vector2d b = inv * q;
-            if (std::abs(b.x() - plan_params.centre_ahead_m) <=
-                    plan_params.length_m / 2 + plan_params.margin_m &&
-                std::abs(b.y()) <= plan_params.width_m / 2 + plan_params.margin_m) {
-              in_way = true;
-              break;
-            }
-          }
-        }
+        std::vector<Eigen::Vector2d> unmapped =
+            examples::NewObstacles(scan, *X, lidar_x, mapped, built, seen_params);
+        const std::vector<examples::PathPose> ahead = tracker.Ahead();
+        const bool in_way = examples::InTheWay(unmapped, ahead, plan_params, seen_params.ahead_m);
         if (in_way) {
           Eigen::Vector2d lo = unmapped.front(), hi = unmapped.front();
           for (const Eigen::Vector2d& q : unmapped) {
@@ -332,12 +271,8 @@ int main(int argc, char** argv) {
               vehicle, unmapped.size(), lo.x(), hi.x(), lo.y(), hi.y());
           // Not what lies against its own body (the LIDAR's noise, or a box it passes close by:
           // it is not touching it, and marking it would leave it no way out).
-          const RigidTransform2 inv = X->inverse();
           std::erase_if(unmapped, [&](const Eigen::Vector2d& q) {
-            const Eigen::Vector2d b = inv * q;
-            return std::abs(b.x() - plan_params.centre_ahead_m) <=
-                       plan_params.length_m / 2 + seen_params.body_clear_m &&
-                   std::abs(b.y()) <= plan_params.width_m / 2 + seen_params.body_clear_m;
+            return examples::AgainstBody(q, *X, plan_params, seen_params.body_clear_m);
           });
           planner.AddObstacles(unmapped, seen_params.mark_radius_m);
           phase = Phase::kBlocked;

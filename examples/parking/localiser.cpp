@@ -62,9 +62,8 @@ SlamParams SlamFor(const maps::OccupancyGrid& grid, double lidar_x_m, double max
 Localiser::Localiser(const maps::OccupancyGrid& grid, const LocaliserParams& params)
     : params_(params),
       filter_(grid, params.filter),
-      slam_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m, params.slam)),
-      slam_params_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m, params.slam)) {
-}
+      slam_params_(SlamFor(grid, params.filter.lidar_x_m, params.filter.max_range_m, params.slam)),
+      slam_(slam_params_) {}
 
 void Localiser::Start(const RigidTransform2& X_MV) {
   filter_.Init(X_MV, params_.start_sigma_xy_m, params_.start_sigma_yaw_rad);

@@ -118,6 +118,7 @@ class Localiser {
 
   LocaliserParams params_;
   ParticleFilter filter_;
+  SlamParams slam_params_;  // SLAM's figures (its map begun again with them)
   ScanMatchingSlam slam_;
   std::optional<RigidTransform2> estimate_, slam_pose_;
   std::optional<RigidTransform2> slam_guess_;     // SLAM's pose moved by the odometry since
@@ -128,7 +129,6 @@ class Localiser {
   std::deque<std::pair<Time, RigidTransform2>> odometry_;
   int mapped_scans_ = 0;
   int mapping_restarts_ = 0;
-  SlamParams slam_params_;
   std::optional<maps::OccupancyGrid> built_;
 };
 

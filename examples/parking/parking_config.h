@@ -10,34 +10,11 @@
 
 #include "common/config.h"
 #include "examples/parking/hybrid_astar.h"
+#include "examples/parking/local_planner.h"
 #include "examples/parking/localiser.h"
 #include "examples/parking/tracker.h"
 
 namespace autodrive::examples {
-
-/// The local planner: which LIDAR points are news, and what is done with them.
-struct ObstacleParams {
-  double range_m = 1.5;         ///< points from beams shorter than this are looked at
-  double off_map_m = 0.08;      ///< news: further than this from everything the city map has
-  double off_own_map_m = 0.05;  ///< ... and from everything its own map has (--pose pf)
-  double cluster_m = 0.05;      ///< ... with `cluster_points` - 1 others within this
-  int cluster_points = 3;
-  double ahead_m = 0.4;         ///< in the car's body along this much of the path: stop and replan
-  double mark_radius_m = 0.03;  ///< marked occupied round each point for the next plan
-  double body_clear_m = 0.06;   ///< points this close round its own body are not marked
-
-  template <typename Archive>
-  void Serialize(Archive& a) {
-    a.Optional("range_m", range_m, config::Range{0.2, 12.0});
-    a.Optional("off_map_m", off_map_m, config::Range{0.0, 1.0});
-    a.Optional("off_own_map_m", off_own_map_m, config::Range{0.0, 1.0});
-    a.Optional("cluster_m", cluster_m, config::Range{0.0, 1.0});
-    a.Optional("cluster_points", cluster_points, config::Range{1, 360});
-    a.Optional("ahead_m", ahead_m, config::Range{0.0, 5.0});
-    a.Optional("mark_radius_m", mark_radius_m, config::Range{0.0, 0.5});
-    a.Optional("body_clear_m", body_clear_m, config::Range{0.0, 0.5});
-  }
-};
 
 /// At the path's end: when to correct, and how often; how long to stand before planning again.
 struct ArrivalParams {
