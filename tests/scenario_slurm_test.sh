@@ -60,7 +60,8 @@ for e in /proc/[0-9]*/environ; do
   pid="${e#/proc/}"
   pid="${pid%/environ}"
   [[ "$pid" == "$$" ]] && continue
-  if tr '\0' '\n' <"$e" 2>/dev/null | grep -qx "AUTODRIVE_TEST_TAG=$tmp"; then
+  # The redirection's own error (a process gone meanwhile, one not ours) is the group's.
+  if { tr '\0' '\n' <"$e"; } 2>/dev/null | grep -qx "AUTODRIVE_TEST_TAG=$tmp"; then
     state="$(awk '{ sub(/.*\) /, ""); print $1 }' "/proc/$pid/stat" 2>/dev/null || echo gone)"
     [[ "$state" != Z && "$state" != gone ]] && left+=" $pid"
   fi
