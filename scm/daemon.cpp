@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <chrono>
 #include <ctime>
+#include <mutex>
 #include <random>
+#include <vector>
 
 #include "common/config.h"
 #include "common/dds/conversions.h"
@@ -131,6 +133,12 @@ struct Scm::Impl final : EventSink, ConfigService {
   std::uint32_t map_revision = 0;
   std::uint64_t event_seq = 0;
 
+  // Incompatible QoS peers reported by the participant (on a DDS thread), raised as events by
+  // the next pass.
+  std::mutex incompatible_mutex;
+  std::vector<dds::IncompatibleQos> incompatible;
+  void RaiseIncompatibleQos();
+
   std::unique_ptr<ProcessWatch> processes;  // the launchers' processes: outlives every city
   std::unique_ptr<ScmInbox> inbox;          // created after replies, destroyed after them
   std::unique_ptr<ReplyOutbox> replies;
@@ -151,6 +159,13 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   const MapResolution resolution{std::filesystem::absolute(options.config_path).parent_path(),
                                  root};
   persistence = std::make_unique<Persistence>(Store(options.db_path), [this] { waitset.Wake(); });
+  participant.OnIncompatibleQos([this](const dds::IncompatibleQos& q) {
+    {
+      std::lock_guard lock(incompatible_mutex);
+      incompatible.push_back(q);
+    }
+    waitset.Wake();
+  });
   event_seq = static_cast<std::uint64_t>(persistence->store().LastEventId());
   signal_writers = std::make_unique<SignalCommandWriters>(participant);
   loader =
@@ -186,8 +201,23 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
 }
 
 Scm::Impl::~Impl() {
+  participant.OnIncompatibleQos({});
   // The loader may be building a bundle on the participant: stop it first.
   loader.reset();
+}
+
+void Scm::Impl::RaiseIncompatibleQos() {
+  std::vector<dds::IncompatibleQos> reports;
+  {
+    std::lock_guard lock(incompatible_mutex);
+    reports.swap(incompatible);
+  }
+  for (const dds::IncompatibleQos& q : reports) {
+    // A peer that never matches: a ROS 2 node with the wrong QoS, which would otherwise
+    // publish or listen in vain without a word from either side.
+    Emit(Event{Severity::kWarning, "incompatible_qos", q.Message(), IntersectionId(0), "", "scm",
+               false});
+  }
 }
 
 std::unique_ptr<City> Scm::Impl::LoadStartupCity(const MapResolution& resolution) {
@@ -508,6 +538,7 @@ void Scm::Impl::Pass() {
   }
   persistence->RunCompletions();
   loader->RunCompletions();
+  RaiseIncompatibleQos();
   const DayClock day = DayAt(now.wire);
   CityBundle& c = *bundle;  // a configuration applied by a completion above is in place
   for (auto& source : c.sources) {

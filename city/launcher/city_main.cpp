@@ -190,6 +190,7 @@ int Up(const UpOptions& o) {
   if (participant_options.security->enclave.empty()) {
     participant_options.security->enclave = "/autodrive/launcher";
   }
+  participant_options.ros_node = dds::RosNodeFor("/autodrive/launcher");
   dds::Participant participant(participant_options);
   Say(fmt::format("city {}: {} processes; run folder {}", plan.city_name, plan.processes.size(),
                   plan.run_dir.string()));

@@ -216,6 +216,8 @@ struct Supervisor::Impl {
     }
     ChildOptions options;
     options.extra_env = p.plan->env;
+    // Its name in the process table: the ROS 2 node it appears as (common/dds/ros_graph.h).
+    options.extra_env.push_back("AUTODRIVE_PROCESS_NAME=" + p.plan->name);
     options.output_file = p.plan->log;
     options.own_process_group = true;
     p.child.emplace(ChildProcess::Start(p.plan->argv, options));

@@ -136,16 +136,21 @@ Participant::Participant(const ParticipantOptions& options) : partition_(options
   if (known_domain) {
     claim_ = internal::DomainSecurityClaim(*known_domain, enclave.has_value());
   }
+  // USER_DATA "enclave=<enclave>;" as rmw_cyclonedds gives its participant (ROS's default
+  // enclave is "/").
+  const internal::QosPtr qos(dds_create_qos());
+  const std::string user_data = "enclave=" + (enclave ? enclave->enclave : std::string("/")) + ";";
+  dds_qset_userdata(qos.get(), user_data.data(), user_data.size());
   if (enclave) {
-    const internal::QosPtr qos(dds_create_qos());
     internal::SetSecurityProperties(qos.get(), *enclave, SecurityPluginDirectory());
     participant_ =
-        Entity(dds_create_participant(id, qos.get(), nullptr),
+        Entity(dds_create_participant(id, qos.get(), qos_watch_->listener()),
                "dds_create_participant with DDS Security (enclave " + enclave->enclave + " in " +
                    enclave->directory.string() + "; Cyclone DDS's log on stderr says why)");
     enclave_ = enclave->enclave;
   } else {
-    participant_ = Entity(dds_create_participant(id, nullptr, nullptr), "dds_create_participant");
+    participant_ = Entity(dds_create_participant(id, qos.get(), qos_watch_->listener()),
+                          "dds_create_participant");
   }
   dds_domainid_t actual = 0;
   internal::ThrowIfError(dds_get_domainid(participant_.handle(), &actual), "dds_get_domainid");
@@ -162,6 +167,10 @@ Participant::Participant(const ParticipantOptions& options) : partition_(options
                       "dds_create_publisher");
   subscriber_ = Entity(dds_create_subscriber(participant_.handle(), partition_qos.get(), nullptr),
                        "dds_create_subscriber");
+  if (options.ros_node) {
+    ros_node_ = options.ros_node;
+    ros_graph_ = internal::MakeRosGraph(*this, *ros_node_, RosGidLayoutFromEnvironment());
+  }
 }
 
 void Participant::ClaimTopic(const std::string& topic_name, std::string_view type_name) const {

@@ -11,6 +11,8 @@
 #include <string>
 
 #include "common/dds/entity.h"
+#include "common/dds/incompatible_qos.h"
+#include "common/dds/ros_graph.h"
 #include "common/dds/security.h"
 
 namespace autodrive::dds {
@@ -35,6 +37,10 @@ struct ParticipantOptions {
   /// (The initializer keeps `ParticipantOptions{domain, partition, config}` free of
   /// -Wmissing-field-initializers.)
   std::optional<SecurityOptions> security = std::nullopt;
+  /// The ROS 2 node this participant appears as (`ros2 node list`): it publishes the node and
+  /// its readers and writers on `ros_discovery_info` (common/dds/ros_graph.h). Unset: no node,
+  /// as for a tool's or a test's participant. `ProgramOptions` sets it for every program.
+  std::optional<RosNode> ros_node = std::nullopt;
 };
 
 namespace internal {
@@ -89,6 +95,20 @@ class Participant {
   /// lockstep controller calls it before it answers a step.
   [[nodiscard]] bool WaitForAcks(std::chrono::steady_clock::duration timeout) const;
 
+  /// Also hands the first incompatible peer of each reader and writer to `handler` (after the
+  /// log line every participant writes; common/dds/incompatible_qos.h). Replaces an earlier
+  /// handler. Thread-safe; `handler` runs on a Cyclone DDS thread and must not block.
+  void OnIncompatibleQos(IncompatibleQosHandler handler) const {
+    qos_watch_->SetHandler(std::move(handler));
+  }
+  /// The ROS 2 node it appears as, if any.
+  [[nodiscard]] const std::optional<RosNode>& ros_node() const { return ros_node_; }
+  /// Lists `endpoint` (a reader or writer of this participant) under its node on
+  /// `ros_discovery_info` while the returned entry lives; an empty entry without a node.
+  [[nodiscard]] internal::RosGraphEntry ListInRosGraph(dds_entity_t endpoint, bool reader) const {
+    return internal::RosGraphEntry(ros_graph_, endpoint, reader);
+  }
+
   /// Records that `topic_name` carries `type_name` in this participant. Cyclone lets one name
   /// carry two types (whose readers and writers then silently never match); we refuse it.
   /// Throws `InputError` naming the topic and both types. Thread-safe.
@@ -96,7 +116,10 @@ class Participant {
 
  private:
   internal::DomainSecurityClaim claim_;  // released after everything below is deleted
-  Entity domain_;                        // only when a configuration was given
+  // Behind a pointer (the listener's argument), deleted after the participant.
+  std::unique_ptr<internal::IncompatibleQosWatch> qos_watch_ =
+      std::make_unique<internal::IncompatibleQosWatch>();
+  Entity domain_;  // only when a configuration was given
   Entity participant_;
   Entity publisher_;
   Entity subscriber_;
@@ -109,6 +132,10 @@ class Participant {
     std::map<std::string, std::string, std::less<>> types;
   };
   std::unique_ptr<TopicTypes> topic_types_ = std::make_unique<TopicTypes>();
+  std::optional<RosNode> ros_node_;
+  // Last, so that its writer goes before the participant (entries of live readers and writers
+  // share it).
+  std::shared_ptr<internal::RosGraph> ros_graph_;
 };
 
 }  // namespace autodrive::dds

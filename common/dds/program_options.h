@@ -89,6 +89,11 @@ class ProgramOptions {
     SecurityOptions s = security_;
     if (s.enclave.empty()) s.enclave = own_enclave_;
     o.security = s;
+    // The program's own identity names its ROS 2 node (not an enclave override, which many
+    // processes may share), unless the launcher named the process.
+    if (!own_enclave_.empty() || std::getenv("AUTODRIVE_PROCESS_NAME") != nullptr) {
+      o.ros_node = RosNodeFor(own_enclave_);
+    }
     return o;
   }
 

@@ -33,9 +33,8 @@ namespace internal {
 QosPtr MakeQos(const Qos& qos) {
   QosPtr q(dds_create_qos());
   AUTODRIVE_CHECK(q != nullptr);
-  dds_qset_reliability(q.get(),
-                       qos.reliability == Qos::Reliability::kReliable ? DDS_RELIABILITY_RELIABLE
-                                                                      : DDS_RELIABILITY_BEST_EFFORT,
+  const bool reliable = qos.reliability == Qos::Reliability::kReliable;
+  dds_qset_reliability(q.get(), reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT,
                        qos.max_blocking.count());
   dds_qset_durability(q.get(), qos.durability == Qos::Durability::kTransientLocal
                                    ? DDS_DURABILITY_TRANSIENT_LOCAL

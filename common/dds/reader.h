@@ -65,6 +65,7 @@ class ReaderBase {
   std::string topic_name_;
   Entity topic_;
   Entity reader_;
+  internal::RosGraphEntry ros_graph_entry_;
   Entity waitset_;
   Entity read_condition_;
   std::mutex callback_mutex_;

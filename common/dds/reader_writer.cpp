@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "common/dds/reader.h"
+#include "common/dds/type_hashes.h"
 #include "common/dds/writer.h"
 #include "common/error.h"
 
@@ -28,6 +29,13 @@ Entity CreateTopic(const Participant& participant, const dds_topic_descriptor_t*
   // topic can have readers and writers with different (compatible) profiles in one process.
   return Entity(dds_create_topic(participant.handle(), descriptor, name.c_str(), nullptr, nullptr),
                 "dds_create_topic(" + name + ", " + descriptor->m_typename + ")");
+}
+
+QosPtr MakeEndpointQos(const Qos& qos, const dds_topic_descriptor_t* descriptor) {
+  QosPtr q = MakeQos(qos);
+  const std::string user_data = EndpointUserData(descriptor->m_typename);
+  dds_qset_userdata(q.get(), user_data.data(), user_data.size());
+  return q;
 }
 
 std::uint32_t MatchedReaders(dds_entity_t writer) {
@@ -109,9 +117,10 @@ bool WaitForAcks(dds_entity_t writer, std::chrono::steady_clock::duration timeou
 ReaderBase::ReaderBase(const Participant& participant, const dds_topic_descriptor_t* descriptor,
                        const std::string& topic_name, const Qos& qos)
     : topic_name_(topic_name), topic_(CreateTopic(participant, descriptor, topic_name)) {
-  reader_ = Entity(
-      dds_create_reader(participant.subscriber(), topic_.handle(), MakeQos(qos).get(), nullptr),
-      "dds_create_reader(" + topic_name + ")");
+  reader_ = Entity(dds_create_reader(participant.subscriber(), topic_.handle(),
+                                     MakeEndpointQos(qos, descriptor).get(), nullptr),
+                   "dds_create_reader(" + topic_name + ")");
+  ros_graph_entry_ = participant.ListInRosGraph(reader_.handle(), /*reader=*/true);
   waitset_ = Entity(dds_create_waitset(participant.handle()), "dds_create_waitset");
   read_condition_ =
       Entity(dds_create_readcondition(reader_.handle(), DDS_ANY_STATE), "dds_create_readcondition");

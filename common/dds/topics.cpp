@@ -1,6 +1,7 @@
 #include "common/dds/topics.h"
 
 #include <algorithm>
+#include <type_traits>
 
 #include "common/error.h"
 
@@ -229,6 +230,58 @@ TopicSpec<msg::Header> SimStepDone() {
 }
 TopicSpec<msg::SimFault> SimFaults() {
   return Spec<msg::SimFault>("/autodrive/sim/fault", Qos::Command());
+}
+
+std::vector<CatalogueEntry> Catalogue() {
+  const VehicleId v(1);
+  const SignalHeadId s(1);
+  std::vector<CatalogueEntry> out;
+  const auto add = [&out](const auto& spec) {
+    using T = typename std::remove_cvref_t<decltype(spec)>::Type;
+    out.push_back({spec.name, MessageTraits<T>::descriptor(), spec.qos});
+  };
+  add(Throttle(v));
+  add(Steering(v));
+  add(LeftEncoder(v));
+  add(RightEncoder(v));
+  add(Ips(v));
+  add(Imu(v));
+  add(Lidar(v));
+  add(FrontCamera(v));
+  add(RearCamera(v));
+  add(ThrottleCommand(v));
+  add(SteeringCommand(v));
+  add(HeadlightsCommand(v));
+  add(IndicatorsCommand(v));
+  add(GroundTruth(v));
+  add(SignalCommand(s));
+  add(SignalState(s));
+  add(Spat());
+  add(Map());
+  add(Signs());
+  add(Fleet());
+  add(Traffic());
+  add(Events());
+  add(Devices());
+  add(DeviceTable());
+  add(Processes());
+  add(Heartbeat());
+  add(InfraHeartbeat());
+  add(SignalRequests());
+  add(SignalRequestStatus());
+  add(OperatorRequests());
+  add(OperatorRequests("alice"));
+  add(OperatorReplies());
+  add(DeviceCommands());
+  add(OverheadCamera("overhead"));
+  add(EyeFleet());
+  add(EyeEvents());
+  add(EyeDebugImage("overhead"));
+  add(Clock());
+  add(SimStep());
+  add(SimStepDone());
+  add(SimFaults());
+  return out;
 }
 
 }  // namespace autodrive::dds::topics

@@ -8,6 +8,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "common/dds/messages.h"
 #include "common/dds/qos.h"
@@ -17,6 +18,13 @@
 namespace autodrive::dds {
 
 namespace topics {
+
+/// One topic of the catalogue, for checks over every topic (tests, the docs' QoS table).
+struct CatalogueEntry {
+  std::string name;  ///< DDS name
+  const dds_topic_descriptor_t* descriptor = nullptr;
+  Qos qos;
+};
 
 /// Throws `InputError` naming the rule broken unless `ros_name` is a valid fully-qualified
 /// ROS 2 topic name: starts with '/', tokens of [A-Za-z0-9_] separated by single '/', no
@@ -146,6 +154,11 @@ TopicSpec<msg::Header> SimStepDone();
 /// lamp burnt out or stuck, a head unplugged; carried out by the light host of a simulated
 /// head only. No DDS Security role may write it. Reliable, keep all.
 TopicSpec<msg::SimFault> SimFaults();
+
+/// Every topic of the catalogue once, in the order docs/messaging.md lists them; a name with a
+/// part (a vehicle, a signal head, an operator, a camera) has it filled in: nigel_1, signal_1,
+/// operator "alice", camera "overhead".
+[[nodiscard]] std::vector<CatalogueEntry> Catalogue();
 
 }  // namespace topics
 }  // namespace autodrive::dds

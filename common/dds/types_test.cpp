@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "common/dds/messages.h"
+#include "common/dds/type_hashes.h"
 #include "common/test_support.h"
 
 namespace autodrive::dds {
@@ -233,6 +234,35 @@ const dds_topic_descriptor_t* Find(std::string_view type_name) {
 }
 
 // ---- Tests ----------------------------------------------------------------------------------
+
+// The REP-2011 hashes ROS 2 Jazzy publishes for four standard types (the golden values of
+// ROS client libraries written by others: rclrs, rclgo, the C and Swift clients), which our
+// table, made by scripts/generate-type-hashes from the vendored upstream .msg, must reproduce.
+TEST(TypeHashes, ReproduceTheHashesRos2Publishes) {
+  EXPECT_EQ(TypeHash("builtin_interfaces::msg::dds_::Time_"),
+            "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197");
+  EXPECT_EQ(TypeHash("std_msgs::msg::dds_::Header_"),
+            "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01");
+  EXPECT_EQ(TypeHash("geometry_msgs::msg::dds_::Vector3_"),
+            "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d");
+  EXPECT_EQ(TypeHash("geometry_msgs::msg::dds_::Quaternion_"),
+            "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684");
+}
+
+TEST(TypeHashes, EveryRegisteredTypeHasOneAndOthersNone) {
+  const std::regex rihs01("^RIHS01_[0-9a-f]{64}$");
+  std::set<std::string_view> seen;
+  for (const auto* d : AllMessageDescriptors()) {
+    SCOPED_TRACE(d->m_typename);
+    const std::string_view hash = TypeHash(d->m_typename);
+    EXPECT_TRUE(std::regex_match(std::string(hash), rihs01)) << hash;
+    EXPECT_TRUE(seen.insert(hash).second) << "two types with one hash";
+    EXPECT_EQ(EndpointUserData(d->m_typename), "typehash=" + std::string(hash) + ";");
+  }
+  EXPECT_EQ(TypeHash("std_msgs::msg::dds_::Header"), "");  // not a DDS type name
+  EXPECT_EQ(TypeHash("nobody_msgs::msg::dds_::Nothing_"), "");
+  EXPECT_EQ(EndpointUserData("nobody_msgs::msg::dds_::Nothing_"), "typehash=;");
+}
 
 TEST(MessageTypes, EveryIdlStructIsRegisteredAndNothingElse) {
   const auto structs = ScanIdl();

@@ -20,6 +20,9 @@ namespace internal {
 /// the participant already uses the name with another type.
 Entity CreateTopic(const Participant& participant, const dds_topic_descriptor_t* descriptor,
                    const std::string& name);
+/// The QoS of a reader or writer of type `descriptor`: the profile, and USER_DATA
+/// `typehash=RIHS01_...;` as rmw_cyclonedds gives every endpoint (common/dds/type_hashes.h).
+QosPtr MakeEndpointQos(const Qos& qos, const dds_topic_descriptor_t* descriptor);
 /// Number of readers currently matched with `writer`.
 std::uint32_t MatchedReaders(dds_entity_t writer);
 /// Waits until `writer` has at least `n` matched readers or `timeout` (steady clock) passes.
@@ -42,9 +45,11 @@ class Writer {
   Writer(const Participant& participant, const std::string& topic_name, const Qos& qos)
       : topic_name_(topic_name),
         topic_(internal::CreateTopic(participant, MessageTraits<T>::descriptor(), topic_name)),
-        writer_(dds_create_writer(participant.publisher(), topic_.handle(),
-                                  internal::MakeQos(qos).get(), nullptr),
-                "dds_create_writer(" + topic_name + ")") {}
+        writer_(dds_create_writer(
+                    participant.publisher(), topic_.handle(),
+                    internal::MakeEndpointQos(qos, MessageTraits<T>::descriptor()).get(), nullptr),
+                "dds_create_writer(" + topic_name + ")"),
+        ros_graph_entry_(participant.ListInRosGraph(writer_.handle(), /*reader=*/false)) {}
   /// A writer for a topic of the catalogue (common/dds/topics.h).
   Writer(const Participant& participant, const TopicSpec<T>& spec)
       : Writer(participant, spec.name, spec.qos) {}
@@ -89,6 +94,7 @@ class Writer {
   std::string topic_name_;
   Entity topic_;  // destroyed after the writer
   Entity writer_;
+  internal::RosGraphEntry ros_graph_entry_;
 };
 
 }  // namespace autodrive::dds
