@@ -121,7 +121,9 @@ IncompatibleQosWatch::IncompatibleQosWatch() : listener_(dds_create_listener(thi
 IncompatibleQosWatch::~IncompatibleQosWatch() { dds_delete_listener(listener_); }
 
 void IncompatibleQosWatch::SetHandler(IncompatibleQosHandler handler) {
-  std::lock_guard lock(mutex_);
+  // Waits for a call under way: once this returns, the old handler is never called again (an
+  // owner removing its handler in its destructor may then go).
+  std::lock_guard lock(handler_mutex_);
   handler_ = std::move(handler);
 }
 
@@ -130,21 +132,20 @@ void IncompatibleQosWatch::Report(dds_entity_t entity, bool reader, dds_qos_poli
   // another city or test run sharing the domain, by design, and nothing a ROS 2 node could
   // change (rmw_cyclonedds uses no partition). Not reported, not counted as the first.
   if (policy == DDS_PARTITION_QOS_POLICY_ID) return;
-  IncompatibleQos what;
-  IncompatibleQosHandler handler;
   {
     std::lock_guard lock(mutex_);
     if (!reported_.insert(entity).second) return;  // its first incompatible peer only
-    handler = handler_;
   }
+  IncompatibleQos what;
   what.topic = TopicOf(entity);
   what.our_reader = reader;
   what.policy = QosPolicyName(policy);
   what.advice = RclcppQosFor(ProfileOf(entity), /*publisher=*/reader);
   spdlog::warn("{}", what.Message());
-  if (handler) {
+  std::lock_guard lock(handler_mutex_);
+  if (handler_) {
     try {
-      handler(what);
+      handler_(what);
     } catch (const std::exception& e) {
       spdlog::error("incompatible QoS handler: {}", e.what());
     }

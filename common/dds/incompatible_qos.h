@@ -63,9 +63,10 @@ class IncompatibleQosWatch {
 
  private:
   dds_listener_t* listener_;
-  std::mutex mutex_;
-  IncompatibleQosHandler handler_;
+  std::mutex mutex_;  // reported_
   std::set<dds_entity_t> reported_;
+  std::mutex handler_mutex_;  // held while the handler runs
+  IncompatibleQosHandler handler_;
 };
 }  // namespace internal
 
