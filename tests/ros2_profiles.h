@@ -63,8 +63,9 @@ inline dds_qos_t* RosQos(RosProfile profile, bool writer) {
 /// A ROS 2 node: one participant of its own, a publisher and a subscriber in `partition`.
 class RosNodeLike {
  public:
-  explicit RosNodeLike(const std::string& partition) {
-    participant_ = dds_create_participant(DDS_DOMAIN_DEFAULT, nullptr, nullptr);
+  /// On DDS domain `domain` (default: the process's default one, as ROS_DOMAIN_ID gives it).
+  explicit RosNodeLike(const std::string& partition, dds_domainid_t domain = DDS_DOMAIN_DEFAULT) {
+    participant_ = dds_create_participant(domain, nullptr, nullptr);
     EXPECT_GT(participant_, 0);
     dds_qos_t* q = dds_create_qos();
     dds_qset_partition1(q, partition.c_str());

@@ -14,6 +14,7 @@
 #include "common/dds/clock_subscriber.h"
 #include "common/dds/conversions.h"
 #include "common/dds/loop_waitset.h"
+#include "common/dds/raw.h"
 #include "common/dds/reader.h"
 #include "common/dds/topics.h"
 #include "common/dds/writer.h"
@@ -210,6 +211,121 @@ TEST(DdsLayer, LoopWaitSetTakesThousandsOfReadersAndNamesTheOnesWithData) {
   EXPECT_TRUE(ws.WaitUntil(clock.Monotonic() + 30s));
   EXPECT_TRUE(ws.triggered().empty());
   EXPECT_FALSE(ws.WaitUntil(clock.Monotonic() + 10ms));
+}
+
+TEST(DdsLayer, ARosInputReaderTakesBestEffortWritersAndEachReliableSampleOnce) {
+  Participant p(Isolated());
+  const std::string topic = "rt/test/ros_input";
+  Reader<msg::Point> reader(p, topic, Qos::RosInput(256));
+  ASSERT_GT(reader.best_effort_handle(), 0);
+  Writer<msg::Point> reliable(p, topic, Qos::Stream(256));
+  Writer<msg::Point> best_effort(p, topic, Qos::BestEffortStream(256));
+  // Both count as matched (the reliable writer once, though both readers match it).
+  ASSERT_TRUE(reader.WaitForWriters(2, 5s));
+  EXPECT_EQ(reader.matched_writers(), 2u);
+  ASSERT_TRUE(reliable.WaitForReaders(2, 5s));  // the pair
+  ASSERT_TRUE(best_effort.WaitForReaders(1, 5s));
+  EXPECT_EQ(best_effort.matched_readers(), 1u) << "only the best-effort half takes it";
+
+  // A waitset wakes for a best-effort sample, naming the reader itself.
+  WallClock clock;
+  LoopWaitSet loop(p, clock);
+  loop.Attach(reader);
+  best_effort.Write(msg::Point{-1.0, 0.0, 0.0});
+  ASSERT_TRUE(loop.WaitUntil(clock.Monotonic() + 5s));
+  ASSERT_FALSE(loop.triggered().empty());
+  for (const dds_attach_t r : loop.triggered()) EXPECT_EQ(r, reader.handle());
+  SampleInfo info;
+  Message<msg::Point> m;
+  ASSERT_TRUE(reader.TakeOne(m, &info));
+  EXPECT_EQ(m->x, -1.0);
+  EXPECT_FALSE(reader.TakeOne(m));
+
+  for (int i = 0; i < 100; ++i) {
+    reliable.Write(msg::Point{static_cast<double>(i), 0.0, 0.0});
+    best_effort.Write(msg::Point{1000.0 + i, 0.0, 0.0});
+  }
+  ASSERT_TRUE(reliable.WaitForAcks(5s));
+  std::vector<int> reliable_seen(100, 0);
+  int best_effort_seen = 0;
+  ASSERT_TRUE(Eventually([&] {
+    while (reader.TakeOne(m)) {
+      if (m->x >= 1000.0) {
+        ++best_effort_seen;
+      } else {
+        ++reliable_seen[static_cast<std::size_t>(m->x)];
+      }
+    }
+    return std::ranges::all_of(reliable_seen, [](int n) { return n > 0; }) &&
+           best_effort_seen == 100;
+  }));
+  EXPECT_TRUE(std::ranges::all_of(reliable_seen, [](int n) { return n == 1; }))
+      << "a reliable writer's sample must be delivered once, not by both readers";
+  EXPECT_EQ(best_effort_seen, 100);
+}
+
+TEST(DdsLayer, RawSamplesCarryTheWireBytesAndMalformedOnesAreRefused) {
+  Participant p(Isolated());
+  const MessageTypeInfo* header = FindMessageType("std_msgs/msg/Header");
+  ASSERT_NE(header, nullptr);
+  EXPECT_EQ(header->dds_type_name, "std_msgs::msg::dds_::Header_");
+  EXPECT_EQ(FindMessageType("std_msgs::msg::dds_::Header_"), header);
+  EXPECT_EQ(FindMessageType("std_msgs/msg/Nope"), nullptr);
+  EXPECT_EQ(RosTypeName("autodrive_msgs::msg::dds_::Spat_"), "autodrive_msgs/msg/Spat");
+  EXPECT_EQ(RosTypeName("Spat"), "");
+  EXPECT_EQ(MessageTypes().size(), AllMessageDescriptors().size());
+
+  Writer<msg::Header> typed_writer(p, "rt/test/raw_in", Qos::Stream(8));
+  RawReader raw_reader(p, "rt/test/raw_in", header->descriptor, Qos::Stream(8));
+  RawWriter raw_writer(p, "rt/test/raw_out", header->descriptor, Qos::Stream(8));
+  Reader<msg::Header> typed_reader(p, "rt/test/raw_out", Qos::Stream(8));
+  ASSERT_TRUE(typed_writer.WaitForReaders(1, 5s));
+  ASSERT_TRUE(raw_writer.WaitForReaders(1, 5s));
+  Message<msg::Header> h;
+  h->stamp.sec = 17;
+  h->stamp.nanosec = 5;
+  SetString(h->frame_id, "map");
+  typed_writer.Write(h);
+  ASSERT_TRUE(raw_reader.WaitForData(5s));
+  RawSample sample;
+  ASSERT_TRUE(raw_reader.Take(sample));
+  // Little-endian XCDR1: 00 01, then the options, then sec (4), nanosec (4), string length (4),
+  // "map\0".
+  ASSERT_EQ(sample.cdr.size(), 4u + 4 + 4 + 4 + 4);
+  EXPECT_EQ(std::to_integer<int>(sample.cdr[1]), 1);
+  EXPECT_EQ(std::to_integer<int>(sample.cdr[4]), 17);
+  EXPECT_GT(sample.source_timestamp_ns, 0);
+
+  raw_writer.Write(sample.cdr);
+  ASSERT_TRUE(typed_reader.WaitForData(5s));
+  const auto back = typed_reader.TakeOne();
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ((*back)->stamp.sec, 17);
+  EXPECT_EQ((*back)->stamp.nanosec, 5u);
+  EXPECT_EQ(View((*back)->frame_id), "map");
+
+  // A string length past the end, a truncated sample, an unknown encapsulation: refused.
+  std::vector<std::byte> bad = sample.cdr;
+  bad[12] = std::byte{200};
+  EXPECT_THROW(raw_writer.Write(bad), InputError);
+  EXPECT_THROW(raw_writer.Write(std::span(sample.cdr).first(10)), InputError);
+  EXPECT_THROW(raw_writer.Write(std::span(sample.cdr).first(2)), InputError);
+  bad = sample.cdr;
+  bad[1] = std::byte{0x0a};
+  EXPECT_THROW(raw_writer.Write(bad), InputError);
+  // Big-endian input is accepted and re-encoded.
+  std::vector<std::byte> big = {std::byte{0}, std::byte{0}, std::byte{0}, std::byte{0},
+                                std::byte{0}, std::byte{0}, std::byte{0}, std::byte{9},
+                                std::byte{0}, std::byte{0}, std::byte{0}, std::byte{1},
+                                std::byte{0}, std::byte{0}, std::byte{0}, std::byte{1},
+                                std::byte{0}, std::byte{0}, std::byte{0}, std::byte{0}};
+  raw_writer.Write(big);
+  ASSERT_TRUE(typed_reader.WaitForData(5s));
+  const auto swapped = typed_reader.TakeOne();
+  ASSERT_TRUE(swapped.has_value());
+  EXPECT_EQ((*swapped)->stamp.sec, 9);
+  EXPECT_EQ((*swapped)->stamp.nanosec, 1u);
+  EXPECT_EQ(View((*swapped)->frame_id), "");
 }
 
 TEST(DdsLayer, TransientLocalLateJoinerGetsTheLatchedSample) {

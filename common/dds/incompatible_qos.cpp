@@ -48,7 +48,9 @@ std::string RclcppQosFor(const Qos& ours, bool publisher) {
   const bool reliable = ours.reliability == Qos::Reliability::kReliable;
   const bool latched = ours.durability == Qos::Durability::kTransientLocal;
   if (publisher) {  // the node publishes to our readers
-    if (!reliable) return "rclcpp::QoS(10) or rclcpp::SensorDataQoS()";
+    if (!reliable || ours.reader_accepts_best_effort) {
+      return "rclcpp::QoS(10) or rclcpp::SensorDataQoS()";
+    }
     return latched ? "rclcpp::QoS(1).transient_local()"
                    : "rclcpp::QoS(10) (reliable, not SensorDataQoS)";
   }

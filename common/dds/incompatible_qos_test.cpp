@@ -72,6 +72,30 @@ TEST(IncompatibleQos, ABestEffortWriterToAReliableReaderIsReportedOnceNamingReli
             "SensorDataQoS)");
 }
 
+TEST(IncompatibleQos, ABestEffortWriterOfARosInputTopicIsReadNotReported) {
+  const std::string partition = Unique("ros_input");
+  Participant ours(ParticipantOptions{{}, partition, {}});
+  Participant ros(ParticipantOptions{{}, partition, {}});
+  Reports reports;
+  reports.Attach(ours);
+  // The ROS node's SensorDataQoS publishers exist before our readers (a node started first).
+  Writer<msg::Point> ips(ros, "rt/autodrive/test/qos_ips", Qos::BestEffortStream(5));
+  Writer<msg::Point> plain(ros, "rt/autodrive/test/qos_plain", Qos::BestEffortStream(5));
+  Reader<msg::Point> ros_input(ours, "rt/autodrive/test/qos_ips", Qos::RosInput());
+  // The control: a plain reliable reader of the same kind of writer is reported.
+  Reader<msg::Point> stream(ours, "rt/autodrive/test/qos_plain", Qos::Stream());
+  ASSERT_TRUE(reports.WaitFor(1));
+  ASSERT_TRUE(ros_input.WaitForWriters(1, 10s));
+  ips.Write(msg::Point{1.0, 2.0, 3.0});
+  ASSERT_TRUE(ros_input.WaitForData(10s));
+  const auto got = ros_input.TakeOne();
+  ASSERT_TRUE(got.has_value());
+  EXPECT_EQ((*got)->y, 2.0);
+  std::lock_guard lock(reports.mutex);
+  ASSERT_EQ(reports.got.size(), 1u);
+  EXPECT_EQ(reports.got[0].topic, "/autodrive/test/qos_plain");
+}
+
 TEST(IncompatibleQos, APeerInAnotherPartitionIsAnotherCityNotAMistake) {
   Participant ours(ParticipantOptions{{}, Unique("partition_a"), {}});
   Participant other_city(ParticipantOptions{{}, Unique("partition_b"), {}});

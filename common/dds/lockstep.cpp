@@ -5,6 +5,10 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
+#include <cstring>
+#include <set>
+#include <thread>
 #include <utility>
 
 #include "common/dds/conversions.h"
@@ -21,6 +25,8 @@ using OptionalTimeout = std::optional<SteadyClock::duration>;
 // How often a wait looks at `stop`, its deadline and (the server) whether a controller left.
 constexpr SteadyClock::duration kServerPoll = std::chrono::milliseconds(100);
 constexpr SteadyClock::duration kClientPoll = std::chrono::milliseconds(200);
+// While the simulator's endpoints are discovered but not yet matched with ours.
+constexpr SteadyClock::duration kDiscoveryPoll = std::chrono::milliseconds(10);
 // How often the server says whom it waits for.
 constexpr SteadyClock::duration kRegistrationReport = std::chrono::seconds(5);
 constexpr SteadyClock::duration kAnswerReport = std::chrono::seconds(10);
@@ -62,6 +68,46 @@ std::vector<dds_instance_handle_t> MatchedPublications(dds_entity_t reader) {
     }
     handles.resize(static_cast<std::size_t>(n));  // more matched meanwhile: ask again
   }
+}
+
+// The instance handles of the readers matched with `writer`.
+std::vector<dds_instance_handle_t> MatchedSubscriptions(dds_entity_t writer) {
+  std::vector<dds_instance_handle_t> handles;
+  for (;;) {
+    const dds_return_t n = internal::ThrowIfError(
+        dds_get_matched_subscriptions(writer, handles.data(), handles.size()),
+        "dds_get_matched_subscriptions");
+    if (static_cast<std::size_t>(n) <= handles.size()) {
+      handles.resize(static_cast<std::size_t>(n));
+      return handles;
+    }
+    handles.resize(static_cast<std::size_t>(n));
+  }
+}
+
+using ParticipantKey = std::array<std::uint8_t, 16>;
+
+// The participants of the endpoints matched with `entity`: its writers' (a reader) or readers'
+// (a writer); `only` narrows to those instance handles.
+std::set<ParticipantKey> MatchedParticipants(dds_entity_t entity, bool reader,
+                                             const std::vector<dds_instance_handle_t>* only) {
+  std::set<ParticipantKey> keys;
+  for (const dds_instance_handle_t h :
+       reader ? MatchedPublications(entity) : MatchedSubscriptions(entity)) {
+    if (only != nullptr && std::find(only->begin(), only->end(), h) == only->end()) continue;
+    dds_builtintopic_endpoint_t* e = reader ? dds_get_matched_publication_data(entity, h)
+                                            : dds_get_matched_subscription_data(entity, h);
+    if (e == nullptr) continue;  // gone meanwhile
+    ParticipantKey key{};
+    std::memcpy(key.data(), e->participant_key.v, key.size());
+    keys.insert(key);
+    dds_builtintopic_free_endpoint(e);
+  }
+  return keys;
+}
+
+bool Intersect(const std::set<ParticipantKey>& a, const std::set<ParticipantKey>& b) {
+  return std::ranges::any_of(a, [&](const ParticipantKey& k) { return b.contains(k); });
 }
 
 }  // namespace
@@ -143,6 +189,17 @@ void LockstepServer::TakeSamples() {
   }
 }
 
+bool LockstepServer::StepReachesEveryController() const {
+  // Each controller's participant (that of the writer it registered with) has a reader of the
+  // step topic matched: the steps reach it. Counting the step topic's readers would not do: a
+  // reader that is no controller (a recorder, `ros2 topic echo`) is one too.
+  const std::set<ParticipantKey> readers = MatchedParticipants(step_.handle(), false, nullptr);
+  return std::ranges::all_of(controllers_, [&](const auto& entry) {
+    const std::vector<dds_instance_handle_t> writer{entry.second.writer};
+    return Intersect(MatchedParticipants(done_.handle(), true, &writer), readers);
+  });
+}
+
 bool LockstepServer::WaitForControllers(const std::atomic<bool>& stop, OptionalTimeout timeout) {
   AUTODRIVE_CHECK(!registered_, "lockstep: the controllers registered already");
   const Deadline deadline(timeout);
@@ -155,7 +212,7 @@ bool LockstepServer::WaitForControllers(const std::atomic<bool>& stop, OptionalT
   for (;;) {
     TakeSamples();
     const std::vector<std::string> missing = unregistered();
-    if (missing.empty() && step_.matched_readers() >= n) {
+    if (missing.empty() && StepReachesEveryController()) {
       registered_ = true;
       return true;
     }
@@ -279,12 +336,27 @@ LockstepClient::LockstepClient(const Participant& participant, std::string name)
   AUTODRIVE_THROW_UNLESS(!name_.empty(), "lockstep: a controller's name cannot be empty");
 }
 
+bool LockstepClient::SimulatorListens() const {
+  // A reader of step_done in the participant that writes the steps: the simulator's. Another
+  // reader of step_done (a recorder, `ros2 topic echo`) would take a registration the
+  // simulator never sees.
+  return Intersect(MatchedParticipants(steps_.handle(), true, nullptr),
+                   MatchedParticipants(done_.handle(), false, nullptr));
+}
+
 bool LockstepClient::WaitForSimulator(const std::atomic<bool>& stop, OptionalTimeout timeout) {
   const Deadline deadline(timeout);
-  while (!done_.WaitForReaders(1, deadline.Slice(kClientPoll))) {
+  for (;;) {
+    if (done_.WaitForReaders(1, deadline.Slice(kClientPoll)) &&
+        steps_.WaitForWriters(1, deadline.Slice(kClientPoll)) && SimulatorListens()) {
+      return true;
+    }
     if (stop.load() || deadline.passed()) return false;
+    // Both sides are there but not yet matched with each other: discovery is under way.
+    if (done_.matched_readers() > 0 && steps_.matched_writers() > 0) {
+      std::this_thread::sleep_for(kDiscoveryPoll);
+    }
   }
-  return true;
 }
 
 void LockstepClient::Write(Time stamp) {

@@ -15,12 +15,13 @@
 /// The rules, in order:
 /// 1. Registration. A controller creates its reader of `step` and its writers (`step_done`
 ///    and its own topics), waits until the simulator's reader matched `step_done` (a sample
-///    written before would be lost: the topics are volatile) and each of its own writers (so
-///    that its first step's messages reach the simulator), then writes one `step_done` with
-///    `kLockstepRegistrationStamp`. The simulator takes any `step_done` of a named controller
-///    before its first step as its registration (a name it was not told is ignored, with a
-///    warning); once every named controller registered and its `step` writer has at least one
-///    reader per controller, it is ready.
+///    written before would be lost: the topics are volatile; the simulator's reader is the one
+///    in the participant that writes `step`, not any reader such as a recorder's) and each of
+///    its own writers (so that its first step's messages reach the simulator), then writes one
+///    `step_done` with `kLockstepRegistrationStamp`. The simulator takes any `step_done` of a
+///    named controller before its first step as its registration (a name it was not told is
+///    ignored, with a warning); once every named controller registered and each one's
+///    participant has a reader of `step` matched, it is ready.
 /// 2. A step. The simulator makes sure every message of the step reached its readers (waits
 ///    for their acknowledgements), then announces the step. Stamps go forward.
 /// 3. An answer. A controller, on each step: reads what its topics brought, decides on the
@@ -159,6 +160,8 @@ class LockstepServer {
   };
   // Takes every waiting `step_done`: registrations before the first step, answers after.
   void TakeSamples();
+  // Whether every registered controller's participant has a reader of the step topic matched.
+  [[nodiscard]] bool StepReachesEveryController() const;
   // The controllers for which `pick` is true, sorted.
   template <typename Pick>
   [[nodiscard]] std::vector<std::string> Those(Pick pick) const;
@@ -207,10 +210,13 @@ class LockstepClient {
   LockstepClient(const LockstepClient&) = delete;
   LockstepClient& operator=(const LockstepClient&) = delete;
 
-  /// Blocks until the simulator's `step_done` reader is matched. True then; false when `stop`
-  /// is set or `timeout` passes first.
+  /// Blocks until the simulator's `step_done` reader is matched (`SimulatorListens`). True then;
+  /// false when `stop` is set or `timeout` passes first.
   bool WaitForSimulator(const std::atomic<bool>& stop,
                         std::optional<std::chrono::steady_clock::duration> timeout = {});
+  /// Whether the simulator's `step_done` reader is matched now: a reader of `step_done` in the
+  /// participant that writes the steps (not merely any reader of it, such as a recorder's).
+  [[nodiscard]] bool SimulatorListens() const;
 
   /// `WaitForSimulator`, then registers (rule 1). True when registered; false when `stop` is
   /// set or `timeout` passes first. Precondition (checked): not registered yet.

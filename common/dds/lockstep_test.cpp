@@ -223,6 +223,31 @@ TEST_F(Run, StopEndsEveryWaitAndATimeOutIsNoStep) {
   EXPECT_FALSE(a_->ended());
 }
 
+TEST(Lockstep, AReaderOfItsTopicsThatIsNotTheSimulatorRegistersNoOneAndTheRunGoesOn) {
+  // A recorder (or `ros2 topic echo`) reads step_done and step before the simulator is up.
+  Participant recorder(Isolated());
+  Participant ctl(Isolated());
+  Reader<msg::Header> done_echo(recorder, topics::SimStepDone());
+  Reader<msg::Header> step_echo(recorder, topics::SimStep());
+  LockstepClient a(ctl, "a");
+  const std::atomic<bool> never{false};
+  // The recorder's reader is matched, but it is not the simulator's: registering now would be
+  // lost (step_done is volatile) and the run would wait for good.
+  ASSERT_TRUE(done_echo.WaitForWriters(1, kLong));
+  EXPECT_FALSE(a.SimulatorListens());
+  EXPECT_FALSE(a.WaitForSimulator(never, 300ms));
+  Participant sim(Isolated());
+  LockstepServer server(sim, {"a"});
+  ASSERT_TRUE(a.Register(never, kLong));
+  EXPECT_TRUE(a.SimulatorListens());
+  ASSERT_TRUE(server.WaitForControllers(never, kLong));
+  server.Announce(At(0ms));
+  const std::optional<Time> step = a.NextStep(never, kLong);
+  ASSERT_TRUE(step.has_value());
+  a.Answer();
+  EXPECT_TRUE(server.WaitForAnswers(never, kLong));
+}
+
 TEST(Lockstep, StepsThatGoBackAreAnError) {
   const std::atomic<bool> never{false};
   Participant p(Isolated());

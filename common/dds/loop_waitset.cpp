@@ -24,9 +24,9 @@ LoopWaitSet::LoopWaitSet(const Participant& participant, Clock& clock)
 
 LoopWaitSet::~LoopWaitSet() { clock_.SetWaker({}); }
 
-void LoopWaitSet::AttachReader(dds_entity_t reader) {
+void LoopWaitSet::AttachReader(dds_entity_t reader, dds_entity_t attach_as) {
   Entity condition(dds_create_readcondition(reader, DDS_ANY_STATE), "dds_create_readcondition");
-  internal::ThrowIfError(dds_waitset_attach(waitset_.handle(), condition.handle(), reader),
+  internal::ThrowIfError(dds_waitset_attach(waitset_.handle(), condition.handle(), attach_as),
                          "dds_waitset_attach(reader)");
   conditions_.push_back(std::move(condition));
   triggered_.resize(conditions_.size() + 1);

@@ -34,13 +34,15 @@ class LoopWaitSet {
   /// loop that leaves samples in a reader is woken again at once.
   template <MessageType T>
   void Attach(const Reader<T>& reader) {
-    AttachReader(reader.handle());
+    AttachReader(reader.handle(), reader.handle());
+    if (reader.best_effort_handle() > 0) AttachReader(reader.best_effort_handle(), reader.handle());
   }
   /// Blocks until data, `Wake()`, `deadline` on the clock, a new clock session or an interrupt.
   /// Returns true when woken by data or `Wake()`, false otherwise (read the clock to know).
   bool WaitUntil(MonoTime deadline);
   /// The readers (their handles) that held data when the last `WaitUntil` returned; empty
-  /// when it returned for another reason. Valid until the next `WaitUntil`.
+  /// when it returned for another reason (a reader with a best-effort companion may be listed
+  /// twice). Valid until the next `WaitUntil`.
   [[nodiscard]] std::span<const dds_attach_t> triggered() const {
     return {triggered_.data(), triggered_count_};
   }
@@ -48,7 +50,8 @@ class LoopWaitSet {
   void Wake() noexcept;
 
  private:
-  void AttachReader(dds_entity_t reader);
+  // Wakes the loop with `attach_as` in `triggered()` when `reader` holds a sample.
+  void AttachReader(dds_entity_t reader, dds_entity_t attach_as);
   Clock& clock_;
   Entity waitset_;
   Entity guard_;

@@ -14,6 +14,12 @@ Qos Qos::LatchedState(std::int32_t depth) {
   return Qos{Reliability::kReliable, Durability::kTransientLocal, depth};
 }
 
+Qos Qos::RosInput(std::int32_t depth) {
+  Qos q = Stream(depth);
+  q.reader_accepts_best_effort = true;
+  return q;
+}
+
 Qos Qos::Command() { return Qos{Reliability::kReliable, Durability::kVolatile, 0}; }
 
 Qos Qos::BestEffortStream(std::int32_t depth) {
@@ -25,6 +31,7 @@ std::string Qos::ToString() const {
   std::string s = reliability == Reliability::kReliable ? "reliable" : "best_effort";
   s += durability == Durability::kTransientLocal ? "/transient_local" : "/volatile";
   s += depth == 0 ? "/keep_all" : "/keep_last(" + std::to_string(depth) + ")";
+  if (reader_accepts_best_effort) s += " (readers: also best_effort)";
   return s;
 }
 

@@ -26,6 +26,11 @@ struct Qos {
   std::int32_t depth = 1;
   /// How long a reliable writer may block when a reader's history is full (keep-all only).
   Duration max_blocking = std::chrono::milliseconds(100);
+  /// Readers only, with a reliable profile: best-effort writers (a ROS 2 node's
+  /// `SensorDataQoS` publisher) are read too, through a best-effort companion reader beside
+  /// the reliable one (common/dds/reader.h). Reliable writers still deliver reliably, once, to
+  /// the reliable reader. Writers ignore it.
+  bool reader_accepts_best_effort = false;
 
   /// Periodic data where only the newest sample matters: sensors, SPaT, fleet state, /clock.
   /// Reliable, volatile, keep last `depth`.
@@ -37,6 +42,10 @@ struct Qos {
   /// requests. Reliable, volatile, keep all: a burst is never thinned; a reader that does not
   /// keep up makes the writer block for at most `max_blocking`, then the write fails.
   static Qos Command();
+  /// Data a ROS 2 node may publish to us (a car's devkit topics: its sensors and the actuator
+  /// commands): `Stream` whose readers accept best-effort writers too
+  /// (`reader_accepts_best_effort`), so ROS's default and `SensorDataQoS` publishers match.
+  static Qos RosInput(std::int32_t depth = 1);
   /// Best-effort sensor stream (ROS's SensorDataQoS), for high-rate data where a lost sample
   /// is better than a late one. Only ROS subscribers that are best-effort too will match.
   static Qos BestEffortStream(std::int32_t depth = 5);

@@ -9,6 +9,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "common/dds/entity.h"
@@ -56,15 +57,51 @@ class ReaderBase {
   /// are unaffected), re-checking the count at least once a second.
   bool WaitForWriters(std::uint32_t n, std::chrono::steady_clock::duration timeout) const;
   [[nodiscard]] dds_entity_t handle() const { return reader_.handle(); }
+  /// The best-effort companion reader of a `Qos::reader_accepts_best_effort` profile; 0
+  /// without one. A waitset attaches both.
+  [[nodiscard]] dds_entity_t best_effort_handle() const { return best_effort_reader_.handle(); }
   [[nodiscard]] const std::string& topic_name() const { return topic_name_; }
   /// Takes at most one valid sample into `sample`; skips invalid (lifecycle-only) samples.
   bool TakeInto(void* sample, SampleInfo* info);
 
+  /// Takes the next valid sample with `take`, first from the reader, then from the
+  /// best-effort companion (only samples of best-effort writers: the others reach the
+  /// reader). `take(reader, &publication)` takes at most one sample from `reader`: it returns
+  /// 1 for a valid sample (and sets `publication` to its writer), 0 when none is waiting, -1
+  /// when it took a sample to skip (lifecycle only).
+  template <typename Take>
+  bool TakeWith(Take&& take) {
+    dds_instance_handle_t publication = 0;
+    for (int r; (r = take(reader_.handle(), &publication)) != 0;) {
+      if (r > 0) return true;
+    }
+    if (best_effort_reader_.handle() <= 0) return false;
+    for (int r; (r = take(best_effort_reader_.handle(), &publication)) != 0;) {
+      if (r > 0 && FromBestEffortWriter(publication)) return true;
+    }
+    return false;
+  }
+
  private:
   static void OnDataAvailable(dds_entity_t reader, void* arg);
+  // Sets the readers' listeners: data-available (when `data_available`) and, on the reliable
+  // half of a pair, a handler that keeps its incompatible-QoS reports from the participant.
+  void SetListeners(bool data_available);
+  // Whether the writer `publication`, matched with the companion reader, is best effort
+  // (cached per writer; false for a writer gone meanwhile).
+  bool FromBestEffortWriter(dds_instance_handle_t publication) const;
   std::string topic_name_;
   Entity topic_;
   Entity reader_;
+  // Qos::reader_accepts_best_effort: a best-effort reader beside the reliable one, so that
+  // best-effort writers (a ROS node's SensorDataQoS) match too. Reliable writers match both;
+  // their samples are taken from the reliable reader and skipped here, so that what they
+  // send stays reliable (and covered by lockstep's acknowledgements) and is seen once.
+  Entity best_effort_reader_;
+  Entity best_effort_read_condition_;
+  internal::RosGraphEntry best_effort_ros_graph_entry_;
+  mutable std::mutex best_effort_writers_mutex_;
+  mutable std::unordered_map<dds_instance_handle_t, bool> best_effort_writers_;
   internal::RosGraphEntry ros_graph_entry_;
   Entity waitset_;
   Entity read_condition_;
@@ -133,6 +170,8 @@ class Reader {
   }
   [[nodiscard]] const std::string& topic_name() const { return base_.topic_name(); }
   [[nodiscard]] dds_entity_t handle() const { return base_.handle(); }
+  /// The best-effort companion reader (`Qos::reader_accepts_best_effort`), 0 without one.
+  [[nodiscard]] dds_entity_t best_effort_handle() const { return base_.best_effort_handle(); }
 
  private:
   internal::ReaderBase base_;
@@ -150,16 +189,19 @@ class WaitSet {
   /// or be detached first.
   template <MessageType T>
   void Attach(const Reader<T>& reader) {
-    AttachEntity(reader.handle());
+    AttachEntity(reader.handle(), reader.handle());
+    if (reader.best_effort_handle() > 0) AttachEntity(reader.best_effort_handle(), reader.handle());
   }
   /// Blocks until a reader has data, `Wake()` is called, or `timeout` passes (steady clock).
-  /// Returns the handles of the readers with data (empty on timeout or wake).
+  /// Returns the handles of the readers with data (empty on timeout or wake; a reader with a
+  /// best-effort companion may be listed twice).
   std::vector<dds_entity_t> Wait(std::chrono::steady_clock::duration timeout);
   /// Makes a concurrent or the next `Wait` return at once (thread-safe).
   void Wake();
 
  private:
-  void AttachEntity(dds_entity_t reader);
+  // Wakes `Wait` with `attach_as` when `reader` holds a sample.
+  void AttachEntity(dds_entity_t reader, dds_entity_t attach_as);
   Entity waitset_;
   Entity guard_;
   std::vector<Entity> conditions_;

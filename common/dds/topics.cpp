@@ -104,21 +104,21 @@ std::string VehicleTopicName(VehicleId vehicle, VehicleTopic topic) {
 }
 
 TopicSpec<msg::Float32> Throttle(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kThrottle), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kThrottle), Qos::RosInput()};
 }
 TopicSpec<msg::Float32> Steering(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kSteering), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kSteering), Qos::RosInput()};
 }
 TopicSpec<msg::JointState> LeftEncoder(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kLeftEncoder), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kLeftEncoder), Qos::RosInput()};
 }
 TopicSpec<msg::JointState> RightEncoder(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kRightEncoder), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kRightEncoder), Qos::RosInput()};
 }
-TopicSpec<msg::Point> Ips(VehicleId v) { return {Vehicle(v, VehicleTopic::kIps), Qos::Stream()}; }
-TopicSpec<msg::Imu> Imu(VehicleId v) { return {Vehicle(v, VehicleTopic::kImu), Qos::Stream()}; }
+TopicSpec<msg::Point> Ips(VehicleId v) { return {Vehicle(v, VehicleTopic::kIps), Qos::RosInput()}; }
+TopicSpec<msg::Imu> Imu(VehicleId v) { return {Vehicle(v, VehicleTopic::kImu), Qos::RosInput()}; }
 TopicSpec<msg::LaserScan> Lidar(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kLidar), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kLidar), Qos::RosInput()};
 }
 TopicSpec<msg::Image> FrontCamera(VehicleId v) {
   return {Vehicle(v, VehicleTopic::kFrontCamera), Qos::Stream()};
@@ -127,16 +127,16 @@ TopicSpec<msg::Image> RearCamera(VehicleId v) {
   return {Vehicle(v, VehicleTopic::kRearCamera), Qos::Stream()};
 }
 TopicSpec<msg::Float32> ThrottleCommand(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kThrottleCommand), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kThrottleCommand), Qos::RosInput()};
 }
 TopicSpec<msg::Float32> SteeringCommand(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kSteeringCommand), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kSteeringCommand), Qos::RosInput()};
 }
 TopicSpec<msg::Int32> HeadlightsCommand(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kHeadlightsCommand), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kHeadlightsCommand), Qos::RosInput()};
 }
 TopicSpec<msg::Int32> IndicatorsCommand(VehicleId v) {
-  return {Vehicle(v, VehicleTopic::kIndicatorsCommand), Qos::Stream()};
+  return {Vehicle(v, VehicleTopic::kIndicatorsCommand), Qos::RosInput()};
 }
 TopicSpec<msg::TrackedVehicle> GroundTruth(VehicleId v) {
   return {Vehicle(v, VehicleTopic::kGroundTruth), Qos::Stream()};
