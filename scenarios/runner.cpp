@@ -424,7 +424,8 @@ RunResult RunScenario(const RunOptions& options) {
 
   const fs::path out = fs::absolute(options.out_dir).lexically_normal();
   fs::create_directories(out);
-  for (const char* stale : {"run", "logs", "report.json", "report.html", "launcher.log"}) {
+  for (const char* stale :
+       {"run", "logs", "report.json", "report.html", "launcher.log", "recording.mcap"}) {
     fs::remove_all(out / stale);
   }
   const fs::path city_file = out / "city.yaml";
@@ -451,9 +452,13 @@ RunResult RunScenario(const RunOptions& options) {
   child_options.extra_env = {"TZ=UTC", fmt::format("{}={}", kStopWithParentEnv, getpid())};
   child_options.output_file = out / "launcher.log";
   child_options.own_process_group = true;
-  ChildProcess launcher = ChildProcess::Start({(options.bin_dir / "autodrive-city").string(), "up",
-                                               city_file.string(), "--partition", partition},
-                                              child_options);
+  std::vector<std::string> launcher_argv{(options.bin_dir / "autodrive-city").string(), "up",
+                                         city_file.string(), "--partition", partition};
+  if (options.record) {
+    // The whole run as a rosbag2-compatible MCAP (docs/recording.md).
+    launcher_argv.insert(launcher_argv.end(), {"--record", (out / "recording.mcap").string()});
+  }
+  ChildProcess launcher = ChildProcess::Start(launcher_argv, child_options);
   spdlog::info("{}: city {} up on partition {} (log: {})", scenario.name, composed.city_name,
                partition, (out / "launcher.log").string());
 

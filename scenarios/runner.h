@@ -30,6 +30,9 @@ struct RunOptions {
   const std::atomic<bool>* stop = nullptr;
   /// One line per simulated 10 s on stderr.
   bool progress = true;
+  /// Records the run's topics (cameras aside) into recording.mcap in the run folder
+  /// (`autodrive-city up --record`, docs/recording.md).
+  bool record = false;
 };
 
 struct RunResult {

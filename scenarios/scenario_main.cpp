@@ -49,6 +49,9 @@ int main(int argc, char** argv) {
                       "each other and a running city never meet)");
   bool quiet = false;
   run_cmd->add_flag("--quiet", quiet, "no progress lines");
+  run_cmd->add_flag("--record", run.record,
+                    "keep the run's topics in recording.mcap in the run folder (rosbag2-compatible "
+                    "MCAP, cameras aside; docs/recording.md)");
 
   scenarios::SweepOptions sweep;
   CLI::App* sweep_cmd = app.add_subcommand(

@@ -92,8 +92,33 @@ struct UpOptions {
   std::string bin_dir;
   std::string partition;
   std::string dashboard;  ///< HOST:PORT overriding launch.dashboard.listen
+  std::string record;     ///< an MCAP file to record the whole run into (autodrive-record)
   double duration_s = 0;
 };
+
+// `up --record FILE`: autodrive-record records every topic of the run (cameras aside) into
+// FILE, started first and stopped last, so that the file holds the run from the lights' first
+// flash to their last. Never restarted: a restart would begin the file again.
+void PlanRecorder(LaunchPlan& plan, const std::filesystem::path& bin_dir, const std::string& file) {
+  const std::filesystem::path out = std::filesystem::absolute(file);
+  AUTODRIVE_THROW_UNLESS(!std::filesystem::exists(out),
+                         "--record: " << out.string()
+                                      << " exists; choose another name (a recording is never "
+                                         "overwritten)");
+  AUTODRIVE_THROW_UNLESS(
+      std::filesystem::is_directory(out.parent_path()),
+      "--record: the folder " << out.parent_path().string() << " does not exist");
+  AUTODRIVE_THROW_UNLESS(
+      std::ranges::none_of(plan.processes, [](const ProcessPlan& p) { return p.name == "record"; }),
+      "--record: the city already has a process named record");
+  ProcessPlan recorder;
+  recorder.name = "record";
+  recorder.argv = {(bin_dir / "autodrive-record").string(), "record", "-o", out.string()};
+  recorder.restart = Restart::kNever;
+  recorder.log = plan.run_dir / "logs" / "record.log";
+  recorder.city_program = true;
+  plan.processes.insert(plan.processes.begin(), std::move(recorder));
+}
 
 // Refuses to start the city when the dashboard's HOST:PORT is taken: found now, before
 // anything starts, not when the dashboard exits and takes the city down with it.
@@ -135,7 +160,9 @@ void CheckDashboardAddressFree(const std::string& listen) {
 }
 
 int Up(const UpOptions& o) {
-  LaunchPlan plan = PlanCity(o.city, o.bin_dir.empty() ? ExecutableDir() : o.bin_dir);
+  const std::filesystem::path bin_dir = o.bin_dir.empty() ? ExecutableDir() : o.bin_dir;
+  LaunchPlan plan = PlanCity(o.city, bin_dir);
+  if (!o.record.empty()) PlanRecorder(plan, bin_dir, o.record);
   if (!o.dashboard.empty()) {
     if (!plan.dashboard) {
       throw InputError("--dashboard: the city's dashboard is off (launch.dashboard.mode)");
@@ -396,6 +423,9 @@ int main(int argc, char** argv) {
   up_cmd->add_option("--dashboard", up.dashboard,
                      "the dashboard's HOST:PORT (instead of launch.dashboard.listen; port 0: any "
                      "free one)");
+  up_cmd->add_option("--record", up.record,
+                     "record the run into this MCAP file (rosbag2-compatible; cameras aside): "
+                     "autodrive-record, started first and stopped last");
   up_cmd->add_option("--bin-dir", up.bin_dir,
                      "where the city's programs are (default: beside autodrive-city)");
   std::string city, name, out_dir, user, bin_dir;
