@@ -2,6 +2,8 @@
 
 #include <fnmatch.h>
 
+#include <cstring>
+
 namespace autodrive::dds {
 
 namespace {
@@ -35,6 +37,12 @@ PublicationWatcher::PublicationWatcher(const Participant& participant)
 
 std::vector<std::string> PublicationWatcher::TakeTopics() {
   std::vector<std::string> topics;
+  for (DiscoveredWriter& w : TakeWriters()) topics.push_back(std::move(w.topic_name));
+  return topics;
+}
+
+std::vector<DiscoveredWriter> PublicationWatcher::TakeWriters() {
+  std::vector<DiscoveredWriter> writers;
   constexpr int kBatch = 16;
   for (;;) {
     void* samples[kBatch] = {};
@@ -44,11 +52,22 @@ std::vector<std::string> PublicationWatcher::TakeTopics() {
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data || infos[i].instance_state != DDS_IST_ALIVE) continue;
       const auto* endpoint = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
-      if (endpoint->topic_name == nullptr || !SharesPartition(endpoint->qos, partition_)) continue;
-      topics.emplace_back(endpoint->topic_name);
+      if (endpoint->topic_name == nullptr || endpoint->type_name == nullptr ||
+          !SharesPartition(endpoint->qos, partition_)) {
+        continue;
+      }
+      DiscoveredWriter w;
+      w.topic_name = endpoint->topic_name;
+      w.type_name = endpoint->type_name;
+      std::memcpy(w.key.data(), endpoint->key.v, w.key.size());
+      dds_qos_t* qos = dds_create_qos();
+      if (endpoint->qos != nullptr) (void)dds_copy_qos(qos, endpoint->qos);
+      w.qos = std::shared_ptr<const dds_qos_t>(
+          qos, [](const dds_qos_t* q) { dds_delete_qos(const_cast<dds_qos_t*>(q)); });
+      writers.push_back(std::move(w));
     }
     if (n > 0) (void)dds_return_loan(reader_.handle(), samples, n);
-    if (n < kBatch) return topics;
+    if (n < kBatch) return writers;
   }
 }
 

@@ -4,6 +4,9 @@
 
 #include <dds/dds.h>
 
+#include <array>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -11,6 +14,14 @@
 #include "common/dds/participant.h"
 
 namespace autodrive::dds {
+
+/// A writer DDS discovery found.
+struct DiscoveredWriter {
+  std::string topic_name;                ///< DDS name ("rt/...")
+  std::string type_name;                 ///< DDS type name
+  std::array<std::uint8_t, 16> key{};    ///< its GUID: one per writer
+  std::shared_ptr<const dds_qos_t> qos;  ///< the QoS it offers (never null)
+};
 
 /// Watches the writers that appear in the domain (Cyclone's DCPSPublication built-in topic), so
 /// that a daemon can notice a writer on a topic it does not read yet (the SCM answers an
@@ -26,6 +37,9 @@ class PublicationWatcher {
   /// The topic names of the writers in this participant's partition discovered since the last
   /// call (alive ones, this participant's own included), in the order they came. Never blocks.
   [[nodiscard]] std::vector<std::string> TakeTopics();
+  /// The writers themselves, as `TakeTopics` finds them: topic, type, key and offered QoS (what
+  /// a recorder needs to read each topic as its writers offer it).
+  [[nodiscard]] std::vector<DiscoveredWriter> TakeWriters();
 
  private:
   std::string partition_;

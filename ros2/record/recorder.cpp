@@ -24,23 +24,8 @@ bool Matches(const std::vector<std::string>& globs, const std::string& name) {
   });
 }
 
-/// Whether a writer whose QoS is `qos` can reach our participant in `partition`.
-bool InPartition(const dds_qos_t* qos, const std::string& partition) {
-  uint32_t n = 0;
-  char** names = nullptr;
-  if (qos == nullptr || !dds_qget_partition(qos, &n, &names) || n == 0) return partition.empty();
-  bool in = false;
-  for (uint32_t i = 0; i < n; ++i) {
-    const char* name = names[i] != nullptr ? names[i] : "";
-    in = in || partition == name || ::fnmatch(name, partition.c_str(), 0) == 0;
-    dds_free(names[i]);
-  }
-  dds_free(names);
-  return in;
-}
-
-std::string KeyText(const dds_guid_t& key) {
-  return std::string(reinterpret_cast<const char*>(key.v), sizeof key.v);
+std::string KeyText(const std::array<std::uint8_t, 16>& key) {
+  return std::string(key.begin(), key.end());
 }
 
 std::uint64_t Nanoseconds(Time t) {
@@ -63,9 +48,7 @@ Recorder::Recorder(const dds::Participant& participant, const std::string& path,
     : participant_(participant),
       path_(path),
       options_(std::move(options)),
-      publications_(dds_create_reader(participant.handle(), DDS_BUILTIN_TOPIC_DCPSPUBLICATION,
-                                      nullptr, nullptr),
-                    "dds_create_reader(DCPSPublication)"),
+      publications_(participant),
       writer_(path, McapWriter::Options{}) {
   write_thread_ = std::thread([this] { WriteLoop(); });
 }
@@ -79,25 +62,12 @@ Recorder::~Recorder() {
 }
 
 std::size_t Recorder::Discover() {
-  constexpr int kBatch = 16;
   std::set<std::string> changed;
-  for (;;) {
-    void* samples[kBatch] = {};
-    dds_sample_info_t infos[kBatch];
-    const dds_return_t n = dds_take(publications_.handle(), samples, infos, kBatch, kBatch);
-    if (n <= 0) break;
-    for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data || infos[i].instance_state != DDS_IST_ALIVE) continue;
-      const auto* e = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
-      if (e->topic_name == nullptr || e->type_name == nullptr) continue;
-      if (!InPartition(e->qos, participant_.partition())) continue;
-      Seen& seen = seen_[e->topic_name];
-      seen.type_name = e->type_name;
-      seen.writers[KeyText(e->key)] = OfferedQosOf(e->qos);
-      changed.insert(e->topic_name);
-    }
-    (void)dds_return_loan(publications_.handle(), samples, n);
-    if (n < kBatch) break;
+  for (const dds::DiscoveredWriter& w : publications_.TakeWriters()) {
+    Seen& seen = seen_[w.topic_name];
+    seen.type_name = w.type_name;
+    seen.writers[KeyText(w.key)] = OfferedQosOf(w.qos.get());
+    changed.insert(w.topic_name);
   }
   std::size_t started = 0;
   for (const auto& dds_name : changed) {

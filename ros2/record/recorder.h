@@ -21,7 +21,7 @@
 #include "ros2/record/mcap.h"
 #include "ros2/record/rosbag2.h"
 
-#include "common/dds/entity.h"
+#include "common/dds/discovery.h"
 #include "common/dds/participant.h"
 #include "common/dds/raw.h"
 
@@ -90,7 +90,7 @@ class Recorder {
   const dds::Participant& participant_;
   std::string path_;
   RecordOptions options_;
-  dds::Entity publications_;
+  dds::PublicationWatcher publications_;  // writers of this participant's partition
   /// Per DDS topic name: its type and the offered QoS of each writer seen (by writer key).
   struct Seen {
     std::string type_name;
