@@ -527,8 +527,12 @@ void Scm::Impl::Housekeeping(const ClockReading& now) {
 }
 
 void Scm::Impl::Pass() {
+  const auto began = std::chrono::steady_clock::now();
   const ClockReading now = clock.Read();
   current = now;
+  // Lateness only means something on the wall clock (a simulated clock jumps to each deadline).
+  const Duration late =
+      clock.kind() == ClockKind::kWall ? schedule.Lateness(now.mono) : Duration{0};
   ++counters.passes;
   ++figures.passes;
   if (now.session != clock_session) {
@@ -572,6 +576,8 @@ void Scm::Impl::Pass() {
   }
   if (schedule.HousekeepingDue(now.mono)) Housekeeping(now);
   schedule.EndPass(now.mono, Deadlines());
+  figures.loop.Note(std::chrono::duration_cast<Duration>(std::chrono::steady_clock::now() - began),
+                    late);
 }
 
 OtherDeadlines Scm::Impl::Deadlines() const {

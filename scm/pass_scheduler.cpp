@@ -1,6 +1,7 @@
 #include "scm/pass_scheduler.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace autodrive::scm {
 
@@ -47,6 +48,11 @@ bool PassScheduler::Housekeep(MonoTime now) {
   return true;
 }
 
+Duration PassScheduler::Lateness(MonoTime now) const {
+  if (planned_wake_ == MonoTime{} || now <= planned_wake_) return Duration{0};
+  return now - planned_wake_;
+}
+
 std::optional<Duration> PassScheduler::Stall(MonoTime now) const {
   if (planned_wake_ == MonoTime{} || now <= planned_wake_ + params_.stall_threshold) {
     return std::nullopt;
@@ -75,6 +81,27 @@ std::optional<std::uint64_t> StallWatch::Note(Duration stall, MonoTime now) {
   const std::uint64_t n = unreported_;
   unreported_ = 0;
   return n;
+}
+
+void LoopTimes::Note(Duration work, Duration late) {
+  if (work_.size() < kWindow) {
+    work_.push_back(work);
+    late_.push_back(late);
+    return;
+  }
+  work_[next_] = work;
+  late_[next_] = late;
+  next_ = (next_ + 1) % kWindow;
+}
+
+Duration LoopTimes::Quantile(std::vector<Duration> values, double q) {
+  if (values.empty()) return Duration{0};
+  const double clamped = std::clamp(q, 0.0, 1.0);
+  auto rank = static_cast<std::size_t>(std::ceil(clamped * static_cast<double>(values.size())));
+  rank = std::clamp<std::size_t>(rank, 1, values.size()) - 1;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(rank),
+                   values.end());
+  return values[rank];
 }
 
 }  // namespace autodrive::scm

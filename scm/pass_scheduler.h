@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "common/time.h"
 
@@ -69,6 +70,9 @@ class PassScheduler {
   /// Housekeeping runs at `now`; true when the event log is to be pruned too.
   [[nodiscard]] bool Housekeep(MonoTime now);
 
+  /// How late a pass beginning at `now` is after the deadline the loop waited for: 0 when it
+  /// began before it (woken by a request) and before the first `EndPass`.
+  [[nodiscard]] Duration Lateness(MonoTime now) const;
   /// How late a pass beginning at `now` is, when it began more than the stall threshold after
   /// the deadline the loop waited for; nothing otherwise (and before the first `EndPass`).
   [[nodiscard]] std::optional<Duration> Stall(MonoTime now) const;
@@ -110,6 +114,30 @@ class StallWatch {
  private:
   MonoTime last_event_{};
   std::uint64_t unreported_ = 0;  // long stalls since the last event
+};
+
+/// The loop's recent timing, for `scmctl status` (and for telling whether something beside the
+/// SCM slows it): how long each of the last `kWindow` passes took and how late each began after
+/// the deadline it waited for, as percentiles over that window. Copyable value; loop thread.
+class LoopTimes {
+ public:
+  /// About a minute of passes at the loop's 20 ms tick.
+  static constexpr std::size_t kWindow = 3000;
+
+  /// Notes one pass: `work` from its start to its end, `late` its lateness (`Lateness`).
+  void Note(Duration work, Duration late);
+  /// The `q` quantile (0..1, nearest rank) of the passes' work and lateness in the window; 0
+  /// before the first pass.
+  [[nodiscard]] Duration WorkQuantile(double q) const { return Quantile(work_, q); }
+  [[nodiscard]] Duration LateQuantile(double q) const { return Quantile(late_, q); }
+  /// Passes in the window.
+  [[nodiscard]] std::size_t size() const { return work_.size(); }
+
+ private:
+  [[nodiscard]] static Duration Quantile(std::vector<Duration> values, double q);
+  std::vector<Duration> work_;  // ring buffers of kWindow at most, `next_` the oldest when full
+  std::vector<Duration> late_;
+  std::size_t next_ = 0;
 };
 
 }  // namespace autodrive::scm

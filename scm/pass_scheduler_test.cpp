@@ -7,6 +7,7 @@
 namespace autodrive::scm {
 namespace {
 
+using std::chrono::microseconds;
 using std::chrono::milliseconds;
 using std::chrono::minutes;
 using std::chrono::seconds;
@@ -129,6 +130,25 @@ TEST(PassScheduler, APassWellAfterItsDeadlineIsAStall) {
   EXPECT_FALSE(s.Stall(kT0 + milliseconds(120)));  // 100 ms late: a busy machine, not a stall
   ASSERT_TRUE(s.Stall(kT0 + milliseconds(121)));
   EXPECT_EQ(*s.Stall(kT0 + milliseconds(121)), milliseconds(101));
+  // Lateness counts from the deadline, however small; a pass woken before it is not late.
+  EXPECT_EQ(s.Lateness(kT0 + milliseconds(10)), Duration{0});
+  EXPECT_EQ(s.Lateness(kT0 + milliseconds(23)), milliseconds(3));
+}
+
+TEST(LoopTimes, QuantilesOverTheLastPassesOnly) {
+  LoopTimes t;
+  EXPECT_EQ(t.WorkQuantile(0.99), Duration{0});  // nothing yet
+  for (int i = 1; i <= 100; ++i) t.Note(microseconds(i), microseconds(1000 + i));
+  EXPECT_EQ(t.size(), 100u);
+  EXPECT_EQ(t.WorkQuantile(0.5), microseconds(50));
+  EXPECT_EQ(t.WorkQuantile(0.99), microseconds(99));
+  EXPECT_EQ(t.WorkQuantile(1.0), microseconds(100));
+  EXPECT_EQ(t.LateQuantile(0.99), microseconds(1099));
+  // A full window of short passes pushes the long ones out.
+  for (std::size_t i = 0; i < LoopTimes::kWindow; ++i) t.Note(microseconds(2), microseconds(0));
+  EXPECT_EQ(t.size(), LoopTimes::kWindow);
+  EXPECT_EQ(t.WorkQuantile(1.0), microseconds(2));
+  EXPECT_EQ(t.LateQuantile(0.99), Duration{0});
 }
 
 TEST(StallWatch, ReportsLongStallsAtMostOncePerPeriod) {

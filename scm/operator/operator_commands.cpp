@@ -122,6 +122,13 @@ std::optional<Reply> Status(const OperatorCommand&, const ClockReading& now, Com
   add("monitor_violations", ctx.figures.monitor_violations);
   add("stalls", ctx.figures.stalls);
   add("longest_stall_ms", std::llround(ToSeconds(ctx.figures.longest_stall) * 1000.0));
+  // The loop over its last passes (about a minute): how long a pass took, how late it began.
+  auto ms = [](Duration d) { return std::round(ToSeconds(d) * 1e6) / 1000.0; };
+  add("loop_passes", ctx.figures.loop.size());
+  add("loop_work_p50_ms", ms(ctx.figures.loop.WorkQuantile(0.5)));
+  add("loop_work_p99_ms", ms(ctx.figures.loop.WorkQuantile(0.99)));
+  add("loop_late_p50_ms", ms(ctx.figures.loop.LateQuantile(0.5)));
+  add("loop_late_p99_ms", ms(ctx.figures.loop.LateQuantile(0.99)));
   add("reused_request_ids", cp.reused_ids);
   const ReplyCounters& rc = ctx.figures.replies;
   add("replies_sent", rc.sent);

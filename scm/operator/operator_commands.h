@@ -20,6 +20,7 @@
 #include "scm/io/reply_outbox.h"
 #include "scm/operator/control_plane.h"
 #include "scm/operator/operator.h"
+#include "scm/pass_scheduler.h"
 #include "scm/store/persistence.h"
 
 namespace autodrive::scm {
@@ -55,6 +56,7 @@ struct DaemonFigures {
   std::uint64_t reply_write_refusals = 0;  ///< reply writes refused for a while, then retried
   std::uint64_t stalls = 0;                ///< passes that began over 100 ms after their deadline
   Duration longest_stall{};
+  LoopTimes loop;  ///< the last passes' work and lateness
 };
 
 /// The parts a command acts on.
