@@ -1,5 +1,7 @@
 #include "ros2/record/mcap.h"
 
+#include <zlib.h>
+
 #include <algorithm>
 #include <array>
 #include <cstring>
@@ -31,17 +33,6 @@ enum Op : std::uint8_t {
 
 /// opcode + length + footer fields (summary_start, summary_offset_start, summary_crc).
 constexpr std::uint64_t kFooterRecordSize = 1 + 8 + 8 + 8 + 4;
-
-constexpr std::array<std::uint32_t, 256> MakeCrcTable() {
-  std::array<std::uint32_t, 256> table{};
-  for (std::uint32_t i = 0; i < 256; ++i) {
-    std::uint32_t c = i;
-    for (int k = 0; k < 8; ++k) c = (c & 1U) != 0 ? 0xEDB88320U ^ (c >> 1) : c >> 1;
-    table[i] = c;
-  }
-  return table;
-}
-constexpr auto kCrcTable = MakeCrcTable();
 
 /// Little-endian record content.
 class Buffer {
@@ -182,10 +173,10 @@ McapChannel ParseChannel(Cursor& c) {
 }  // namespace
 
 std::uint32_t Crc32(std::span<const std::byte> data, std::uint32_t crc) {
-  std::uint32_t c = ~crc;
-  for (std::byte b : data)
-    c = kCrcTable[(c ^ std::to_integer<std::uint32_t>(b)) & 0xFFU] ^ (c >> 8);
-  return ~c;
+  // zlib's CRC-32 is MCAP's (IEEE 802.3, reflected), and several times faster than a byte table:
+  // a camera topic is about 90 MB a second, and each byte is summed once for its chunk.
+  return static_cast<std::uint32_t>(
+      crc32_z(crc, reinterpret_cast<const Bytef*>(data.data()), data.size()));
 }
 
 // --- Writer -----------------------------------------------------------------------------------
@@ -207,11 +198,17 @@ McapWriter::~McapWriter() {
   }
 }
 
-void McapWriter::Emit(std::span<const std::byte> bytes, bool data_section) {
+void McapWriter::Emit(std::span<const std::byte> bytes, bool data_section,
+                      std::optional<std::uint32_t> crc) {
   out_.write(reinterpret_cast<const char*>(bytes.data()),
              static_cast<std::streamsize>(bytes.size()));
   AUTODRIVE_THROW_UNLESS(out_.good(), "cannot write " << path_);
-  if (data_section) data_crc_ = Crc32(bytes, data_crc_);
+  if (data_section) {
+    // Bytes whose CRC is known already (a chunk's records) are not summed again.
+    data_crc_ = crc ? static_cast<std::uint32_t>(
+                          crc32_combine(data_crc_, *crc, static_cast<z_off_t>(bytes.size())))
+                    : Crc32(bytes, data_crc_);
+  }
   offset_ += bytes.size();
 }
 
@@ -240,15 +237,17 @@ void McapWriter::WriteMessage(std::uint16_t channel_id, std::uint32_t sequence,
                               std::uint64_t log_time, std::uint64_t publish_time,
                               std::span<const std::byte> data) {
   AUTODRIVE_CHECK(channel_id < channels_.size(), "unknown channel " << channel_id);
-  Buffer m;
-  m.U16(channel_id);
-  m.U32(sequence);
-  m.U64(log_time);
-  m.U64(publish_time);
-  m.Raw(data);
   chunk_index_[channel_id].emplace_back(log_time, chunk_.size());
-  const auto record = Record(kMessage, m);
-  chunk_.insert(chunk_.end(), record.begin(), record.end());
+  // The record straight into the chunk: its head, then the payload, copied once.
+  Buffer head;
+  head.U8(kMessage);
+  head.U64(2 + 4 + 8 + 8 + data.size());
+  head.U16(channel_id);
+  head.U32(sequence);
+  head.U64(log_time);
+  head.U64(publish_time);
+  chunk_.insert(chunk_.end(), head.bytes().begin(), head.bytes().end());
+  chunk_.insert(chunk_.end(), data.begin(), data.end());
   if (!chunk_has_messages_) {
     chunk_start_time_ = chunk_end_time_ = log_time;
     chunk_has_messages_ = true;
@@ -272,17 +271,22 @@ void McapWriter::FlushChunk() {
   index.message_end_time = chunk_has_messages_ ? chunk_end_time_ : 0;
   index.chunk_start_offset = offset_;
   index.uncompressed_size = chunk_.size();
+  // The record's head, then the records as they are (not copied into one record first).
+  const std::uint32_t crc = Crc32(chunk_);
   Buffer c;
   c.U64(index.message_start_time);
   c.U64(index.message_end_time);
   c.U64(chunk_.size());
-  c.U32(Crc32(chunk_));
+  c.U32(crc);
   c.Str("");  // no compression
   c.U64(chunk_.size());
-  c.Raw(chunk_);
-  const auto record = Record(kChunk, c);
-  index.chunk_length = record.size();
-  Emit(record, true);
+  Buffer head;
+  head.U8(kChunk);
+  head.U64(c.size() + chunk_.size());
+  head.Raw(c.bytes());
+  index.chunk_length = head.size() + chunk_.size();
+  Emit(head.bytes(), true);
+  Emit(chunk_, true, crc);
   const std::uint64_t indexes_start = offset_;
   for (const auto& [channel, entries] : chunk_index_) {
     Buffer mi;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -108,7 +109,10 @@ class McapWriter {
     std::uint64_t length = 0;
     std::string name;
   };
-  void Emit(std::span<const std::byte> bytes, bool data_section);
+  /// Writes `bytes`; part of the data section's CRC when `data_section` (`crc`: theirs, when
+  /// known).
+  void Emit(std::span<const std::byte> bytes, bool data_section,
+            std::optional<std::uint32_t> crc = std::nullopt);
   void FlushChunk();
 
   Options options_;

@@ -1,9 +1,14 @@
 // autodrive-record: rosbag2-compatible MCAP recording, inspection and playback of a city's
 // topics. See docs/architecture.md (ros2/) and ros2/record/*.h.
+#include <spdlog/spdlog.h>
+#include <sys/resource.h>
+
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <mutex>
 #include <string>
@@ -31,9 +36,19 @@ struct RecordArgs {
   double duration_s = 0;
   std::string output;
   bool overwrite = false;
+  int nice = 10;
 };
 
 int Record(const dds::ProgramOptions& dds_cli, const RecordArgs& args) {
+  // Below the city's processes: a busy recorder yields the CPU to the SCM, never the reverse.
+  // First, so that every thread made from here on (Cyclone's too) inherits it: Linux's nice is
+  // per thread.
+  // Only ever raised (lowering it needs privilege).
+  errno = 0;
+  const int current = getpriority(PRIO_PROCESS, 0);
+  if (errno == 0 && current < args.nice && setpriority(PRIO_PROCESS, 0, args.nice) != 0) {
+    spdlog::warn("autodrive-record: cannot set nice {}: {}", args.nice, std::strerror(errno));
+  }
   std::mutex mutex;
   std::condition_variable cv;
   bool stop = false;
@@ -152,6 +167,12 @@ int main(int argc, char** argv) {
                        "record image topics too (without it, only those --topics names)");
   record_cmd->add_option("--duration", record.duration_s, "stop after this many seconds (0: never)")
       ->check(CLI::Range(0.0, 1e9));
+  record_cmd
+      ->add_option("--nice", record.nice,
+                   "the recorder's scheduling niceness: it yields the CPU to the city's "
+                   "processes (0: as started)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 19));
   dds_record.Add(*record_cmd);
 
   std::string file;

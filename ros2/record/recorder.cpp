@@ -111,14 +111,23 @@ std::size_t Recorder::Discover() {
           {{"offered_qos_profiles", topic->qos_yaml},
            {"topic_type_hash", std::string(dds::TypeHash(type->dds_type_name))}});
     }
-    // Reliable (best-effort writers are read too), keep last: never slows a writer.
+    // Reliable (best-effort writers are read too) or best effort, keep last: never slows a
+    // writer.
     // Transient-local when the writers are (latched state arrives at once); a transient-local
     // reader would not match a volatile writer (DDS's requested <= offered rule).
     const bool latched = std::all_of(offered.begin(), offered.end(),
                                      [](const OfferedQos& o) { return o.durability == 1; });
     dds::Qos qos = latched ? dds::Qos::LatchedState(options_.reader_depth)
                            : dds::Qos::Stream(options_.reader_depth);
-    qos.reader_accepts_best_effort = true;
+    // Best effort when every writer is (as rosbag2 adapts to the offered QoS): a reliable half
+    // would only make each best-effort writer report an incompatible reader.
+    const bool best_effort = std::all_of(offered.begin(), offered.end(),
+                                         [](const OfferedQos& o) { return o.reliability == 2; });
+    if (best_effort) {
+      qos.reliability = dds::Qos::Reliability::kBestEffort;
+    } else {
+      qos.reader_accepts_best_effort = true;
+    }
     topic->reader = std::make_unique<dds::RawReader>(participant_, dds_name, type->descriptor, qos);
     Topic* raw = topic.get();
     {
@@ -146,7 +155,7 @@ void Recorder::TakeAll(Topic& topic) {
       p.log_time = Nanoseconds(SystemNow());
       p.publish_time =
           static_cast<std::uint64_t>(std::max<std::int64_t>(0, sample.source_timestamp_ns));
-      p.data = sample.cdr;
+      p.data = std::move(sample.cdr);  // Take refills it
       taken.push_back(std::move(p));
     }
   }

@@ -2,16 +2,20 @@
 # record_city.py records the default city (one recorder stopped by --duration, one by SIGTERM),
 # runs tests/ros2/npm/check_mcap.mjs on both (@mcap/core indexed and streamed with CRCs,
 # @foxglove/rosmsg2-serialization decoding every message with its channel's schema, Statistics
-# counts, offered_qos_profiles, rosbag2 metadata; SPaT at 10 +- 0.5 Hz), checks that a flipped
-# byte fails the check, and plays the file back into another partition where a third recorder
-# gets every SPaT and MAP message again. Needs the ros2_npm fixture (tests/ros2/npm.cmake).
+# counts, offered_qos_profiles, rosbag2 metadata; SPaT at 10 +- 0.5 Hz), compares each topic's
+# count with an independent subscriber's (count_probe.c: Cyclone's C API, types idlc made from
+# rosidl's derived IDL, ros2_interfaces_test's work folder: its fixture),
+# checks that a flipped byte fails the check, and plays the file back into another partition
+# where a third recorder gets every topic's messages again, byte for byte. Needs the ros2_npm
+# fixture (tests/ros2/npm.cmake). The 60 s figures with a camera: docs/recording.md.
 if(AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON AND AUTODRIVE_NODE)
   add_test(NAME ros2_record_city_test
     COMMAND ${AUTODRIVE_DEBIAN_PYTHON} ${CMAKE_CURRENT_LIST_DIR}/record_city.py
             --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin --node ${AUTODRIVE_NODE}
-            --npm ${AUTODRIVE_NPM_DIR})
+            --npm ${AUTODRIVE_NPM_DIR} --cc ${CMAKE_C_COMPILER} --idlc ${AUTODRIVE_IDLC}
+            --ros2-work ${CMAKE_CURRENT_BINARY_DIR}/ros2_ws)
   set_tests_properties(ros2_record_city_test PROPERTIES
-    LABELS "ros2;integration" TIMEOUT 900 COST 60 FIXTURES_REQUIRED ros2_npm
+    LABELS "ros2;integration" TIMEOUT 900 COST 60 FIXTURES_REQUIRED "ros2_npm;ros2_workspace"
     ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
 endif()
 

@@ -5,6 +5,7 @@
 // Run by CTest (tests/ros2/mcap_tests.cmake):
 //
 //   node check_mcap.mjs FILE [--expect TOPIC[:MIN_COUNT]]... [--flip-byte OFFSET|middle] [--foreign]
+//                      [--times OUT]
 //
 // Checks: profile ros2; a Statistics record whose per-channel counts equal the messages the
 // indexed and the streamed reading find; the data section's CRC (recomputed here) equals
@@ -12,13 +13,17 @@
 // errors); each channel's `offered_qos_profiles` parses as a list with rosbag2's keys and its
 // `topic_type_hash` is RIHS01_<64 hex>; the `rosbag2` metadata record is version 8, storage mcap,
 // with the same total count; every --expect topic is there with at least MIN_COUNT messages.
-// Prints {profile, messages, duration_s, topics: {name: {type, count, rate_hz, payload_sha256}},
-// errors} as JSON (payload_sha256: over the topic's payloads in order, each after its length);
+// Prints {profile, messages, duration_s, topics: {name: {type, count, rate_hz, payload_sha256,
+// offered}}, errors} as JSON (offered: the distinct "reliability R, durability D" of its writers) (payload_sha256: over the topic's payloads in order, each after its length);
 // exit status 1 when any check fails.
 //
 // --foreign: the file was written by another program (rosbag2): a data section CRC and the
 // rosbag2 metadata record are checked when present, not required, and any metadata version
 // passes.
+//
+// --times OUT: writes each message's publish time (the DDS source time) and log time (received),
+// in nanoseconds, to OUT as one JSON line per topic: {"topic", "publish": [...], "log": [...]},
+// for comparing a recording with another subscriber over the same window.
 //
 // --flip-byte: checks a copy (in memory) with one byte changed, at OFFSET or in the middle of the
 // first chunk's records: the check must then fail (the test that runs it expects exit 1).
@@ -35,7 +40,7 @@ const { MessageReader } = serialization;
 
 function usage(message) {
   console.error(`check_mcap.mjs: ${message}`);
-  console.error("usage: node check_mcap.mjs FILE [--expect TOPIC[:MIN]]... [--flip-byte N|middle] [--foreign]");
+  console.error("usage: node check_mcap.mjs FILE [--expect TOPIC[:MIN]]... [--flip-byte N|middle] [--foreign] [--times OUT]");
   process.exit(2);
 }
 
@@ -43,6 +48,7 @@ let file = "";
 const expect = [];
 let flip = null;
 let foreign = false;
+let timesFile = null;
 for (let i = 2; i < process.argv.length; i++) {
   const arg = process.argv[i];
   if (arg === "--expect") {
@@ -52,6 +58,8 @@ for (let i = 2; i < process.argv.length; i++) {
                           : { topic: value, min: 1 });
   } else if (arg === "--flip-byte") {
     flip = process.argv[++i] ?? usage("--flip-byte needs an offset or 'middle'");
+  } else if (arg === "--times") {
+    timesFile = process.argv[++i] ?? usage("--times needs a file");
   } else if (arg === "--foreign") {
     foreign = true;
   } else if (arg.startsWith("-")) {
@@ -62,8 +70,24 @@ for (let i = 2; i < process.argv.length; i++) {
 }
 if (!file) usage("no file");
 
-const bytes = new Uint8Array(fs.readFileSync(file));
+// The file is read in pieces (a recording with a camera runs to gigabytes, past what one Buffer
+// holds); only --flip-byte reads it whole, to change a byte of a copy in memory.
 const errors = [];
+const fileSize = fs.statSync(file).size;
+const handle = fs.openSync(file, "r");
+let bytes = null;
+function readAt(offset, size) {
+  if (bytes !== null) return bytes.subarray(offset, offset + size);
+  const out = new Uint8Array(size);
+  let done = 0;
+  while (done < size) {
+    const n = fs.readSync(handle, out, done, size - done, offset + done);
+    if (n === 0) throw new Error(`read past the end (${offset}+${size})`);
+    done += n;
+  }
+  return out;
+}
+const kPiece = 16 << 20;
 
 // CRC-32 (IEEE), written here so as not to trust the library's own.
 const crcTable = new Uint32Array(256).map((_, n) => {
@@ -71,28 +95,34 @@ const crcTable = new Uint32Array(256).map((_, n) => {
   for (let k = 0; k < 8; k++) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
   return c >>> 0;
 });
-function crc32(data) {
-  let c = 0xffffffff;
+function crc32Update(c, data) {
   for (let i = 0; i < data.length; i++) c = crcTable[(c ^ data[i]) & 0xff] ^ (c >>> 8);
+  return c;
+}
+/// The CRC of the file's first `length` bytes, read in pieces.
+function crc32Prefix(length) {
+  let c = 0xffffffff;
+  for (let at = 0; at < length; at += kPiece) c = crc32Update(c, readAt(at, Math.min(kPiece, length - at)));
   return (c ^ 0xffffffff) >>> 0;
 }
 
-async function indexedReader(data) {
+async function indexedReader() {
   return McapIndexedReader.Initialize({
     readable: {
-      size: async () => BigInt(data.length),
+      size: async () => BigInt(fileSize),
       read: async (offset, size) => {
-        if (offset + size > BigInt(data.length)) throw new Error(`read past the end (${offset}+${size})`);
-        return data.subarray(Number(offset), Number(offset + size));
+        if (offset + size > BigInt(fileSize)) throw new Error(`read past the end (${offset}+${size})`);
+        return readAt(Number(offset), Number(size));
       },
     },
   });
 }
 
 if (flip !== null) {
+  bytes = new Uint8Array(fs.readFileSync(file));
   let offset;
   if (flip === "middle") {
-    const reader = await indexedReader(bytes);
+    const reader = await indexedReader();
     const chunk = reader.chunkIndexes[0];
     if (!chunk) usage("--flip-byte middle: the file has no chunk");
     offset = Number(chunk.chunkStartOffset + chunk.chunkLength / 2n);
@@ -140,7 +170,7 @@ const qosKeys = ["history", "depth", "reliability", "durability", "deadline", "l
 
 const result = { file, profile: "", library: "", messages: 0, chunks: 0, duration_s: 0, topics: {}, errors };
 try {
-  const reader = await indexedReader(bytes);
+  const reader = await indexedReader();
   result.profile = reader.header.profile;
   result.library = reader.header.library;
   if (reader.header.profile !== "ros2") errors.push(`profile '${reader.header.profile}', not ros2`);
@@ -152,7 +182,7 @@ try {
 
   // The data section's CRC, recomputed.
   if (reader.dataSectionCrc !== undefined) {
-    const crc = crc32(bytes.subarray(0, Number(reader.dataEndOffset)));
+    const crc = crc32Prefix(Number(reader.dataEndOffset));
     if (crc !== reader.dataSectionCrc) errors.push(`data section CRC ${crc}, DataEnd says ${reader.dataSectionCrc}`);
   } else if (!foreign) {
     errors.push("DataEnd has no data section CRC");
@@ -174,16 +204,19 @@ try {
     }
     const hash = channel.metadata.get("topic_type_hash");
     if (!/^RIHS01_[0-9a-f]{64}$/.test(hash ?? "")) errors.push(`${where}: topic_type_hash '${hash}'`);
+    // The writers' reliability and durability as rosbag2 numbers them ("1 reliable", ...).
+    let offered = [];
     try {
       const profiles = parseQosProfiles(channel.metadata.get("offered_qos_profiles") ?? "");
       if (profiles.length === 0) errors.push(`${where}: offered_qos_profiles is empty`);
       for (const p of profiles) {
         for (const k of qosKeys) if (!(k in p)) errors.push(`${where}: offered_qos_profiles lacks ${k}`);
       }
+      offered = [...new Set(profiles.map((p) => `reliability ${p.reliability}, durability ${p.durability}`))].sort();
     } catch (e) {
       errors.push(`${where}: offered_qos_profiles: ${e.message}`);
     }
-    result.topics[channel.topic] = { type: schema.name, count: 0, rate_hz: 0, decode_errors: 0 };
+    result.topics[channel.topic] = { type: schema.name, count: 0, rate_hz: 0, decode_errors: 0, offered };
   }
 
   // Every message, indexed, decoded with its channel's schema.
@@ -191,6 +224,7 @@ try {
   const last = new Map();
   const indexedCounts = new Map();
   const digests = new Map();
+  const times = new Map();  // channel id -> {publish: [], log: []}, for --times
   for await (const m of reader.readMessages({ validateCrcs: true })) {
     const channel = reader.channelsById.get(m.channelId);
     const topic = result.topics[channel.topic];
@@ -201,6 +235,11 @@ try {
     length.writeUInt32LE(m.data.length);
     digests.get(m.channelId).update(length).update(m.data);
     topic.count++;
+    if (timesFile !== null) {
+      if (!times.has(m.channelId)) times.set(m.channelId, { publish: [], log: [] });
+      times.get(m.channelId).publish.push(m.publishTime.toString());
+      times.get(m.channelId).log.push(m.logTime.toString());
+    }
     if (!first.has(m.channelId)) first.set(m.channelId, m.logTime);
     last.set(m.channelId, m.logTime);
     try {
@@ -222,16 +261,29 @@ try {
     }
   }
 
+  if (timesFile !== null) {
+    // BigInt nanoseconds do not fit a JSON number's double: written as integer literals.
+    const lines = [];
+    for (const [id, channel] of reader.channelsById) {
+      const t = times.get(id) ?? { publish: [], log: [] };
+      lines.push(`{"topic":${JSON.stringify(channel.topic)},"publish":[${t.publish.join(",")}],` +
+                 `"log":[${t.log.join(",")}]}`);
+    }
+    fs.writeFileSync(timesFile, lines.join("\n") + "\n");
+  }
+
   // Streamed, with CRC validation, to the footer.
   const stream = new McapStreamReader({ validateCrcs: true });
-  stream.append(bytes);
   const streamCounts = new Map();
   let records = 0;
   let footer = false;
-  for (let r; (r = stream.nextRecord()); ) {
-    records++;
-    if (r.type === "Message") streamCounts.set(r.channelId, (streamCounts.get(r.channelId) ?? 0) + 1);
-    if (r.type === "Footer") footer = true;
+  for (let at = 0; at < fileSize; at += kPiece) {
+    stream.append(readAt(at, Math.min(kPiece, fileSize - at)));
+    for (let r; (r = stream.nextRecord()); ) {
+      records++;
+      if (r.type === "Message") streamCounts.set(r.channelId, (streamCounts.get(r.channelId) ?? 0) + 1);
+      if (r.type === "Footer") footer = true;
+    }
   }
   if (!stream.done() || !footer) errors.push("the streamed reading did not reach the footer");
   for (const [id, channel] of reader.channelsById) {
