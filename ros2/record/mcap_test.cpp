@@ -186,6 +186,29 @@ TEST(OfferedQos, PlaybackQosKeepsLatchedAndBestEffort) {
   keep_all.history = 2;
   keep_all.depth = 0;
   EXPECT_EQ(PlaybackQos({keep_all}).depth, 0);
+  OfferedQos deep;
+  deep.depth = 50;
+  EXPECT_EQ(PlaybackQos({deep, latched}).depth, 50);
+  EXPECT_EQ(PlaybackQos({latched}).depth, 10);  // as ros2 bag play
+}
+
+// The profiles rosbag2 itself wrote for /rosout in tests/ros2/upstream/rosbag2/only_topics.mcap:
+// history 3 (unknown) and depth 0, as rmw reports discovered writers.
+TEST(OfferedQos, Rosbag2sOwnProfilesParseAndPlay) {
+  const std::string rosout =
+      "- history: 3\n  depth: 0\n  reliability: 1\n  durability: 1\n  deadline:\n    sec: "
+      "9223372036\n    nsec: 854775807\n  lifespan:\n    sec: 10\n    nsec: 0\n  liveliness: 1\n  "
+      "liveliness_lease_duration:\n    sec: 9223372036\n    nsec: 854775807\n  "
+      "avoid_ros_namespace_conventions: false";
+  const auto parsed = ParseOfferedQosProfiles(rosout);
+  ASSERT_EQ(parsed.size(), 1U);
+  EXPECT_EQ(parsed[0].history, 3);
+  EXPECT_EQ(parsed[0].lifespan_ns, 10'000'000'000);
+  EXPECT_EQ(parsed[0].deadline_ns, OfferedQos::kInfinite);
+  const dds::Qos q = PlaybackQos(parsed);
+  EXPECT_EQ(q.reliability, dds::Qos::Reliability::kReliable);
+  EXPECT_EQ(q.durability, dds::Qos::Durability::kTransientLocal);
+  EXPECT_EQ(q.depth, 10);
 }
 
 }  // namespace

@@ -28,23 +28,25 @@ std::vector<std::byte> ClockCdr(std::uint64_t ns) {
 
 }  // namespace
 
-std::map<std::string, std::uint64_t> Play(const dds::Participant& participant,
-                                          const std::string& path, const PlayOptions& options,
-                                          const std::atomic<bool>& stop) {
+PlayResult Play(const dds::Participant& participant, const std::string& path,
+                const PlayOptions& options, const std::atomic<bool>& stop) {
   AUTODRIVE_THROW_UNLESS(options.rate > 0, "--rate must be > 0, got " << options.rate);
   McapReader reader(path);
   std::map<std::uint16_t, std::unique_ptr<dds::RawWriter>> writers;
-  std::map<std::string, std::uint64_t> published;
+  PlayResult result;
   for (const auto& [id, channel] : reader.channels()) {
-    AUTODRIVE_THROW_UNLESS(channel.message_encoding == "cdr",
-                           path << ": channel " << channel.topic << " has message encoding '"
-                                << channel.message_encoding << "', not cdr");
     const auto schema = reader.schemas().find(channel.schema_id);
-    AUTODRIVE_THROW_UNLESS(schema != reader.schemas().end(),
-                           path << ": channel " << channel.topic << " has no schema");
-    const dds::MessageTypeInfo* type = dds::FindMessageType(schema->second.name);
-    AUTODRIVE_THROW_UNLESS(type != nullptr, path << ": " << channel.topic << " has type "
-                                                 << schema->second.name << ", unknown here");
+    const dds::MessageTypeInfo* type =
+        schema == reader.schemas().end() ? nullptr : dds::FindMessageType(schema->second.name);
+    if (channel.message_encoding != "cdr") {
+      result.skipped[channel.topic] =
+          "message encoding '" + channel.message_encoding + "', not cdr";
+    } else if (schema == reader.schemas().end()) {
+      result.skipped[channel.topic] = "no schema";
+    } else if (type == nullptr) {
+      result.skipped[channel.topic] = "type " + schema->second.name + " is not known here";
+    }
+    if (type == nullptr || channel.message_encoding != "cdr") continue;
     std::vector<OfferedQos> offered;
     if (const auto it = channel.metadata.find("offered_qos_profiles");
         it != channel.metadata.end()) {
@@ -52,8 +54,10 @@ std::map<std::string, std::uint64_t> Play(const dds::Participant& participant,
     }
     writers[id] = std::make_unique<dds::RawWriter>(participant, dds::topics::ToDds(channel.topic),
                                                    type->descriptor, PlaybackQos(offered));
-    published[channel.topic] = 0;
+    result.published[channel.topic] = 0;
   }
+  AUTODRIVE_THROW_UNLESS(!writers.empty(), path << ": no topic to play (" << result.skipped.size()
+                                                << " topics, none of a type known here)");
   std::unique_ptr<dds::RawWriter> clock;
   if (options.clock) {
     const auto spec = dds::topics::Clock();
@@ -90,12 +94,19 @@ std::map<std::string, std::uint64_t> Play(const dds::Participant& participant,
     }
     if (stop.load()) return;
     if (clock) clock->Write(ClockCdr(m.log_time));
-    writers.at(m.channel_id)->Write(m.data);
-    ++published[reader.channels().at(m.channel_id).topic];
+    const auto writer = writers.find(m.channel_id);
+    if (writer == writers.end()) return;  // a skipped topic
+    const std::string& topic = reader.channels().at(m.channel_id).topic;
+    try {
+      writer->second->Write(m.data);
+      ++result.published[topic];
+    } catch (const InputError&) {
+      ++result.refused[topic];  // not a sample of its type: the others still play
+    }
   });
   // Let reliable readers get the last samples before the writers go.
   for (auto& [id, w] : writers) (void)w->WaitForAcks(std::chrono::seconds(2));
-  return published;
+  return result;
 }
 
 }  // namespace autodrive::ros2

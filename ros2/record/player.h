@@ -23,10 +23,20 @@ struct PlayOptions {
   std::chrono::steady_clock::duration wait_for_readers = std::chrono::seconds(0);
 };
 
-/// Plays `path` until its end or until `stop` becomes true; returns the messages published per
-/// ROS topic. Throws `InputError` on a file it cannot read or a type it does not know.
-std::map<std::string, std::uint64_t> Play(const dds::Participant& participant,
-                                          const std::string& path, const PlayOptions& options,
-                                          const std::atomic<bool>& stop);
+/// What `Play` did.
+struct PlayResult {
+  /// Messages published per ROS topic.
+  std::map<std::string, std::uint64_t> published;
+  /// Messages not published per ROS topic: bytes that are not a sample of the topic's type.
+  std::map<std::string, std::uint64_t> refused;
+  /// Topics not played, each with why (a type not known here, an encoding not cdr, no schema):
+  /// the rest of the file is played, as `ros2 bag play` does.
+  std::map<std::string, std::string> skipped;
+};
+
+/// Plays `path` until its end or until `stop` becomes true. Throws `InputError` on a file it
+/// cannot read or one with no topic it can play.
+PlayResult Play(const dds::Participant& participant, const std::string& path,
+                const PlayOptions& options, const std::atomic<bool>& stop);
 
 }  // namespace autodrive::ros2

@@ -1,5 +1,6 @@
 // autodrive-record: rosbag2-compatible MCAP recording, inspection and playback of a city's
 // topics. See docs/architecture.md (ros2/) and ros2/record/*.h.
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
 
@@ -127,15 +128,27 @@ int PlayFile(const dds::ProgramOptions& dds_cli, const std::string& file,
   ShutdownSignals signals([&] { stop.store(true); });
   StopWithParentIfAsked();
   dds::Participant participant(dds_cli.Participant());
-  const auto published = Play(participant, file, options, stop);
+  const PlayResult result = Play(participant, file, options, stop);
   std::uint64_t total = 0;
-  for (const auto& [topic, n] : published) {
-    std::printf("  %-50s %10llu published\n", topic.c_str(), static_cast<unsigned long long>(n));
+  std::uint64_t refused = 0;
+  for (const auto& [topic, n] : result.published) {
+    const auto r = result.refused.find(topic);
+    const std::uint64_t bad = r == result.refused.end() ? 0 : r->second;
+    std::printf("  %-50s %10llu published", topic.c_str(), static_cast<unsigned long long>(n));
+    if (bad > 0)
+      std::printf(", %llu refused (not a sample of its type)",
+                  static_cast<unsigned long long>(bad));
+    std::printf("\n");
     total += n;
+    refused += bad;
   }
-  std::printf("total: %llu published%s\n", static_cast<unsigned long long>(total),
+  for (const auto& [topic, why] : result.skipped) {
+    std::printf("  %-50s not played: %s\n", topic.c_str(), why.c_str());
+  }
+  std::printf("total: %llu published%s%s\n", static_cast<unsigned long long>(total),
+              refused > 0 ? fmt::format(", {} refused", refused).c_str() : "",
               stop.load() ? " (stopped)" : "");
-  return 0;
+  return refused > 0 ? 1 : 0;
 }
 
 }  // namespace

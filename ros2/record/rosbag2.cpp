@@ -171,7 +171,9 @@ dds::Qos PlaybackQos(const std::vector<OfferedQos>& profiles) {
                                        [](const OfferedQos& p) { return p.durability == 1; });
   const bool keep_all = std::any_of(profiles.begin(), profiles.end(),
                                     [](const OfferedQos& p) { return p.history == 2; });
-  std::int32_t depth = 1;
+  // Keep last 10 at least, as `ros2 bag play` (its default history); more when a writer kept
+  // more. rosbag2's own files say history 3 (unknown) and depth 0: rmw does not discover them.
+  std::int32_t depth = 10;
   for (const auto& p : profiles) depth = std::max(depth, p.depth);
   q.reliability =
       all_best_effort ? dds::Qos::Reliability::kBestEffort : dds::Qos::Reliability::kReliable;
