@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """A lab of three hosts in network namespaces (issue 36): the SCM on A, the light host on B, the
-simulator on C, all with config/dds/lab.xml (multicast discovery). An independent subscriber on
-C (tests/ros2/count_probe.c: Cyclone's C API, types from rosidl's derived IDL) must see every
-topic of the city within 5 s of starting and get SPaT at 10 Hz; the same subscriber configured
-for localhost only (config/dds/localhost.xml) must see nothing of A or B (the negative control).
+simulator on C, all with config/dds/lab.xml (multicast discovery), or with --unicast
+config/dds/lab-unicast.xml and the three hosts as static peers, then with 40 participants on A
+(the SCM and 39 others). An independent subscriber on C (tests/ros2/count_probe.c: Cyclone's C
+API, types from rosidl's derived IDL) must see every topic of the city within 5 s of starting
+and get SPaT at 10 Hz; the same subscriber configured for localhost only
+(config/dds/localhost.xml) must see nothing of A or B (the negative control).
 
 Skips (exit 77) where namespaces cannot be made (not root, no `ip`). Exit status 1 on a failure.
 """
@@ -68,6 +70,12 @@ def main():
     parser.add_argument("--idlc", default="idlc")
     parser.add_argument("--ros2-work", type=pathlib.Path, required=True,
                         help="ros2_interfaces_test's work folder (its derived_idl)")
+    parser.add_argument("--unicast", action="store_true",
+                        help="lab-unicast.xml with static peers, 40 participants on A, on a "
+                        "network that drops multicast")
+    parser.add_argument("--drop-multicast", action="store_true",
+                        help="the network drops multicast (implied by --unicast; with lab.xml "
+                        "C must then see nothing: a check of the check)")
     args = parser.parse_args()
     reason = netns.skip_reason()
     if reason:
@@ -87,9 +95,25 @@ def main():
         city = str(args.source / CITY)
         with netns.Lab(["a", "b", "c"]) as lab:
             print(f"hosts: {lab.address}", flush=True)
+            if args.unicast or args.drop_multicast:
+                for host in lab.hosts:
+                    lab.drop_multicast(host)
+            if args.unicast:
+                # The peers in a second fragment, as docs/messaging.md tells a lab to give them.
+                peers = "".join(f'<Peer Address="{a}"/>' for a in lab.address.values())
+                lab_env["CYCLONEDDS_URI"] = (
+                    f"file://{args.source}/config/dds/lab-unicast.xml,<CycloneDDS><Domain "
+                    f'id="any"><Discovery><Peers>{peers}</Peers></Discovery></Domain></CycloneDDS>')
             logs = {name: open(tmp / f"{name}.log", "w") for name in ("scm", "infra", "sim")}
             processes = []
             try:
+                # 39 more participants on A first (idle subscribers in a partition of their
+                # own): the SCM then takes participant index 39, which unicast discovery must
+                # still reach.
+                for _ in range(39 if args.unicast else 0):
+                    processes.append(lab.run("a", [
+                        str(probe_bin), f"{partition}_idle", "600", "/dev/null"], env=lab_env,
+                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
                 processes.append(lab.run("a", [
                     str(args.bin / "autodrive-scm"), "--config", city, "--db",
                     str(tmp / "scm.db"), "--partition", partition],

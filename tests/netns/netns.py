@@ -10,6 +10,7 @@ and everything is removed on exit, failures and signals included (`with Lab(...)
     lab.link("b", up=False)        cut b from the switch (ip link set down), and heal it
     lab.blackhole("c", "a")        c's packets to a dropped (a blackhole route)
     lab.slow("c", "1mbit")         a slow link out of c (tc tbf)
+    lab.drop_multicast("a")        the switch passes no multicast to a
 
 `skip_reason()` says why namespaces cannot be made here (not root, no `ip`), or None.
 """
@@ -107,6 +108,14 @@ class Lab:
     def blackhole(self, host, to, on=True):
         verb = "add" if on else "del"
         _ip("ip", "route", verb, "blackhole", f"{self.address[to]}/32", netns=self.ns(host))
+
+    def drop_multicast(self, host, on=True):
+        """The switch stops passing multicast to `host` (its port's mcast_flood off), as many
+        campus and Wi-Fi networks drop multicast. (A blackhole route cannot do it: Linux skips
+        the route lookup for multicast sent on a chosen interface, as DDS sends it.)"""
+        i = self.hosts.index(host) + 1
+        _ip("ip", "link", "set", f"p{i}", "type", "bridge_slave", "mcast_flood",
+            "off" if on else "on", netns=self.switch)
 
     def slow(self, host, rate, on=True):
         if on:

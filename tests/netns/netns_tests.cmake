@@ -1,7 +1,7 @@
 # A lab of several hosts in network namespaces (tests/netns/netns.py makes them; label netns):
 # lab_discovery.py runs the SCM, a light host and the simulator on three namespaces with
 # config/dds/lab.xml and checks what an independent subscriber on the third sees (and, with
-# localhost.xml, does not see). Needs root and `ip` (it skips and says why otherwise) and the
+# localhost.xml, does not see), then with lab-unicast.xml. Needs root and `ip` (it skips and says why otherwise) and the
 # ros2_workspace fixture (its subscriber's types come from rosidl's derived IDL).
 if(AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON)
   add_test(NAME netns_lab_discovery_test
@@ -9,6 +9,15 @@ if(AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON)
             --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin --cc ${CMAKE_C_COMPILER}
             --idlc ${AUTODRIVE_IDLC} --ros2-work ${CMAKE_CURRENT_BINARY_DIR}/ros2_ws)
   set_tests_properties(netns_lab_discovery_test PROPERTIES
+    LABELS "netns;integration" TIMEOUT 600 SKIP_RETURN_CODE 77 FIXTURES_REQUIRED ros2_workspace
+    ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
+  # The same with config/dds/lab-unicast.xml and the hosts as static peers, on a switch that
+  # passes no multicast, with 40 participants on the SCM's host.
+  add_test(NAME netns_lab_discovery_unicast_test
+    COMMAND ${AUTODRIVE_DEBIAN_PYTHON} ${CMAKE_CURRENT_LIST_DIR}/lab_discovery.py
+            --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin --cc ${CMAKE_C_COMPILER}
+            --idlc ${AUTODRIVE_IDLC} --ros2-work ${CMAKE_CURRENT_BINARY_DIR}/ros2_ws --unicast)
+  set_tests_properties(netns_lab_discovery_unicast_test PROPERTIES
     LABELS "netns;integration" TIMEOUT 600 SKIP_RETURN_CODE 77 FIXTURES_REQUIRED ros2_workspace
     ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
 endif()
