@@ -9,7 +9,7 @@ and everything is removed on exit, failures and signals included (`with Lab(...)
     lab.run("a", [...])            a process in host a (subprocess.Popen arguments)
     lab.link("b", up=False)        cut b from the switch (ip link set down), and heal it
     lab.blackhole("c", "a")        c's packets to a dropped (a blackhole route)
-    lab.slow("c", "1mbit")         a slow link out of c (tc tbf)
+    lab.slow("c", "1mbit")         c's link slowed both ways (tc tbf)
     lab.drop_multicast("a")        the switch passes no multicast to a
 
 `skip_reason()` says why namespaces cannot be made here (not root, no `ip`), or None.
@@ -118,11 +118,15 @@ class Lab:
             "off" if on else "on", netns=self.switch)
 
     def slow(self, host, rate, on=True):
-        if on:
-            _ip("tc", "qdisc", "replace", "dev", "eth0", "root", "tbf", "rate", rate, "burst",
-                "32kbit", "latency", "400ms", netns=self.ns(host))
-        else:
-            _ip("tc", "qdisc", "del", "dev", "eth0", "root", netns=self.ns(host), check=False)
+        """`host`'s link at `rate` (tc's tbf, e.g. "1mbit") both ways: out of its eth0 and out
+        of the switch's port towards it."""
+        i = self.hosts.index(host) + 1
+        for dev, ns in (("eth0", self.ns(host)), (f"p{i}", self.switch)):
+            if on:
+                _ip("tc", "qdisc", "replace", "dev", dev, "root", "tbf", "rate", rate, "burst",
+                    "32kbit", "latency", "400ms", netns=ns)
+            else:
+                _ip("tc", "qdisc", "del", "dev", dev, "root", netns=ns, check=False)
 
 
 def _close_all(*_):

@@ -6,13 +6,14 @@
  * recording can be compared with it over the same window of source time
  * (tests/ros2/record_city.py).
  *
- * Usage: count_probe PARTITION SECONDS OUT [--cameras]
+ * Usage: count_probe PARTITION SECONDS OUT [--cameras] [--only DDS_TOPIC]...
  * Listens SECONDS (or until SIGINT or SIGTERM), then writes OUT: one JSON line per topic,
  *   {"topic": DDS name, "type": DDS type name, "reliable": bool, "since": ns, "lost": n,
  *    "stamps": [source time ns, ...]}
  * ("since": when its reader was made; "lost": the samples DDS reported lost to it), and prints a
  * summary line per topic on stdout. Prints "count_probe: reading N topics" once it reads some and
- * no new one has appeared for a second. Camera topics (sensor_msgs Image) only with --cameras. Exit
+ * no new one has appeared for a second. Camera topics (sensor_msgs Image) only with --cameras; with
+ * --only, those topics alone (a subscriber on a slow link that reads what it needs). Exit
  * status 1 when a topic's type is not among the compiled ones. */
 #include <dds/dds.h>
 #include <dds/ddsi/ddsi_serdata.h>
@@ -48,6 +49,8 @@ static const dds_topic_descriptor_t* descriptor_of(const char* type_name) {
 static struct topic topics[MAX_TOPICS];
 static size_t ntopics = 0;
 static int failures = 0;
+static const char* only[64];
+static int nonly = 0;
 static volatile sig_atomic_t stop = 0;
 
 static void on_signal(int sig) {
@@ -81,6 +84,11 @@ static void subscribe(dds_entity_t pp, dds_entity_t sub, dds_entity_t waitset,
                       dds_builtintopic_endpoint_t* w, int cameras) {
   if (ntopics == MAX_TOPICS || find(w->topic_name) != NULL) return;
   if (!cameras && strstr(w->type_name, "sensor_msgs::msg::dds_::Image_") != NULL) return;
+  if (nonly > 0) {
+    int wanted = 0;
+    for (int i = 0; i < nonly; i++) wanted |= strcmp(only[i], w->topic_name) == 0;
+    if (!wanted) return;
+  }
   const dds_topic_descriptor_t* descriptor = descriptor_of(w->type_name);
   if (descriptor == NULL) {
     fprintf(stderr, "count_probe: %s: type %s is not among the probe's types\n", w->topic_name,
@@ -139,13 +147,23 @@ static void take(struct topic* t) {
 }
 
 int main(int argc, char** argv) {
-  if (argc < 4 || argc > 5 || (argc == 5 && strcmp(argv[4], "--cameras") != 0)) {
-    fprintf(stderr, "usage: %s PARTITION SECONDS OUT [--cameras]\n", argv[0]);
+  int cameras = 0;
+  int bad = argc < 4;
+  for (int i = 4; i < argc && !bad; i++) {
+    if (strcmp(argv[i], "--cameras") == 0) {
+      cameras = 1;
+    } else if (strcmp(argv[i], "--only") == 0 && i + 1 < argc && nonly < 64) {
+      only[nonly++] = argv[++i];
+    } else {
+      bad = 1;
+    }
+  }
+  if (bad) {
+    fprintf(stderr, "usage: %s PARTITION SECONDS OUT [--cameras] [--only DDS_TOPIC]...\n", argv[0]);
     return 2;
   }
   const char* partition = argv[1];
   const double seconds = atof(argv[2]);
-  const int cameras = argc == 5;
   const dds_entity_t pp = dds_create_participant(DDS_DOMAIN_DEFAULT, NULL, NULL);
   if (pp < 0) {
     fprintf(stderr, "count_probe: dds_create_participant: %s\n", dds_strretcode(pp));
