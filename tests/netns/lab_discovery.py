@@ -22,11 +22,12 @@ import sys
 import tempfile
 import time
 
+sys.dont_write_bytecode = True  # nothing written into the source tree
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / "ros2"))
+import count_probe  # noqa: E402
 import netns  # noqa: E402
-import record_city  # noqa: E402  (build_probe)
 
 CITY = "config/cities/small_town.yaml"
 SPAT = "rt/autodrive/scm/spat"
@@ -86,7 +87,10 @@ def main():
 
     with tempfile.TemporaryDirectory(prefix="lab_discovery.") as tmp:
         tmp = pathlib.Path(tmp)
-        probe_bin = record_city.build_probe(args, tmp)
+        try:
+            probe_bin = count_probe.build(args.source, args.ros2_work, args.idlc, args.cc, tmp)
+        except RuntimeError as e:
+            fail(str(e))
         partition = f"lab_discovery_{os.getpid()}"
         lab_env = dict(os.environ)
         lab_env["CYCLONEDDS_URI"] = f"file://{args.source}/config/dds/lab.xml"
