@@ -8,6 +8,8 @@ SupervisionParams SupervisionParamsOf(const City& city) {
   p.timeout = city.device_timeout;
   p.mismatch = city.device_mismatch;
   p.wait_for_lights = city.config.devices.wait_for_lights;
+  p.recover_after = city.config.devices.recover_s;
+  p.max_recoveries_per_hour = city.config.devices.max_recoveries_per_hour;
   return p;
 }
 

@@ -302,10 +302,22 @@ struct DevicesConfig {
   /// The start-up flash lasts until every light of the intersection has reported. False runs
   /// the controllers without lights (SPaT only, e.g. a pure simulation or a benchmark).
   bool wait_for_lights = true;
+  /// A fail-safe flash the SCM latched only because lights went silent (a network cut, a light
+  /// host restarted) ends on its own once every light of the intersection reports again and
+  /// follows the SCM for this long: the intersection restarts through start-up, as after a
+  /// reset (event `failsafe_recovered`). 0: it lasts until `scmctl reset`, as every other
+  /// fail-safe flash does.
+  nanoseconds recover_s = std::chrono::seconds(1);
+  /// At most this many automatic recoveries per intersection within an hour; the next lost-light
+  /// flash lasts until `scmctl reset` (event `failsafe_recovery_exhausted`).
+  int max_recoveries_per_hour = 20;
 
   template <typename Archive>
   void Serialize(Archive& a) {
     a.Optional("wait_for_lights", wait_for_lights);
+    a.Optional("recover_s", recover_s,
+               config::Range<nanoseconds>{std::chrono::seconds(0), std::chrono::minutes(10)});
+    a.Optional("max_recoveries_per_hour", max_recoveries_per_hour, config::Range{1, 100});
     a.Optional("timeout_s", timeout_s,
                config::Range<nanoseconds>{std::chrono::milliseconds(100), std::chrono::minutes(1)});
     a.Optional("mismatch_s", mismatch_s,

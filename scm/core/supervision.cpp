@@ -61,7 +61,8 @@ std::string_view ToString(DeviceHealth health) {
 DeviceSupervisor::DeviceSupervisor(const CityRuntime& runtime, SupervisionParams params)
     : params_(std::move(params)),
       heads_(runtime.heads().size()),
-      monitors_(runtime.intersections().size()) {
+      monitors_(runtime.intersections().size()),
+      recoveries_(runtime.intersections().size()) {
   for (const auto& x : runtime.intersections()) {
     monitor_ids_.push_back("mmu_" + x.model->name);
     heads_of_.push_back(x.heads);
@@ -157,6 +158,7 @@ void DeviceSupervisor::ReportMonitor(std::size_t x, const DeviceReportView& r, M
   m.latched = latched;
   if (m.detail != r.detail) m.detail = r.detail;
   if (latched) {
+    recoveries_[x].armed = false;  // a cause the lights' return does not clear
     const std::string reason = "the infrastructure's conflict monitor latched flash";
     if (runtime.FailSafe(x, now, reason, events)) {
       const auto& model = *runtime.intersections()[x].model;
@@ -216,6 +218,7 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
           head.health == DeviceHealth::kFault || head.health == DeviceHealth::kOffline;
       if (fault && !head.faulty && !head.lost) {
         head.faulty = true;
+        recoveries_[xi].armed = false;
         events.Emit(Event{Severity::kAlarm, "device_fault",
                           fmt::format("{} reports a fault: {}", slot.name, head.detail),
                           x.model->id, slot.name, "scm", true});
@@ -251,8 +254,60 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
       events.Emit(Event{Severity::kCritical, "failsafe_flash",
                         fmt::format("{} in fail-safe flash: {}", x.model->name, reason),
                         x.model->id, "", "scm", true});
+      recoveries_[xi].armed = params_.recover_after > Duration::zero();
+      recoveries_[xi].healthy_since.reset();
+    } else if (lost_count == 0) {
+      Recover(xi, now, runtime, events);
     }
   }
+}
+
+void DeviceSupervisor::Recover(std::size_t xi, MonoTime now, CityRuntime& runtime,
+                               EventSink& events) {
+  Recovery& r = recoveries_[xi];
+  IntersectionRuntime& x = runtime.intersections()[xi];
+  IntersectionController& c = *x.controller;
+  if (!r.armed || !c.latched()) {
+    r.armed = false;
+    return;
+  }
+  bool back = !monitors_[xi].latched && !monitors_[xi].reset_command;
+  for (std::size_t h : heads_of_[xi]) {
+    const HeadHealth& head = heads_[h];
+    back = back && head.seen && !head.lost && !head.faulty && head.following;
+  }
+  if (!back) {
+    r.healthy_since.reset();
+    return;
+  }
+  if (!r.healthy_since) r.healthy_since = now;
+  if (now - *r.healthy_since < params_.recover_after) {
+    next_deadline_ = std::min(next_deadline_, *r.healthy_since + params_.recover_after);
+    return;
+  }
+  std::erase_if(r.done, [&](MonoTime t) { return now - t >= std::chrono::hours(1); });
+  if (r.done.size() >= static_cast<std::size_t>(params_.max_recoveries_per_hour)) {
+    r.armed = false;
+    events.Emit(Event{Severity::kAlarm, "failsafe_recovery_exhausted",
+                      fmt::format("{}: its lights report again, but it recovered on its own {} "
+                                  "times within the hour; it stays in fail-safe flash until "
+                                  "`scmctl reset`",
+                                  x.model->name, r.done.size()),
+                      x.model->id, "", "scm", true});
+    return;
+  }
+  const std::string reason = c.latch_reason();
+  if (!c.Reset(now).ok) return;
+  x.fault.clear();
+  OnReset(xi, now, std::nullopt);
+  r.done.push_back(now);
+  events.Emit(
+      Event{Severity::kInfo, "failsafe_recovered",
+            fmt::format("{}: every light reports again and follows the SCM; fail-safe "
+                        "flash ended on its own (was: {}), restarting through start-up "
+                        "({} of {} automatic recoveries within the hour)",
+                        x.model->name, reason, r.done.size(), params_.max_recoveries_per_hour),
+            x.model->id, "", "scm", false});
 }
 
 void DeviceSupervisor::OnStall(MonoTime resumed) {
@@ -278,6 +333,8 @@ void DeviceSupervisor::OnReset(std::size_t x, MonoTime now,
                                std::optional<std::uint64_t> monitor_command) {
   Monitor& m = monitors_[x];
   m.latched = false;
+  recoveries_[x].armed = false;
+  recoveries_[x].healthy_since.reset();
   if (monitor_command) {
     m.reset_command = monitor_command;
     m.reset_at = now;

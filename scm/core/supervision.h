@@ -65,6 +65,10 @@ struct SupervisionParams {
   bool wait_for_lights = true;                        ///< start-up waits for every light
   /// An infrastructure monitor that has not confirmed a reset within this is treated as latched.
   Duration reset_ack_timeout = std::chrono::seconds(5);
+  /// A flash latched for lost lights ends on its own after every light has reported and
+  /// followed for this long (0: never; `DevicesConfig::recover_s`).
+  Duration recover_after = std::chrono::seconds(1);
+  int max_recoveries_per_hour = 20;  ///< per intersection
 };
 
 /// What the SCM knows of one head.
@@ -147,6 +151,15 @@ class DeviceSupervisor {
     std::optional<std::uint64_t> reset_command;  ///< our reset it has not confirmed yet
     MonoTime reset_at{};
   };
+  /// The automatic end of a flash latched for lost lights, per intersection.
+  struct Recovery {
+    bool armed = false;  ///< latched by Check for lost lights, and by nothing else since
+    std::optional<MonoTime> healthy_since;  ///< every light back and following since
+    std::vector<MonoTime> done;             ///< recoveries within the last hour
+  };
+  /// Ends intersection `xi`'s flash when it was latched for lost lights only and they have been
+  /// back for `recover_after`.
+  void Recover(std::size_t xi, MonoTime now, CityRuntime& runtime, EventSink& events);
   bool ReportHead(std::size_t h, const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
                   EventSink& events);
   void ReportMonitor(std::size_t x, const DeviceReportView& r, MonoTime now, CityRuntime& runtime,
@@ -156,6 +169,7 @@ class DeviceSupervisor {
   SupervisionParams params_;
   std::vector<HeadHealth> heads_;
   std::vector<Monitor> monitors_;                   ///< by intersection index
+  std::vector<Recovery> recoveries_;                ///< by intersection index
   std::vector<std::string> monitor_ids_;            ///< "mmu_<name>" by intersection index
   std::vector<std::vector<std::size_t>> heads_of_;  ///< head indices by intersection index
   std::vector<std::string> head_names_;             ///< "signal_<i>" by head index

@@ -171,6 +171,136 @@ TEST_F(SupervisionTest, WithNoStallALostLightLatchesOnTheTimeOutAsBefore) {
   EXPECT_TRUE(Latched("north_t"));
 }
 
+// Issue 36: a light host's network cut latches its intersections; once every light reports
+// again and follows the SCM for `recover_after`, the flash ends on its own through start-up.
+class RecoveryTest : public SupervisionTest {
+ protected:
+  // signal_5 (centre) silent from `from` for 0.6 s: centre latches for a lost light.
+  MonoTime LoseSignal5(MonoTime from) {
+    ReportAll(from);
+    supervisor_.Check(from, sent_, runtime_, events_);
+    const MonoTime later = from + milliseconds(600);
+    for (const auto& h : runtime_.heads()) {
+      if (h.id.value() != 5)
+        supervisor_.Report(Light(h.id.value(), Aspect::kRed), later, runtime_, events_);
+    }
+    supervisor_.Check(later, sent_, runtime_, events_);
+    EXPECT_TRUE(Latched("centre"));
+    return later;
+  }
+  // Every light reports at `at` (mode: 0 NORMAL, following; 1 FLASH, its own), then a check.
+  void Back(MonoTime at, std::uint8_t mode = 0, DeviceHealth health = DeviceHealth::kOk) {
+    for (const auto& h : runtime_.heads()) {
+      DeviceReportView r = Light(h.id.value(), Aspect::kFlashingRed);
+      r.mode = mode;
+      r.health = h.id.value() == 5 ? health : DeviceHealth::kOk;
+      supervisor_.Report(r, at, runtime_, events_);
+    }
+    supervisor_.Check(at, sent_, runtime_, events_);
+  }
+};
+
+TEST_F(RecoveryTest, LostLightsBackAndFollowingEndTheFlashAfterRecoverAfter) {
+  const MonoTime latched = LoseSignal5(t0_);
+  const MonoTime back = latched + seconds(2);
+  Back(back);
+  EXPECT_TRUE(Latched("centre")) << "back, but not for recover_after yet";
+  EXPECT_LE(supervisor_.next_deadline(), back + seconds(1)) << "the loop wakes to recover";
+  Back(back + milliseconds(999));
+  EXPECT_TRUE(Latched("centre"));
+  Back(back + seconds(1));
+  EXPECT_FALSE(Latched("centre"));
+  EXPECT_EQ(runtime_.intersections()[Index("centre")].controller->stage(), Stage::kFlash)
+      << "restarting through start-up, as after a reset";
+  ASSERT_EQ(events_.WithCode("failsafe_recovered").size(), 1u);
+  EXPECT_THAT(events_.WithCode("failsafe_recovered")[0].message,
+              HasSubstr("was: devices lost: signal_5"));
+  EXPECT_FALSE(Latched("north_t"));
+}
+
+TEST_F(RecoveryTest, LightsInTheirOwnFlashAreNotFollowingAndDoNotRecover) {
+  const MonoTime latched = LoseSignal5(t0_);
+  Back(latched + seconds(1), /*FLASH*/ 1);
+  Back(latched + seconds(5), /*FLASH*/ 1);
+  EXPECT_TRUE(Latched("centre"));
+  Back(latched + seconds(6));  // they take the SCM's flashing red: following from now
+  EXPECT_TRUE(Latched("centre"));
+  Back(latched + seconds(7));
+  EXPECT_FALSE(Latched("centre"));
+}
+
+TEST_F(RecoveryTest, AFaultWhileLatchedIsACauseTheLightsReturnDoesNotClear) {
+  const MonoTime latched = LoseSignal5(t0_);
+  Back(latched + seconds(1), 0, DeviceHealth::kFault);
+  Back(latched + seconds(2));  // the fault went away: still for an operator to reset
+  Back(latched + seconds(10));
+  EXPECT_TRUE(Latched("centre"));
+  EXPECT_TRUE(events_.WithCode("failsafe_recovered").empty());
+  EXPECT_FALSE(supervisor_.ResetRefusal(Index("centre")));
+}
+
+TEST_F(RecoveryTest, AtMostMaxRecoveriesPerHourThenTheFlashWaitsForAReset) {
+  MonoTime t = t0_;
+  const int budget = SupervisionParams{}.max_recoveries_per_hour;
+  EXPECT_EQ(budget, 20);
+  for (int i = 0; i < budget; ++i) {
+    t = LoseSignal5(t) + seconds(1);
+    Back(t);
+    Back(t + seconds(1));
+    EXPECT_FALSE(Latched("centre")) << "recovery " << i + 1;
+    t += seconds(2);
+  }
+  t = LoseSignal5(t) + seconds(1);
+  Back(t);
+  Back(t + seconds(1));
+  EXPECT_TRUE(Latched("centre")) << "one more than the budget within the hour";
+  ASSERT_EQ(events_.WithCode("failsafe_recovery_exhausted").size(), 1u);
+  Back(t + seconds(30));
+  EXPECT_EQ(events_.WithCode("failsafe_recovery_exhausted").size(), 1u) << "said once";
+  EXPECT_TRUE(Latched("centre"));
+  // An hour after the first, the budget has room again.
+  t = t0_ + std::chrono::hours(1) + seconds(10);
+  ASSERT_TRUE(runtime_.intersections()[Index("centre")].controller->Reset(t).ok);
+  supervisor_.OnReset(Index("centre"), t, std::nullopt);
+  t = LoseSignal5(t) + seconds(1);
+  Back(t);
+  Back(t + seconds(1));
+  EXPECT_FALSE(Latched("centre"));
+}
+
+TEST(RecoveryOff, WithRecoverAfterZeroALostLightFlashLastsUntilReset) {
+  CityRuntime runtime(
+      std::make_unique<City>(LoadCity(test::SourceDir() / "config/cities/small_town.yaml")));
+  SupervisionParams p;
+  p.city = "small_town";
+  p.recover_after = Duration::zero();
+  DeviceSupervisor supervisor(runtime, p);
+  const MonoTime t0 = MonoFromSeconds(100);
+  runtime.Start(t0, {});
+  std::vector<SentCommand> sent(runtime.heads().size(), SentCommand{Aspect::kRed, t0});
+  EventRecorder events;
+  const auto report = [&](MonoTime at) {
+    for (const auto& h : runtime.heads()) {
+      const std::string name = "signal_" + std::to_string(h.id.value());
+      DeviceReportView r;
+      r.device_id = name;
+      r.city = "small_town";
+      r.host = "infra/a";
+      r.displayed = Aspect::kFlashingRed;
+      supervisor.Report(r, at, runtime, events);
+    }
+    supervisor.Check(at, sent, runtime, events);
+  };
+  report(t0);
+  supervisor.Check(t0 + seconds(1), sent, runtime, events);  // everyone silent: lost
+  const auto& centre = *runtime.intersections()[*runtime.Find("centre")].controller;
+  EXPECT_TRUE(centre.latched());
+  report(t0 + seconds(2));
+  report(t0 + seconds(60));
+  EXPECT_TRUE(centre.latched());
+  EXPECT_TRUE(events.WithCode("failsafe_recovered").empty());
+}
+
 TEST_F(SupervisionTest, AnotherCitysLightsAreIgnoredAndReportedOnce) {
   DeviceReportView r = Light(1, Aspect::kGreen);
   r.city = "driving_school";

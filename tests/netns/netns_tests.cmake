@@ -20,4 +20,24 @@ if(AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON)
   set_tests_properties(netns_lab_discovery_unicast_test PROPERTIES
     LABELS "netns;integration" TIMEOUT 600 SKIP_RETURN_CODE 77 FIXTURES_REQUIRED ros2_workspace
     ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
+  # Link cuts (lab_link_cut.py): B's link cut and healed 10 times (its lights flash on their own,
+  # the SCM reports them lost and takes them back through start-up); then A's (every light
+  # flashes; the SCM restarts on D from the same database). Lamp states recorded on the light
+  # hosts, read back with npm's MCAP libraries (the ros2_npm fixture).
+  foreach(variant IN ITEMS link_cut scm_failover)
+    if(NOT AUTODRIVE_NODE)
+      break()  # node (scripts/setup installs it) reads the recordings
+    endif()
+    set(extra "")
+    if(variant STREQUAL "scm_failover")
+      set(extra --cut-scm)
+    endif()
+    add_test(NAME netns_lab_${variant}_test
+      COMMAND ${AUTODRIVE_DEBIAN_PYTHON} ${CMAKE_CURRENT_LIST_DIR}/lab_link_cut.py
+              --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin
+              --npm-dir ${AUTODRIVE_NPM_DIR} --node ${AUTODRIVE_NODE} ${extra})
+    set_tests_properties(netns_lab_${variant}_test PROPERTIES
+      LABELS "netns;integration" TIMEOUT 900 SKIP_RETURN_CODE 77 FIXTURES_REQUIRED ros2_npm
+      ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
+  endforeach()
 endif()

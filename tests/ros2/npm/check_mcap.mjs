@@ -5,7 +5,7 @@
 // Run by CTest (tests/ros2/mcap_tests.cmake):
 //
 //   node check_mcap.mjs FILE [--expect TOPIC[:MIN_COUNT]]... [--flip-byte OFFSET|middle] [--foreign]
-//                      [--times OUT]
+//                      [--times OUT] [--values OUT]
 //
 // Checks: profile ros2; a Statistics record whose per-channel counts equal the messages the
 // indexed and the streamed reading find; the data section's CRC (recomputed here) equals
@@ -25,6 +25,11 @@
 // in nanoseconds, to OUT as one JSON line per topic: {"topic", "publish": [...], "log": [...]},
 // for comparing a recording with another subscriber over the same window.
 //
+// --values OUT: writes every decoded message of the topics of std_msgs/msg/Int32 and
+// autodrive_msgs/msg/DeviceStatus (lamp states, device statuses) to OUT, one JSON line each:
+// {"topic", "publish" (ns), "message"}: what a light host showed, read back from its recording
+// (tests/netns/lab_link_cut.py).
+//
 // --flip-byte: checks a copy (in memory) with one byte changed, at OFFSET or in the middle of the
 // first chunk's records: the check must then fail (the test that runs it expects exit 1).
 
@@ -40,7 +45,7 @@ const { MessageReader } = serialization;
 
 function usage(message) {
   console.error(`check_mcap.mjs: ${message}`);
-  console.error("usage: node check_mcap.mjs FILE [--expect TOPIC[:MIN]]... [--flip-byte N|middle] [--foreign] [--times OUT]");
+  console.error("usage: node check_mcap.mjs FILE [--expect TOPIC[:MIN]]... [--flip-byte N|middle] [--foreign] [--times OUT] [--values OUT]");
   process.exit(2);
 }
 
@@ -49,6 +54,8 @@ const expect = [];
 let flip = null;
 let foreign = false;
 let timesFile = null;
+let valuesFile = null;
+const valueTypes = new Set(["std_msgs/msg/Int32", "autodrive_msgs/msg/DeviceStatus"]);
 for (let i = 2; i < process.argv.length; i++) {
   const arg = process.argv[i];
   if (arg === "--expect") {
@@ -60,6 +67,8 @@ for (let i = 2; i < process.argv.length; i++) {
     flip = process.argv[++i] ?? usage("--flip-byte needs an offset or 'middle'");
   } else if (arg === "--times") {
     timesFile = process.argv[++i] ?? usage("--times needs a file");
+  } else if (arg === "--values") {
+    valuesFile = process.argv[++i] ?? usage("--values needs a file");
   } else if (arg === "--foreign") {
     foreign = true;
   } else if (arg.startsWith("-")) {
@@ -225,6 +234,7 @@ try {
   const indexedCounts = new Map();
   const digests = new Map();
   const times = new Map();  // channel id -> {publish: [], log: []}, for --times
+  const values = [];  // JSON lines, for --values
   for await (const m of reader.readMessages({ validateCrcs: true })) {
     const channel = reader.channelsById.get(m.channelId);
     const topic = result.topics[channel.topic];
@@ -245,6 +255,10 @@ try {
     try {
       const decoded = decoders.get(m.channelId)?.readMessage(m.data);
       if (decoded === undefined || decoded === null) throw new Error("nothing decoded");
+      if (valuesFile !== null && valueTypes.has(topic.type)) {
+        values.push(`{"topic":${JSON.stringify(channel.topic)},"publish":${m.publishTime},` +
+                    `"message":${JSON.stringify(decoded, (k, v) => typeof v === "bigint" ? Number(v) : v)}}`);
+      }
     } catch (e) {
       if (topic.decode_errors++ === 0) errors.push(`${channel.topic}: message does not decode: ${e.message}`);
     }
@@ -271,6 +285,8 @@ try {
     }
     fs.writeFileSync(timesFile, lines.join("\n") + "\n");
   }
+
+  if (valuesFile !== null) fs.writeFileSync(valuesFile, values.join("\n") + "\n");
 
   // Streamed, with CRC validation, to the footer.
   const stream = new McapStreamReader({ validateCrcs: true });
