@@ -49,6 +49,8 @@ find_package(pugixml REQUIRED CONFIG)
 find_package(nlohmann_json 3 REQUIRED CONFIG)
 # The dashboard's HTTP server (libcpp-httplib-dev: a compiled library, with its flags).
 pkg_check_modules(HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
+# autodrive-live's WebSocket server: Boost.Beast and Asio, header-only (libboost-dev).
+find_package(Boost 1.74 REQUIRED)
 # The dashboard's page gzip'd once at start (zlib1g-dev, which libcpp-httplib-dev needs too).
 find_package(ZLIB REQUIRED)
 # systemd integration of the daemons (READY, WATCHDOG, STOPPING): libsystemd-dev.

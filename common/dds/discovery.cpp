@@ -3,6 +3,7 @@
 #include <fnmatch.h>
 
 #include <cstring>
+#include <optional>
 
 namespace autodrive::dds {
 
@@ -41,8 +42,8 @@ std::vector<std::string> PublicationWatcher::TakeTopics() {
   return topics;
 }
 
-std::vector<DiscoveredWriter> PublicationWatcher::TakeWriters() {
-  std::vector<DiscoveredWriter> writers;
+template <typename On>
+void PublicationWatcher::TakeEach(On&& on) {
   constexpr int kBatch = 16;
   for (;;) {
     void* samples[kBatch] = {};
@@ -50,25 +51,61 @@ std::vector<DiscoveredWriter> PublicationWatcher::TakeWriters() {
     const dds_return_t n = internal::ThrowIfError(
         dds_take(reader_.handle(), samples, infos, kBatch, kBatch), "dds_take(DCPSPublication)");
     for (dds_return_t i = 0; i < n; ++i) {
-      if (!infos[i].valid_data || infos[i].instance_state != DDS_IST_ALIVE) continue;
-      const auto* endpoint = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
-      if (endpoint->topic_name == nullptr || endpoint->type_name == nullptr ||
-          !SharesPartition(endpoint->qos, partition_)) {
-        continue;
-      }
-      DiscoveredWriter w;
-      w.topic_name = endpoint->topic_name;
-      w.type_name = endpoint->type_name;
-      std::memcpy(w.key.data(), endpoint->key.v, w.key.size());
-      dds_qos_t* qos = dds_create_qos();
-      if (endpoint->qos != nullptr) (void)dds_copy_qos(qos, endpoint->qos);
-      w.qos = std::shared_ptr<const dds_qos_t>(
-          qos, [](const dds_qos_t* q) { dds_delete_qos(const_cast<dds_qos_t*>(q)); });
-      writers.push_back(std::move(w));
+      on(*static_cast<const dds_builtintopic_endpoint_t*>(samples[i]), infos[i]);
     }
     if (n > 0) (void)dds_return_loan(reader_.handle(), samples, n);
-    if (n < kBatch) return writers;
+    if (n < kBatch) return;
   }
+}
+
+namespace {
+
+/// The writer of an alive DCPSPublication sample of `partition`; nullopt for another partition.
+std::optional<DiscoveredWriter> WriterOf(const dds_builtintopic_endpoint_t& endpoint,
+                                         const std::string& partition) {
+  if (endpoint.topic_name == nullptr || endpoint.type_name == nullptr ||
+      !SharesPartition(endpoint.qos, partition)) {
+    return std::nullopt;
+  }
+  DiscoveredWriter w;
+  w.topic_name = endpoint.topic_name;
+  w.type_name = endpoint.type_name;
+  std::memcpy(w.key.data(), endpoint.key.v, w.key.size());
+  dds_qos_t* qos = dds_create_qos();
+  if (endpoint.qos != nullptr) (void)dds_copy_qos(qos, endpoint.qos);
+  w.qos = std::shared_ptr<const dds_qos_t>(
+      qos, [](const dds_qos_t* q) { dds_delete_qos(const_cast<dds_qos_t*>(q)); });
+  return w;
+}
+
+}  // namespace
+
+std::vector<DiscoveredWriter> PublicationWatcher::TakeWriters() {
+  std::vector<DiscoveredWriter> writers;
+  TakeEach([&](const dds_builtintopic_endpoint_t& endpoint, const dds_sample_info_t& info) {
+    if (!info.valid_data || info.instance_state != DDS_IST_ALIVE) return;
+    if (auto w = WriterOf(endpoint, partition_)) writers.push_back(std::move(*w));
+  });
+  return writers;
+}
+
+std::vector<WriterChange> PublicationWatcher::TakeChanges() {
+  std::vector<WriterChange> changes;
+  TakeEach([&](const dds_builtintopic_endpoint_t& endpoint, const dds_sample_info_t& info) {
+    if (info.instance_state != DDS_IST_ALIVE) {
+      const auto known = alive_.find(info.instance_handle);
+      if (known == alive_.end()) return;
+      changes.push_back({std::move(known->second), false});
+      alive_.erase(known);
+      return;
+    }
+    if (!info.valid_data) return;
+    if (auto w = WriterOf(endpoint, partition_)) {
+      alive_[info.instance_handle] = *w;
+      changes.push_back({std::move(*w), true});
+    }
+  });
+  return changes;
 }
 
 }  // namespace autodrive::dds

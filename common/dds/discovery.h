@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,6 +22,13 @@ struct DiscoveredWriter {
   std::string type_name;                 ///< DDS type name
   std::array<std::uint8_t, 16> key{};    ///< its GUID: one per writer
   std::shared_ptr<const dds_qos_t> qos;  ///< the QoS it offers (never null)
+};
+
+/// A writer that appeared (`alive`) or went away (deleted, or its participant lost): what
+/// `PublicationWatcher::TakeChanges` reports.
+struct WriterChange {
+  DiscoveredWriter writer;  ///< as it was announced (also for one that went away)
+  bool alive = true;
 };
 
 /// Watches the writers that appear in the domain (Cyclone's DCPSPublication built-in topic), so
@@ -40,10 +48,21 @@ class PublicationWatcher {
   /// The writers themselves, as `TakeTopics` finds them: topic, type, key and offered QoS (what
   /// a recorder needs to read each topic as its writers offer it).
   [[nodiscard]] std::vector<DiscoveredWriter> TakeWriters();
+  /// The writers in this participant's partition that appeared or went away since the last
+  /// call, in the order they did (a live view advertises and withdraws topics by them). A writer
+  /// that went away is reported once, and only when it was reported alive before by this call.
+  /// Never blocks. Use either this or `TakeWriters`/`TakeTopics` on one watcher, not both.
+  [[nodiscard]] std::vector<WriterChange> TakeChanges();
 
  private:
+  // Takes DCPSPublication samples in batches: `on(sample, info)` for each.
+  template <typename On>
+  void TakeEach(On&& on);
+
   std::string partition_;
   Entity reader_;
+  // The writers TakeChanges reported alive, by instance handle (a disposal carries no data).
+  std::map<dds_instance_handle_t, DiscoveredWriter> alive_;
 };
 
 }  // namespace autodrive::dds

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <functional>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -288,6 +289,54 @@ TEST(PublicationWatcher, TheDefaultPartitionSeesWritersWithoutAPartition) {
   EXPECT_TRUE(Contains(seen, ours));
   for (auto& t : watcher.TakeTopics()) seen.push_back(std::move(t));
   EXPECT_FALSE(Contains(seen, theirs));
+}
+
+TEST(PublicationWatcher, ChangesReportAWriterAppearingAndGoing) {
+  const std::string partition = Unique("changes");
+  Participant mine(ParticipantOptions{{}, partition, {}});
+  Participant peer(ParticipantOptions{{}, partition, {}});
+  Participant neighbour(ParticipantOptions{{}, Unique("changes_elsewhere"), {}});
+  PublicationWatcher watcher(mine);
+  const std::string topic = Unique("changes_topic");
+  const std::string theirs = Unique("changes_theirs");
+  Writer<msg::Int32> foreign(neighbour, theirs, Qos::Stream());
+  std::vector<WriterChange> changes;
+  const auto take_until = [&](const std::function<bool()>& done) {
+    for (const auto end = std::chrono::steady_clock::now() + 30s;
+         !done() && std::chrono::steady_clock::now() < end;) {
+      for (auto& c : watcher.TakeChanges()) changes.push_back(std::move(c));
+      std::this_thread::sleep_for(5ms);
+    }
+  };
+  const auto count = [&](bool alive) {
+    return std::count_if(changes.begin(), changes.end(), [&](const WriterChange& c) {
+      return c.writer.topic_name == topic && c.alive == alive;
+    });
+  };
+  auto writer = std::make_unique<Writer<msg::Int32>>(peer, topic, Qos::LatchedState());
+  take_until([&] { return count(true) == 1; });
+  ASSERT_EQ(count(true), 1);
+  const auto appeared = std::find_if(changes.begin(), changes.end(), [&](const WriterChange& c) {
+    return c.writer.topic_name == topic;
+  });
+  EXPECT_EQ(appeared->writer.type_name, "std_msgs::msg::dds_::Int32_");
+  dds_durability_kind_t durability{};
+  ASSERT_TRUE(dds_qget_durability(appeared->writer.qos.get(), &durability));
+  EXPECT_EQ(durability, DDS_DURABILITY_TRANSIENT_LOCAL);
+  writer.reset();
+  take_until([&] { return count(false) == 1; });
+  EXPECT_EQ(count(false), 1) << "the writer's deletion is reported, once";
+  // As it was announced, so that its topic can be withdrawn.
+  const auto gone = std::find_if(changes.begin(), changes.end(), [&](const WriterChange& c) {
+    return c.writer.topic_name == topic && !c.alive;
+  });
+  ASSERT_NE(gone, changes.end());
+  EXPECT_EQ(gone->writer.key, appeared->writer.key);
+  for (auto& c : watcher.TakeChanges()) changes.push_back(std::move(c));
+  EXPECT_EQ(std::count_if(changes.begin(), changes.end(),
+                          [&](const WriterChange& c) { return c.writer.topic_name == theirs; }),
+            0)
+      << "another partition's writer is neither reported appearing nor going";
 }
 
 }  // namespace

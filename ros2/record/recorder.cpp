@@ -111,23 +111,8 @@ std::size_t Recorder::Discover() {
           {{"offered_qos_profiles", topic->qos_yaml},
            {"topic_type_hash", std::string(dds::TypeHash(type->dds_type_name))}});
     }
-    // Reliable (best-effort writers are read too) or best effort, keep last: never slows a
-    // writer.
-    // Transient-local when the writers are (latched state arrives at once); a transient-local
-    // reader would not match a volatile writer (DDS's requested <= offered rule).
-    const bool latched = std::all_of(offered.begin(), offered.end(),
-                                     [](const OfferedQos& o) { return o.durability == 1; });
-    dds::Qos qos = latched ? dds::Qos::LatchedState(options_.reader_depth)
-                           : dds::Qos::Stream(options_.reader_depth);
-    // Best effort when every writer is (as rosbag2 adapts to the offered QoS): a reliable half
-    // would only make each best-effort writer report an incompatible reader.
-    const bool best_effort = std::all_of(offered.begin(), offered.end(),
-                                         [](const OfferedQos& o) { return o.reliability == 2; });
-    if (best_effort) {
-      qos.reliability = dds::Qos::Reliability::kBestEffort;
-    } else {
-      qos.reader_accepts_best_effort = true;
-    }
+    // Reliable or best effort as the writers offer, keep last: never slows a writer.
+    const dds::Qos qos = ReaderQos(offered, options_.reader_depth);
     topic->reader = std::make_unique<dds::RawReader>(participant_, dds_name, type->descriptor, qos);
     Topic* raw = topic.get();
     {

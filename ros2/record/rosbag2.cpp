@@ -162,6 +162,20 @@ std::vector<OfferedQos> ParseOfferedQosProfiles(std::string_view yaml) {
   return out;
 }
 
+dds::Qos ReaderQos(const std::vector<OfferedQos>& offered, std::int32_t depth) {
+  const bool latched = std::all_of(offered.begin(), offered.end(),
+                                   [](const OfferedQos& o) { return o.durability == 1; });
+  dds::Qos qos = latched ? dds::Qos::LatchedState(depth) : dds::Qos::Stream(depth);
+  const bool best_effort = std::all_of(offered.begin(), offered.end(),
+                                       [](const OfferedQos& o) { return o.reliability == 2; });
+  if (best_effort) {
+    qos.reliability = dds::Qos::Reliability::kBestEffort;
+  } else {
+    qos.reader_accepts_best_effort = true;
+  }
+  return qos;
+}
+
 dds::Qos PlaybackQos(const std::vector<OfferedQos>& profiles) {
   dds::Qos q = dds::Qos::Stream(10);
   if (profiles.empty()) return q;

@@ -47,6 +47,13 @@ struct OfferedQos {
 /// `profiles` is empty.
 [[nodiscard]] dds::Qos PlaybackQos(const std::vector<OfferedQos>& profiles);
 
+/// The QoS to read a topic with so that every writer of `offered` matches and none is slowed:
+/// keep last `depth`; best effort when every writer is (as rosbag2 adapts to the offered QoS:
+/// such a writer then reports no incompatible reader), else reliable also taking best-effort
+/// writers (`Qos::reader_accepts_best_effort`); transient-local when every writer is (latched
+/// state arrives at once; a transient-local reader would not match a volatile writer).
+[[nodiscard]] dds::Qos ReaderQos(const std::vector<OfferedQos>& offered, std::int32_t depth);
+
 /// One topic of a bag, for the metadata.
 struct BagTopic {
   std::string name;  ///< ROS name

@@ -4,16 +4,26 @@
  * endpoint's type information), and reads every sample raw (dds_takecdr, nothing decoded) with a
  * keep-all reader of the writers' reliability. It notes each sample's source timestamp, so that a
  * recording can be compared with it over the same window of source time
- * (tests/ros2/record_city.py).
+ * (tests/ros2/record_city.py), and keeps the bytes of the samples of the topics named by
+ * --payloads (as dds_takecdr gives them: encapsulation header and payload), so that what another
+ * program forwarded can be compared byte for byte (tests/ros2/live_city.py).
  *
  * Usage: count_probe PARTITION SECONDS OUT [--cameras] [--only DDS_TOPIC]...
+ *                    [--payloads DDS_TOPIC]... [--watch-readers] [--list-topics]
  * Listens SECONDS (or until SIGINT or SIGTERM), then writes OUT: one JSON line per topic,
  *   {"topic": DDS name, "type": DDS type name, "reliable": bool, "since": ns, "lost": n,
  *    "stamps": [source time ns, ...]}
- * ("since": when its reader was made; "lost": the samples DDS reported lost to it), and prints a
+ * ("since": when its reader was made; "lost": the samples DDS reported lost to it; with
+ * --payloads, the topic's line also has "payloads": [hex of each sample, ...] in the order of
+ * "stamps"), and prints a
  * summary line per topic on stdout. Prints "count_probe: reading N topics" once it reads some and
  * no new one has appeared for a second. Camera topics (sensor_msgs Image) only with --cameras; with
- * --only, those topics alone (a subscriber on a slow link that reads what it needs). Exit
+ * --only, those topics alone (a subscriber on a slow link that reads what it needs). With
+ * --watch-readers it also prints, as DCPSSubscription reports them, every reader of another
+ * participant that appears or goes: "count_probe: reader+ PARTICIPANT TOPIC" and
+ * "count_probe: reader- PARTICIPANT TOPIC" (PARTICIPANT: the 32 hex digits of its GUID). With
+ * --list-topics it prints "count_probe: topic DDS_TOPIC TYPE" for each topic of the partition
+ * the first time a writer of it (of another participant) is seen, read or not. Exit
  * status 1 when a topic's type is not among the compiled ones. */
 #include <dds/dds.h>
 #include <dds/ddsi/ddsi_serdata.h>
@@ -34,6 +44,15 @@ struct topic {
   dds_entity_t reader;
   int64_t* stamps;
   size_t n, cap;
+  int keep_payloads;
+  char** payloads; /* hex, one per stamp, when keep_payloads */
+};
+
+/* A reader DCPSSubscription announced: its instance, to name it when it goes. */
+struct seen_reader {
+  dds_instance_handle_t instance;
+  char participant[33];
+  char* topic;
 };
 
 /* The descriptors record_city.py compiled in, NULL-terminated. */
@@ -51,6 +70,23 @@ static size_t ntopics = 0;
 static int failures = 0;
 static const char* only[64];
 static int nonly = 0;
+static const char* payload_topics[64];
+static int npayload_topics = 0;
+static struct seen_reader* readers_seen = NULL;
+static size_t nreaders_seen = 0, readers_cap = 0;
+static char* listed[MAX_TOPICS];
+static size_t nlisted = 0;
+
+/* --list-topics: names a topic with writers the first time one is seen. */
+static void list_topic(const dds_builtintopic_endpoint_t* w) {
+  for (size_t i = 0; i < nlisted; i++) {
+    if (strcmp(listed[i], w->topic_name) == 0) return;
+  }
+  if (nlisted == MAX_TOPICS) return;
+  listed[nlisted++] = strdup(w->topic_name);
+  printf("count_probe: topic %s %s\n", w->topic_name, w->type_name);
+  fflush(stdout);
+}
 static volatile sig_atomic_t stop = 0;
 
 static void on_signal(int sig) {
@@ -63,6 +99,48 @@ static struct topic* find(const char* name) {
     if (strcmp(topics[i].name, name) == 0) return &topics[i];
   }
   return NULL;
+}
+
+static void guid_hex(const dds_guid_t* g, char out[33]) {
+  for (int i = 0; i < 16; i++) sprintf(out + 2 * i, "%02x", g->v[i]);
+}
+
+/* --watch-readers: prints the readers of other participants as they appear and go. */
+static void watch_readers(dds_entity_t subscriptions, const dds_guid_t* me) {
+  for (;;) {
+    void* samples[BATCH] = {0};
+    dds_sample_info_t infos[BATCH];
+    const dds_return_t n = dds_take(subscriptions, samples, infos, BATCH, BATCH);
+    for (dds_return_t i = 0; i < n; i++) {
+      const dds_builtintopic_endpoint_t* r = samples[i];
+      if (infos[i].instance_state != DDS_IST_ALIVE) {
+        for (size_t k = 0; k < nreaders_seen; k++) {
+          if (readers_seen[k].instance != infos[i].instance_handle) continue;
+          printf("count_probe: reader- %s %s\n", readers_seen[k].participant, readers_seen[k].topic);
+          free(readers_seen[k].topic);
+          readers_seen[k] = readers_seen[--nreaders_seen];
+          break;
+        }
+        continue;
+      }
+      if (!infos[i].valid_data || r->topic_name == NULL) continue;
+      if (memcmp(r->participant_key.v, me->v, 12) == 0) continue;
+      if (nreaders_seen == readers_cap) {
+        readers_cap = readers_cap ? 2 * readers_cap : 256;
+        readers_seen = realloc(readers_seen, readers_cap * sizeof *readers_seen);
+      }
+      struct seen_reader* s = &readers_seen[nreaders_seen++];
+      s->instance = infos[i].instance_handle;
+      guid_hex(&r->participant_key, s->participant);
+      s->topic = strdup(r->topic_name);
+      printf("count_probe: reader+ %s %s\n", s->participant, s->topic);
+    }
+    if (n > 0) {
+      dds_return_loan(subscriptions, samples, n);
+      fflush(stdout);
+    }
+    if (n < BATCH) return;
+  }
 }
 
 static int in_partition(const dds_qos_t* qos, const char* partition) {
@@ -124,6 +202,9 @@ static void subscribe(dds_entity_t pp, dds_entity_t sub, dds_entity_t waitset,
   t->reliable = reliability == DDS_RELIABILITY_RELIABLE;
   t->reader = reader;
   t->since = dds_time();
+  for (int i = 0; i < npayload_topics; i++) {
+    t->keep_payloads |= strcmp(payload_topics[i], w->topic_name) == 0;
+  }
   dds_waitset_attach(waitset, dds_create_readcondition(reader, DDS_ANY_STATE), 0);
 }
 
@@ -138,6 +219,17 @@ static void take(struct topic* t) {
         if (t->n == t->cap) {
           t->cap = t->cap ? 2 * t->cap : 1024;
           t->stamps = realloc(t->stamps, t->cap * sizeof *t->stamps);
+          if (t->keep_payloads) t->payloads = realloc(t->payloads, t->cap * sizeof *t->payloads);
+        }
+        if (t->keep_payloads) {
+          const uint32_t size = ddsi_serdata_size(data[i]);
+          unsigned char* bytes = malloc(size);
+          char* hex = malloc(2 * (size_t)size + 1);
+          ddsi_serdata_to_ser(data[i], 0, size, bytes);
+          for (uint32_t k = 0; k < size; k++) sprintf(hex + 2 * k, "%02x", bytes[k]);
+          hex[2 * (size_t)size] = '\0';
+          free(bytes);
+          t->payloads[t->n] = hex;
         }
         t->stamps[t->n++] = infos[i].source_timestamp;
       }
@@ -148,18 +240,29 @@ static void take(struct topic* t) {
 
 int main(int argc, char** argv) {
   int cameras = 0;
+  int watch = 0;
+  int list = 0;
   int bad = argc < 4;
   for (int i = 4; i < argc && !bad; i++) {
     if (strcmp(argv[i], "--cameras") == 0) {
       cameras = 1;
     } else if (strcmp(argv[i], "--only") == 0 && i + 1 < argc && nonly < 64) {
       only[nonly++] = argv[++i];
+    } else if (strcmp(argv[i], "--payloads") == 0 && i + 1 < argc && npayload_topics < 64) {
+      payload_topics[npayload_topics++] = argv[++i];
+    } else if (strcmp(argv[i], "--watch-readers") == 0) {
+      watch = 1;
+    } else if (strcmp(argv[i], "--list-topics") == 0) {
+      list = 1;
     } else {
       bad = 1;
     }
   }
   if (bad) {
-    fprintf(stderr, "usage: %s PARTITION SECONDS OUT [--cameras] [--only DDS_TOPIC]...\n", argv[0]);
+    fprintf(stderr,
+            "usage: %s PARTITION SECONDS OUT [--cameras] [--only DDS_TOPIC]... "
+            "[--payloads DDS_TOPIC]... [--watch-readers] [--list-topics]\n",
+            argv[0]);
     return 2;
   }
   const char* partition = argv[1];
@@ -183,6 +286,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   dds_waitset_attach(waitset, dds_create_readcondition(publications, DDS_ANY_STATE), 0);
+  dds_entity_t subscriptions = 0;
+  if (watch) {
+    subscriptions = dds_create_reader(pp, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, NULL, NULL);
+    if (subscriptions < 0) {
+      fprintf(stderr, "count_probe: could not read DCPSSubscription\n");
+      return 1;
+    }
+    dds_waitset_attach(waitset, dds_create_readcondition(subscriptions, DDS_ANY_STATE), 0);
+  }
   signal(SIGINT, on_signal);
   signal(SIGTERM, on_signal);
   const dds_time_t end = dds_time() + (dds_duration_t)(seconds * 1e9);
@@ -199,10 +311,12 @@ int main(int argc, char** argv) {
       if (!infos[i].valid_data || infos[i].instance_state != DDS_IST_ALIVE) continue;
       if (memcmp(w->participant_key.v, me.v, 12) == 0) continue;
       if (!in_partition(w->qos, partition)) continue;
+      if (list) list_topic(w);
       subscribe(pp, sub, waitset, w, cameras);
     }
     if (n > 0) dds_return_loan(publications, samples, n);
     for (size_t i = 0; i < ntopics; i++) take(&topics[i]);
+    if (watch) watch_readers(subscriptions, &me);
     const dds_time_t now = dds_time();
     if (ntopics != known) last_new = now;
     if (!ready && ntopics > 0 && now - last_new >= DDS_SECS(1)) {
@@ -230,7 +344,13 @@ int main(int argc, char** argv) {
             t->name, t->type, t->reliable ? "true" : "false", (long long)t->since,
             lost.total_count);
     for (size_t k = 0; k < t->n; k++) fprintf(out, "%s%lld", k ? "," : "", (long long)t->stamps[k]);
-    fprintf(out, "]}\n");
+    fprintf(out, "]");
+    if (t->keep_payloads) {
+      fprintf(out, ",\"payloads\":[");
+      for (size_t k = 0; k < t->n; k++) fprintf(out, "%s\"%s\"", k ? "," : "", t->payloads[k]);
+      fprintf(out, "]");
+    }
+    fprintf(out, "}\n");
     printf("count_probe: %-50s %8zu samples\n", t->name, t->n);
   }
   fclose(out);

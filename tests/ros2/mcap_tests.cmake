@@ -8,16 +8,7 @@
 # checks that a flipped byte fails the check, and plays the file back into another partition
 # where a third recorder gets every topic's messages again, byte for byte. Needs the ros2_npm
 # fixture (tests/ros2/npm.cmake). The 60 s figures with a camera: docs/recording.md.
-if(AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON AND AUTODRIVE_NODE)
-  add_test(NAME ros2_record_city_test
-    COMMAND ${AUTODRIVE_DEBIAN_PYTHON} ${CMAKE_CURRENT_LIST_DIR}/record_city.py
-            --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin --node ${AUTODRIVE_NODE}
-            --npm ${AUTODRIVE_NPM_DIR} --cc ${CMAKE_C_COMPILER} --idlc ${AUTODRIVE_IDLC}
-            --ros2-work ${CMAKE_CURRENT_BINARY_DIR}/ros2_ws)
-  set_tests_properties(ros2_record_city_test PROPERTIES
-    LABELS "ros2;integration" TIMEOUT 900 COST 60 FIXTURES_REQUIRED "ros2_npm;ros2_workspace"
-    ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
-endif()
+autodrive_ros2_city_test(ros2_record_city_test record_city.py)
 
 # `autodrive-record info` on a bag rosbag2 itself recorded (tests/ros2/upstream/rosbag2) prints
 # the topics, types and counts @mcap/core finds (record_info.py).

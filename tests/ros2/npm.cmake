@@ -21,3 +21,20 @@ if(AUTODRIVE_BUILD_TESTS)
   set_tests_properties(ros2_npm_install PROPERTIES
     LABELS "ros2" TIMEOUT 600 FIXTURES_SETUP ros2_npm RESOURCE_LOCK ros2_npm)
 endif()
+
+# autodrive_ros2_city_test(NAME SCRIPT): tests/ros2/SCRIPT on the default city with the npm
+# modules (this file's fixture) and the independent subscriber count_probe.c, whose types come
+# from ros2_interfaces_test's derived IDL (its fixture ros2_workspace). Labels ros2;integration.
+function(autodrive_ros2_city_test name script)
+  if(NOT (AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON AND AUTODRIVE_NODE))
+    return()
+  endif()
+  add_test(NAME ${name}
+    COMMAND ${AUTODRIVE_DEBIAN_PYTHON} ${CMAKE_CURRENT_FUNCTION_LIST_DIR}/${script}
+            --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin --node ${AUTODRIVE_NODE}
+            --npm ${AUTODRIVE_NPM_DIR} --cc ${CMAKE_C_COMPILER} --idlc ${AUTODRIVE_IDLC}
+            --ros2-work ${CMAKE_CURRENT_BINARY_DIR}/ros2_ws)
+  set_tests_properties(${name} PROPERTIES
+    LABELS "ros2;integration" TIMEOUT 900 COST 60 FIXTURES_REQUIRED "ros2_npm;ros2_workspace"
+    ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
+endfunction()

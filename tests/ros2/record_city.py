@@ -39,8 +39,8 @@ import time
 sys.dont_write_bytecode = True  # nothing written into the source tree
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 import count_probe  # noqa: E402
-
-CITY = "config/cities/small_town.yaml"
+from city_run import (add_arguments, city_environment, cpu_seconds, proc_stat,  # noqa: E402
+                      start_city, stop)
 SPAT = "/autodrive/scm/spat"
 MAP = "/autodrive/scm/map"
 
@@ -57,17 +57,6 @@ def wait_for(path, text, process, seconds, what):
             print(path.read_text(errors="replace")[-3000:])
             fail(what)
         time.sleep(0.2)
-
-
-def stop(process, sig=signal.SIGINT, group=False):
-    if process.poll() is None:
-        (os.killpg if group else os.kill)(process.pid, sig)
-    try:
-        return process.wait(timeout=120)
-    except subprocess.TimeoutExpired:
-        (os.killpg if group else os.kill)(process.pid, signal.SIGKILL)
-        process.wait()
-        return None
 
 
 def check(args, env, mcap, expect, flip=False, times=None):
@@ -97,20 +86,10 @@ def scm_status(args, env, partition):
     return values if isinstance(values, dict) else dict(values)
 
 
-def proc_stat(pid):
-    """/proc/PID/stat's fields after the command name (field 3 of proc(5) first)."""
-    return pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-
-
 def print_scm(label, status):
     keys = ("write_failures", "loop_passes", "loop_work_p50_ms", "loop_work_p99_ms",
             "loop_late_p50_ms", "loop_late_p99_ms", "stalls")
     print(f"{label} " + ", ".join(f"{k} {status.get(k)}" for k in keys), flush=True)
-
-
-def cpu_seconds(pid):
-    fields = proc_stat(pid)
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def compare_with_probe(probe_file, times_file, cameras):
@@ -162,14 +141,7 @@ def compare_with_probe(probe_file, times_file, cameras):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--source", type=pathlib.Path, required=True)
-    parser.add_argument("--bin", type=pathlib.Path, required=True)
-    parser.add_argument("--node", required=True)
-    parser.add_argument("--npm", type=pathlib.Path, required=True, help="the npm modules' folder")
-    parser.add_argument("--cc", default="cc", help="C compiler for count_probe.c")
-    parser.add_argument("--idlc", default="idlc")
-    parser.add_argument("--ros2-work", type=pathlib.Path, required=True,
-                        help="ros2_interfaces_test's work folder (its derived_idl)")
+    add_arguments(parser)
     parser.add_argument("--seconds", type=float, default=8.0, help="how long to record")
     parser.add_argument("--cameras", action="store_true",
                         help="record the overhead camera's frames too (about 90 MB/s)")
@@ -180,8 +152,6 @@ def main():
     parser.add_argument("--baselines", type=int, default=1,
                         help="with --measure: baseline minutes before the recorder starts, each "
                         "printed (the figures' own noise)")
-    parser.add_argument("--work", type=pathlib.Path,
-                        help="folder for the files (default: a temporary one, removed)")
     args = parser.parse_args()
     record = str(args.bin / "autodrive-record")
 
@@ -189,16 +159,10 @@ def main():
         tmp = pathlib.Path(tmp)
         probe = build_probe(args, tmp)
         partition = f"record_city_{os.getpid()}"
-        env = dict(os.environ)
-        env["XDG_STATE_HOME"] = str(tmp / "state")
-        env.pop("AUTODRIVE_PROCESS_NAME", None)
+        env = city_environment(tmp)
         city_log = tmp / "city.log"
         with open(city_log, "w") as log:
-            city = subprocess.Popen(
-                [str(args.bin / "autodrive-city"), "up", str(args.source / CITY), "--partition",
-                 partition, "--dashboard", "127.0.0.1:0", "--duration", "3600",
-                 "--record", str(tmp / "city.mcap")],
-                env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            city = start_city(args, env, partition, log, ["--record", str(tmp / "city.mcap")])
             try:
                 wait_for(city_log, "is up.", city, 300, "the city did not come up")
                 probe_out = tmp / "probe.jsonl"
