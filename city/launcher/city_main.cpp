@@ -55,9 +55,9 @@ bool Alive(pid_t pid) {
   return paren == std::string::npos || paren + 2 >= line.size() || line[paren + 2] != 'Z';
 }
 
-// The pid of the launcher running the city of `run_dir`, if one is.
-std::optional<pid_t> RunningLauncher(const std::filesystem::path& run_dir) {
-  std::ifstream in(run_dir / "launcher.pid");
+// The pid of the launcher whose pid file is `pid_file`, if it runs.
+std::optional<pid_t> RunningLauncher(const std::filesystem::path& pid_file) {
+  std::ifstream in(pid_file);
   long pid = 0;
   if (!(in >> pid) || pid <= 0) return std::nullopt;
   if (!Alive(static_cast<pid_t>(pid))) return std::nullopt;
@@ -93,6 +93,7 @@ struct UpOptions {
   std::string partition;
   std::string dashboard;  ///< HOST:PORT overriding launch.dashboard.listen
   std::string record;     ///< an MCAP file to record the whole run into (autodrive-record)
+  std::string host;       ///< launch.hosts: start this host's share only
   double duration_s = 0;
 };
 
@@ -162,6 +163,7 @@ void CheckDashboardAddressFree(const std::string& listen) {
 int Up(const UpOptions& o) {
   const std::filesystem::path bin_dir = o.bin_dir.empty() ? ExecutableDir() : o.bin_dir;
   LaunchPlan plan = PlanCity(o.city, bin_dir);
+  SelectHost(plan, o.host);
   if (!o.record.empty()) PlanRecorder(plan, bin_dir, o.record);
   if (!o.dashboard.empty()) {
     if (!plan.dashboard) {
@@ -182,11 +184,12 @@ int Up(const UpOptions& o) {
       p.env.push_back("AUTODRIVE_PARTITION=" + o.partition);
     }
   }
-  if (const auto pid = RunningLauncher(plan.run_dir)) {
-    throw InputError(
-        fmt::format("the city {} is already up (autodrive-city, pid {}); "
-                    "`autodrive-city down {}` stops it",
-                    plan.city_name, *pid, o.city));
+  const std::string host_option = o.host.empty() ? "" : " --host " + o.host;
+  if (const auto pid = RunningLauncher(plan.pid_file)) {
+    throw InputError(fmt::format(
+        "the city {} is already up{} (autodrive-city, pid {}); `autodrive-city down {}{}` stops "
+        "it",
+        plan.city_name, o.host.empty() ? "" : " on host " + o.host, *pid, o.city, host_option));
   }
   if (plan.dashboard) {
     for (const ProcessPlan& p : plan.processes) {
@@ -197,7 +200,7 @@ int Up(const UpOptions& o) {
     }
   }
   std::filesystem::create_directories(plan.run_dir);
-  std::ofstream(plan.run_dir / "launcher.pid") << ::getpid() << '\n';
+  std::ofstream(plan.pid_file) << ::getpid() << '\n';
   if (plan.dashboard) MakeTokens(*plan.dashboard);
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&](int) { stop.store(true); });
@@ -219,7 +222,8 @@ int Up(const UpOptions& o) {
   }
   participant_options.ros_node = dds::RosNodeFor("/autodrive/launcher");
   dds::Participant participant(participant_options);
-  Say(fmt::format("city {}: {} processes; run folder {}", plan.city_name, plan.processes.size(),
+  Say(fmt::format("city {}: {} processes{}; run folder {}", plan.city_name, plan.processes.size(),
+                  plan.host.empty() ? "" : fmt::format(" (host {}'s share)", plan.host),
                   plan.run_dir.string()));
   int code = 0;
   {
@@ -228,9 +232,10 @@ int Up(const UpOptions& o) {
       supervisor.Up(stop);
       if (!stop.load()) {
         Say(
-            fmt::format("city {} is up. `autodrive-city status {}` shows it, Ctrl-C or "
-                        "`autodrive-city down {}` stops it",
-                        plan.city_name, o.city, o.city));
+            fmt::format("city {} is up{}. `autodrive-city status {}{}` shows it, Ctrl-C or "
+                        "`autodrive-city down {}{}` stops it",
+                        plan.city_name, plan.host.empty() ? "" : " (host " + plan.host + ")",
+                        o.city, host_option, o.city, host_option));
         if (plan.dashboard) {
           std::string url = plan.dashboard->url;
           std::ifstream(plan.dashboard->url_file) >> url;
@@ -265,16 +270,17 @@ int Up(const UpOptions& o) {
     Say("stopping the city (the lights last)");
     supervisor.Down();
   }
-  std::filesystem::remove(plan.run_dir / "launcher.pid");
+  std::filesystem::remove(plan.pid_file);
   Say("stopped");
   return code;
 }
 
-int Down(const std::string& city, double timeout_s) {
+int Down(const std::string& city, const std::string& host, double timeout_s) {
   const std::filesystem::path run_dir = RunDirOf(city);
-  const auto pid = RunningLauncher(run_dir);
+  const auto pid = RunningLauncher(PidFileOf(run_dir, host));
   if (!pid) {
-    std::printf("the city is not up (no launcher in %s)\n", run_dir.c_str());
+    std::printf("the city is not up%s (no launcher in %s)\n",
+                host.empty() ? "" : (" on host " + host).c_str(), run_dir.c_str());
     return 0;
   }
   ::kill(*pid, SIGTERM);
@@ -293,22 +299,24 @@ int Down(const std::string& city, double timeout_s) {
   return 1;
 }
 
-int Status(const std::string& city, bool json) {
+int Status(const std::string& city, const std::string& host, bool json) {
   const std::filesystem::path run_dir = RunDirOf(city);
-  std::ifstream in(run_dir / "status.json");
+  const std::filesystem::path file = StatusFileOf(run_dir, host);
+  std::ifstream in(file);
   if (!in) {
-    std::printf("the city has not run here (no %s)\n", (run_dir / "status.json").c_str());
+    std::printf("the city has not run here (no %s)\n", file.c_str());
     return 1;
   }
   const nlohmann::json j = nlohmann::json::parse(in);
-  const bool up = RunningLauncher(run_dir).has_value();
+  const bool up = RunningLauncher(PidFileOf(run_dir, host)).has_value();
   if (json) {
     nlohmann::json out = j;
     out["up"] = up;
     std::printf("%s\n", out.dump(2).c_str());
     return up ? 0 : 3;
   }
-  std::printf("city %s: %s (as of %s)\n", j.value("city", "?").c_str(), up ? "up" : "not running",
+  std::printf("city %s%s: %s (as of %s)\n", j.value("city", "?").c_str(),
+              host.empty() ? "" : (", host " + host).c_str(), up ? "up" : "not running",
               j.value("updated", "?").c_str());
   std::printf("%-12s %-10s %8s %7s %9s  %s\n", "process", "state", "pid", "starts", "last exit",
               "since");
@@ -359,25 +367,26 @@ int Logs(const std::string& city, const std::string& name, std::size_t lines, bo
 }
 
 // systemd units for a lab host: the city as one service (`autodrive-city up`), which starts
-// and stops its processes in order, with the paths of docs/launcher.md.
-int InstallUnits(const std::string& city, const std::string& out_dir, const std::string& user,
-                 const std::string& dds_config) {
-  const LaunchPlan plan = PlanCity(city, ExecutableDir());
-  const std::filesystem::path dir = out_dir;
-  std::filesystem::create_directories(dir);
-  const std::string unit = fmt::format("autodrive-city-{}.service", plan.city_name);
+// and stops its processes in order, with the paths of docs/launcher.md. A city spread over
+// hosts (launch.hosts) gets a unit per host, each starting that host's share (`up --host`).
+void WriteUnit(const LaunchPlan& plan, const std::filesystem::path& dir, const std::string& user,
+               const std::string& dds_config) {
+  const std::string unit =
+      plan.host.empty() ? fmt::format("autodrive-city-{}.service", plan.city_name)
+                        : fmt::format("autodrive-city-{}-{}.service", plan.city_name, plan.host);
   const auto grace = std::chrono::duration_cast<std::chrono::seconds>(plan.stop_grace).count();
   std::ofstream f(dir / unit);
   f << "# Generated by autodrive-city install-units (docs/launcher.md). The launcher starts the\n"
     << "# city's processes in order and stops them in reverse, so that the lights flash last:\n"
     << "# systemd signals it alone (KillMode=mixed) and kills what is left only at the end.\n"
     << "[Unit]\n"
-    << fmt::format("Description=AutoDRIVE smart city {} ({})\n", plan.city_name,
-                   plan.city_file.string())
+    << fmt::format("Description=AutoDRIVE smart city {}{} ({})\n", plan.city_name,
+                   plan.host.empty() ? "" : ", host " + plan.host, plan.city_file.string())
     << "Wants=network-online.target\nAfter=network-online.target\n\n"
     << "[Service]\nType=simple\n";
   if (!user.empty()) f << "User=" << user << "\n";
-  f << fmt::format("ExecStart={}/autodrive-city up {}\n", ExecutableDir(), plan.city_file.string())
+  f << fmt::format("ExecStart={}/autodrive-city up {}{}\n", ExecutableDir(),
+                   plan.city_file.string(), plan.host.empty() ? "" : " --host " + plan.host)
     << fmt::format("WorkingDirectory={}\n", plan.run_dir.string())
     << fmt::format("Environment=CYCLONEDDS_URI=file://{}\n", dds_config) << "KillMode=mixed\n"
     << fmt::format("TimeoutStopSec={}\n", grace * static_cast<long>(plan.processes.size()) + 30)
@@ -386,9 +395,32 @@ int InstallUnits(const std::string& city, const std::string& out_dir, const std:
   f.close();
   AUTODRIVE_THROW_UNLESS(!f.fail(), "writing " << (dir / unit).string() << " failed");
   std::printf(
-      "wrote %s\ninstall: sudo cp %s /etc/systemd/system/ && sudo systemctl daemon-reload "
+      "wrote %s%s\ninstall: sudo cp %s /etc/systemd/system/ && sudo systemctl daemon-reload "
       "&& sudo systemctl enable --now %s\n",
-      (dir / unit).c_str(), (dir / unit).c_str(), unit.c_str());
+      (dir / unit).c_str(), plan.host.empty() ? "" : (" (on host " + plan.host + ")").c_str(),
+      (dir / unit).c_str(), unit.c_str());
+}
+
+int InstallUnits(const std::string& city, const std::string& host, const std::string& out_dir,
+                 const std::string& user, const std::string& dds_config) {
+  const LaunchPlan whole = PlanCity(city, ExecutableDir());
+  const std::filesystem::path dir = out_dir;
+  std::filesystem::create_directories(dir);
+  std::vector<std::string> hosts;
+  if (!host.empty()) {
+    hosts.push_back(host);
+  } else {
+    for (const auto& [name, processes] : whole.hosts) hosts.push_back(name);
+  }
+  if (hosts.empty()) {
+    WriteUnit(whole, dir, user, dds_config);
+    return 0;
+  }
+  for (const std::string& h : hosts) {
+    LaunchPlan share = whole;
+    SelectHost(share, h);
+    WriteUnit(share, dir, user, dds_config);
+  }
   return 0;
 }
 
@@ -426,9 +458,12 @@ int main(int argc, char** argv) {
   up_cmd->add_option("--record", up.record,
                      "record the run into this MCAP file (rosbag2-compatible; cameras aside): "
                      "autodrive-record, started first and stopped last");
+  up_cmd->add_option("--host", up.host,
+                     "start only this host's share of the city (launch.hosts; its own status and "
+                     "pid files)");
   up_cmd->add_option("--bin-dir", up.bin_dir,
                      "where the city's programs are (default: beside autodrive-city)");
-  std::string city, name, out_dir, user, bin_dir;
+  std::string city, name, out_dir, user, bin_dir, host;
   double timeout_s = 120;
   bool json = false, follow = false;
   std::size_t lines = 50;
@@ -437,9 +472,11 @@ int main(int argc, char** argv) {
   down_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
   down_cmd->add_option("--timeout", timeout_s, "seconds to wait for it to stop")
       ->capture_default_str();
+  down_cmd->add_option("--host", host, "the share of this host (launch.hosts)");
   auto* status_cmd = app.add_subcommand("status", "each process of the city and its state");
   status_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
   status_cmd->add_flag("--json", json, "as JSON");
+  status_cmd->add_option("--host", host, "the share of this host (launch.hosts)");
   auto* logs_cmd = app.add_subcommand("logs", "a process's log");
   logs_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
   logs_cmd->add_option("name", name, "the process (lights, scm, sim, driver, eye, traffic, ...)")
@@ -447,10 +484,14 @@ int main(int argc, char** argv) {
   logs_cmd->add_option("-n,--lines", lines, "last lines")->capture_default_str();
   logs_cmd->add_flag("-f,--follow", follow, "then what is appended, until Ctrl-C");
   auto* units_cmd =
-      app.add_subcommand("install-units", "write a systemd unit that runs the city on boot");
+      app.add_subcommand("install-units",
+                         "write the systemd unit that runs the city on boot (one per host with "
+                         "launch.hosts)");
   units_cmd->add_option("city", city, "city file")->required()->check(CLI::ExistingFile);
   units_cmd->add_option("--out", out_dir, "folder to write the unit into")->required();
   units_cmd->add_option("--user", user, "the user the city runs as");
+  units_cmd->add_option("--host", host,
+                        "only this host's unit (launch.hosts; without it, one unit per host)");
   units_cmd->add_option("--dds-config", dds_config, "the lab's Cyclone DDS file")
       ->capture_default_str();
   auto* check_cmd = app.add_subcommand(
@@ -461,10 +502,10 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
     InitLogging("autodrive-city", spdlog::level::warn);
     if (up_cmd->parsed()) return Up(up);
-    if (down_cmd->parsed()) return Down(city, timeout_s);
-    if (status_cmd->parsed()) return Status(city, json);
+    if (down_cmd->parsed()) return Down(city, host, timeout_s);
+    if (status_cmd->parsed()) return Status(city, host, json);
     if (logs_cmd->parsed()) return Logs(city, name, lines, follow);
-    if (units_cmd->parsed()) return InstallUnits(city, out_dir, user, dds_config);
+    if (units_cmd->parsed()) return InstallUnits(city, host, out_dir, user, dds_config);
     if (check_cmd->parsed()) return Check(city, bin_dir);
     return 2;
   } catch (const CLI::ParseError& e) {

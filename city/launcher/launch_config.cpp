@@ -4,7 +4,9 @@
 #include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <map>
 #include <optional>
 #include <set>
 
@@ -174,7 +176,79 @@ void CheckHeadsHosted(const maps::Map& city_map, const infrastructure::HostPlan&
   }
 }
 
+// launch.hosts: every host named as a file name may be, every process of the plan on exactly
+// one host, and nothing else named.
+void CheckHosts(const LaunchPlan& plan, const std::string& city_path) {
+  if (plan.hosts.empty()) return;
+  std::map<std::string, std::string> host_of;
+  std::vector<std::string> planned;
+  for (const ProcessPlan& p : plan.processes) planned.push_back(p.name);
+  for (const auto& [host, names] : plan.hosts) {
+    if (host.empty() ||
+        host.find_first_not_of("abcdefghijklmnopqrstuvwxyz"
+                               "ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") != std::string::npos) {
+      throw ConfigError(
+          fmt::format("{}: launch.hosts: host name \"{}\" (letters, digits, '_' and '-' only)",
+                      city_path, host));
+    }
+    for (const std::string& name : names) {
+      if (std::ranges::find(planned, name) == planned.end()) {
+        throw ConfigError(fmt::format(
+            "{}: launch.hosts.{}: {} is not one of the processes this city starts ({}; a "
+            "process whose mode is off, or whose section the city has not, is not started)",
+            city_path, host, name, fmt::join(planned, ", ")));
+      }
+      if (const auto [at, fresh] = host_of.emplace(name, host); !fresh) {
+        throw ConfigError(fmt::format("{}: launch.hosts: {} is on two hosts, {} and {}", city_path,
+                                      name, at->second, host));
+      }
+    }
+  }
+  std::vector<std::string> nowhere;
+  for (const std::string& name : planned) {
+    if (!host_of.contains(name)) nowhere.push_back(name);
+  }
+  if (!nowhere.empty()) {
+    throw ConfigError(
+        fmt::format("{}: launch.hosts: no host runs {} (name each process of the city once)",
+                    city_path, fmt::join(nowhere, ", ")));
+  }
+}
+
 }  // namespace
+
+std::filesystem::path StatusFileOf(const std::filesystem::path& run_dir, const std::string& host) {
+  return run_dir / (host.empty() ? "status.json" : fmt::format("status-{}.json", host));
+}
+
+std::filesystem::path PidFileOf(const std::filesystem::path& run_dir, const std::string& host) {
+  return run_dir / (host.empty() ? "launcher.pid" : fmt::format("launcher-{}.pid", host));
+}
+
+void SelectHost(LaunchPlan& plan, const std::string& host) {
+  if (host.empty()) return;
+  if (plan.hosts.empty()) {
+    throw ConfigError(
+        fmt::format("{}: --host {}: the city file has no launch.hosts saying which host runs what",
+                    plan.city_file.string(), host));
+  }
+  const auto share = plan.hosts.find(host);
+  if (share == plan.hosts.end()) {
+    std::vector<std::string> known;
+    for (const auto& [name, processes] : plan.hosts) known.push_back(name);
+    throw ConfigError(fmt::format("{}: --host {}: launch.hosts has no such host (it has {})",
+                                  plan.city_file.string(), host, fmt::join(known, ", ")));
+  }
+  std::erase_if(plan.processes, [&](const ProcessPlan& p) {
+    return std::ranges::find(share->second, p.name) == share->second.end();
+  });
+  if (plan.dashboard && std::ranges::find(share->second, "dashboard") == share->second.end()) {
+    plan.dashboard.reset();
+  }
+  plan.host = host;
+  plan.status_file = StatusFileOf(plan.run_dir, host);
+  plan.pid_file = PidFileOf(plan.run_dir, host);
+}
 
 LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesystem::path& bin_dir) {
   LaunchPlan plan;
@@ -186,6 +260,8 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
   const LaunchConfig launch = LoadLaunch(plan.city_file);
 
   plan.run_dir = ResolveRunDir(plan.city_file, plan.city_name, launch.run_dir);
+  plan.status_file = StatusFileOf(plan.run_dir, "");
+  plan.pid_file = PidFileOf(plan.run_dir, "");
   plan.crash_loop_exits = launch.crash_loop_exits;
   plan.crash_loop_window = launch.crash_loop_window_s;
   plan.stop_grace = launch.stop_grace_s;
@@ -327,6 +403,8 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
     plan.dashboard = std::move(d);
   }
   if (lockstep) PlanLockstep(plan, *lockstep, launch.external_controllers, city_path);
+  plan.hosts = launch.hosts;
+  CheckHosts(plan, city_path);
   for (const ProcessPlan& p : plan.processes) {
     if (p.argv.front().find('/') != std::string::npos && !std::filesystem::exists(p.argv.front())) {
       throw InputError(fmt::format("{}: {}: the program {} is not there (build it first)",

@@ -16,10 +16,14 @@
 ///   dashboard: {mode: on, args: [--address, 127.0.0.1:8080]}
 ///   agents:
 ///     - {name: planner, command: [python3, planner.py, --city, "{city}"]}
+///   hosts:                             # optional: which lab host runs which process
+///     server: [scm, sim, driver, traffic, dashboard, planner]
+///     track: [lights]                  # `autodrive-city up CITY --host track` on that host
 /// ```
 
 #include <chrono>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -126,6 +130,10 @@ struct LaunchConfig {
   nanoseconds crash_loop_window_s = std::chrono::seconds(60);
   /// On stopping, how long each process has after SIGTERM before SIGKILL.
   nanoseconds stop_grace_s = std::chrono::seconds(10);
+  /// Which lab host runs which process: host name -> the processes' names (lights, scm, sim,
+  /// driver, eye, traffic, dashboard, the agents'). Empty: all on the host that runs `up`.
+  /// Given, it names every process of the city once; `up --host NAME` starts NAME's share.
+  std::map<std::string, std::vector<std::string>> hosts;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -144,6 +152,7 @@ struct LaunchConfig {
                config::Range<nanoseconds>{std::chrono::seconds(1), std::chrono::hours(24)});
     a.Optional("stop_grace_s", stop_grace_s,
                config::Range<nanoseconds>{std::chrono::milliseconds(100), std::chrono::minutes(5)});
+    a.Optional("hosts", hosts);
   }
   bool operator==(const LaunchConfig&) const = default;
 };
@@ -195,7 +204,28 @@ struct LaunchPlan {
     std::string operator_name;
   };
   std::optional<Dashboard> dashboard;
+  /// `launch.hosts`, checked: each of the city's processes on exactly one host.
+  std::map<std::string, std::vector<std::string>> hosts;
+  /// The host whose share this plan is (`up --host`); empty: the whole city.
+  std::string host;
+  /// The launcher's own files in the run folder: per host when the plan is a host's share, so
+  /// that the shares of one city never mix (several hosts may share the folder over NFS, or
+  /// run as network namespaces of one machine in the tests).
+  std::filesystem::path status_file;  ///< status.json or status-<host>.json
+  std::filesystem::path pid_file;     ///< launcher.pid or launcher-<host>.pid
 };
+
+/// The launcher's status and pid files in `run_dir` for the share of `host` (empty: the whole
+/// city).
+[[nodiscard]] std::filesystem::path StatusFileOf(const std::filesystem::path& run_dir,
+                                                 const std::string& host);
+[[nodiscard]] std::filesystem::path PidFileOf(const std::filesystem::path& run_dir,
+                                              const std::string& host);
+
+/// Keeps the processes of `plan` that `host` runs (launch.hosts), in their start order, and
+/// points its launcher files at that host's. Empty `host`: the whole city, unchanged.
+/// @throws ConfigError when the city has no launch.hosts or no host of that name.
+void SelectHost(LaunchPlan& plan, const std::string& host);
 
 /// Loads the city file at `city_file` whole (the SCM's checks, the map, each section the plan
 /// starts a program for) and resolves its launch plan, with the city's programs in `bin_dir`.

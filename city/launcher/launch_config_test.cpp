@@ -76,6 +76,67 @@ TEST_F(Plan, TheSmallTownStartsLightsScmSimTrafficEyeAndDriverInThatOrder) {
   }
 }
 
+// Issue 36: a city spread over the lab's hosts, each starting its share with `up --host`.
+TEST_F(Plan, LaunchHostsGiveEachHostItsShareInStartOrderWithItsOwnLauncherFiles) {
+  const auto file = City(Lights() +
+                         "  hosts:\n"
+                         "    server: [driver, scm, sim, traffic, eye]\n"
+                         "    track: [lights]\n");
+  const LaunchPlan whole = PlanCity(file, dir_ / "bin");
+  EXPECT_EQ(whole.hosts.size(), 2u);
+  EXPECT_EQ(whole.status_file, whole.run_dir / "status.json");
+  EXPECT_EQ(whole.pid_file, whole.run_dir / "launcher.pid");
+  LaunchPlan server = whole;
+  SelectHost(server, "server");
+  EXPECT_EQ(Names(server), (std::vector<std::string>{"scm", "sim", "traffic", "eye", "driver"}))
+      << "the city's start order, not the list's";
+  EXPECT_EQ(server.host, "server");
+  EXPECT_EQ(server.status_file, whole.run_dir / "status-server.json");
+  EXPECT_EQ(server.pid_file, whole.run_dir / "launcher-server.pid");
+  LaunchPlan track = whole;
+  SelectHost(track, "track");
+  EXPECT_EQ(Names(track), (std::vector<std::string>{"lights"}));
+  LaunchPlan all = whole;
+  SelectHost(all, "");
+  EXPECT_EQ(Names(all), Names(whole)) << "no --host: the whole city on this machine";
+  try {
+    SelectHost(track, "garage");
+    ADD_FAILURE() << "an unknown host was taken";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--host garage: launch.hosts has no such host (it has "
+                                    "server, track)"));
+  }
+}
+
+TEST_F(Plan, LaunchHostsMustNameEveryProcessOnceAndNothingElse) {
+  const auto refused = [&](const std::string& hosts, const std::string& why) {
+    try {
+      (void)PlanCity(City(Lights() + "  hosts:\n" + hosts), dir_ / "bin");
+      ADD_FAILURE() << "taken: " << hosts;
+    } catch (const ConfigError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(why)) << hosts;
+    }
+  };
+  refused("    a: [lights, scm, sim, traffic, eye]\n",
+          "launch.hosts: no host runs driver (name each process of the city once)");
+  refused("    a: [lights, scm, sim, traffic, eye, driver]\n    b: [scm]\n",
+          "launch.hosts: scm is on two hosts, a and b");
+  refused("    a: [lights, scm, sim, traffic, eye, driver, dashboard]\n",
+          "launch.hosts.a: dashboard is not one of the processes this city starts (lights, scm, "
+          "sim, traffic, eye, driver;");
+  refused("    a: [lights, scm, sim, traffic, eye, drvier]\n",
+          "launch.hosts.a: drvier is not one of the processes");
+  refused("    \"a b\": [lights, scm, sim, traffic, eye, driver]\n",
+          "launch.hosts: host name \"a b\" (letters, digits, '_' and '-' only)");
+  try {
+    LaunchPlan plan = PlanCity(City(Lights()), dir_ / "bin");
+    SelectHost(plan, "track");
+    ADD_FAILURE() << "--host taken without launch.hosts";
+  } catch (const ConfigError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--host track: the city file has no launch.hosts"));
+  }
+}
+
 TEST_F(Plan, AMixedCityLeavesOutWhatIsOff) {
   const LaunchPlan plan =
       PlanCity(City(Lights() + "  sim: {mode: off}\n  eye: {mode: off}\n  traffic: {mode: off}\n"

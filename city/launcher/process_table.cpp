@@ -98,10 +98,11 @@ void FillProcessTable(const ProcessTableSource& source, LauncherState state,
   }
 }
 
-ProcessTableWriter::ProcessTableWriter(const dds::Participant& participant, std::string city)
+ProcessTableWriter::ProcessTableWriter(const dds::Participant& participant, std::string city,
+                                       std::string host)
     : writer_(participant, dds::topics::Processes().name,
               dds::topics::Processes().qos.NonBlocking()),
-      source_{std::move(city), HostName(), NewSession()} {}
+      source_{std::move(city), host.empty() ? HostName() : std::move(host), NewSession()} {}
 
 void ProcessTableWriter::Write(LauncherState state, std::span<const ProcessState> processes) {
   dds::Message<msg::ProcessTable> m;

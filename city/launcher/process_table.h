@@ -49,9 +49,9 @@ class ProcessTableWriter {
   /// A table at least this often.
   static constexpr std::chrono::seconds kPeriod{1};
 
-  /// A writer on `participant` (which must outlive it) for the launcher of `city` on this host,
-  /// with a new random session.
-  ProcessTableWriter(const dds::Participant& participant, std::string city);
+  /// A writer on `participant` (which must outlive it) for the launcher of `city` on `host`
+  /// (empty: this machine's host name), with a new random session.
+  ProcessTableWriter(const dds::Participant& participant, std::string city, std::string host = {});
   ProcessTableWriter(const ProcessTableWriter&) = delete;
   ProcessTableWriter& operator=(const ProcessTableWriter&) = delete;
 

@@ -97,7 +97,7 @@ struct Supervisor::Impl {
         infra_heartbeats(participant, dds::topics::InfraHeartbeat()),
         clock(participant, dds::topics::Clock()),
         traffic(participant, dds::topics::Traffic()),
-        table(participant, plan.city_name) {
+        table(participant, plan.city_name, plan.host) {
     std::filesystem::create_directories(plan.run_dir / "logs");
     for (const ProcessPlan& pp : plan.processes) {
       Process& process = processes.emplace_back();
@@ -147,6 +147,7 @@ struct Supervisor::Impl {
     j["city"] = plan.city_name;
     j["city_file"] = plan.city_file.string();
     j["launcher_pid"] = ::getpid();
+    if (!plan.host.empty()) j["host"] = plan.host;
     j["updated"] = Iso(std::chrono::system_clock::now());
     nlohmann::json list = nlohmann::json::array();
     for (const ProcessState& s : states) {
@@ -163,8 +164,11 @@ struct Supervisor::Impl {
       list.push_back(std::move(e));
     }
     j["processes"] = std::move(list);
-    const std::filesystem::path file = plan.run_dir / "status.json";
-    const std::filesystem::path tmp = plan.run_dir / "status.json.tmp";
+    // A plan made by hand (the tests) may leave it unset.
+    const std::filesystem::path file =
+        plan.status_file.empty() ? StatusFileOf(plan.run_dir, plan.host) : plan.status_file;
+    std::filesystem::path tmp = file;
+    tmp += ".tmp";
     {
       std::ofstream out(tmp);
       out << j.dump(2) << '\n';

@@ -40,4 +40,12 @@ if(AUTODRIVE_BUILD_TESTS AND AUTODRIVE_DEBIAN_PYTHON)
       LABELS "netns;integration" TIMEOUT 900 SKIP_RETURN_CODE 77 FIXTURES_REQUIRED ros2_npm
       ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
   endforeach()
+  # One city over three hosts by launch.hosts (lab_hosts.py): `up --host` on each, per-host
+  # systemd units, the SCM naming the host of a process that exited, `down --host`.
+  add_test(NAME netns_lab_hosts_test
+    COMMAND ${AUTODRIVE_DEBIAN_PYTHON} ${CMAKE_CURRENT_LIST_DIR}/lab_hosts.py
+            --source ${PROJECT_SOURCE_DIR} --bin ${CMAKE_BINARY_DIR}/bin)
+  set_tests_properties(netns_lab_hosts_test PROPERTIES
+    LABELS "netns;integration" TIMEOUT 600 SKIP_RETURN_CODE 77
+    ENVIRONMENT "${AUTODRIVE_TEST_ENVIRONMENT}")
 endif()
