@@ -38,13 +38,11 @@ def fail(message):
 
 
 def wait_for(what, condition, deadline_s):
-    end = time.monotonic() + deadline_s
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.2)
-    fail(f"{what}: not within {deadline_s:g} s")
+    """Polls `condition` until it returns a true value, within a generous deadline."""
+    value = netns.poll(condition, deadline_s, 0.2)
+    if value is None:
+        fail(f"{what}: not within {deadline_s:g} s")
+    return value
 
 
 def city_file(source, tmp):

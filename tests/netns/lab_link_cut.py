@@ -58,13 +58,10 @@ def fail(message):
 
 def wait_for(what, condition, deadline_s):
     """Polls `condition` until it returns a true value, within a generous deadline."""
-    end = time.monotonic() + deadline_s
-    while time.monotonic() < end:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.1)
-    fail(f"{what}: not within {deadline_s:g} s")
+    value = netns.poll(condition, deadline_s, 0.1)
+    if value is None:
+        fail(f"{what}: not within {deadline_s:g} s")
+    return value
 
 
 class Lab:

@@ -20,6 +20,7 @@ import os
 import shutil
 import signal
 import subprocess
+import time
 
 _labs = []
 
@@ -39,6 +40,18 @@ def _ip(*args, netns=None, check=True):
     if check and out.returncode != 0:
         raise RuntimeError(f"{' '.join(command)}: {out.stderr.strip()}")
     return out
+
+
+def poll(condition, deadline_s, every_s=0.1):
+    """Calls `condition` until it returns a true value, which it returns; None when the
+    (generous) deadline passes first. The tests wait for conditions, never sleep for a result."""
+    end = time.monotonic() + deadline_s
+    while time.monotonic() < end:
+        value = condition()
+        if value:
+            return value
+        time.sleep(every_s)
+    return None
 
 
 class Lab:
