@@ -3,6 +3,7 @@ command line (the programs, node and the npm modules, the probe's compiler and d
 city brought up in a DDS partition and run folder of its own, stopping processes, and a process's
 CPU time from /proc."""
 
+import json
 import os
 import pathlib
 import signal
@@ -64,3 +65,21 @@ def cpu_seconds(pid):
     """The CPU time (user + system) process `pid` has used, in seconds."""
     fields = proc_stat(pid)
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def scm_status(args, env, partition):
+    """`scmctl status` of the SCM in `partition`: its values, or the error text."""
+    out = subprocess.run([str(args.bin / "scmctl"), "--partition", partition, "--json", "status"],
+                         env=env, capture_output=True, text=True, timeout=60)
+    if out.returncode != 0:
+        return f"scmctl status: {out.stdout}{out.stderr}"
+    values = json.loads(out.stdout.splitlines()[0]).get("values", {})
+    return values if isinstance(values, dict) else dict(values)
+
+
+SCM_LOOP_KEYS = ("write_failures", "loop_passes", "loop_work_p50_ms", "loop_work_p99_ms",
+                 "loop_late_p50_ms", "loop_late_p99_ms", "stalls")
+
+
+def print_scm(label, status):
+    print(f"{label} " + ", ".join(f"{k} {status.get(k)}" for k in SCM_LOOP_KEYS), flush=True)

@@ -38,6 +38,7 @@ import time
 
 sys.dont_write_bytecode = True  # nothing written into the source tree
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import city_run  # noqa: E402
 import count_probe  # noqa: E402
 from city_run import (add_arguments, city_environment, cpu_seconds, proc_stat,  # noqa: E402
                       start_city, stop)
@@ -78,18 +79,10 @@ def build_probe(args, work):
 
 
 def scm_status(args, env, partition):
-    out = subprocess.run([str(args.bin / "scmctl"), "--partition", partition, "--json", "status"],
-                         env=env, capture_output=True, text=True, timeout=60)
-    if out.returncode != 0:
-        fail(f"scmctl status: {out.stdout}{out.stderr}")
-    values = json.loads(out.stdout.splitlines()[0]).get("values", {})
-    return values if isinstance(values, dict) else dict(values)
-
-
-def print_scm(label, status):
-    keys = ("write_failures", "loop_passes", "loop_work_p50_ms", "loop_work_p99_ms",
-            "loop_late_p50_ms", "loop_late_p99_ms", "stalls")
-    print(f"{label} " + ", ".join(f"{k} {status.get(k)}" for k in keys), flush=True)
+    status = city_run.scm_status(args, env, partition)
+    if isinstance(status, str):
+        fail(status)
+    return status
 
 
 def compare_with_probe(probe_file, times_file, cameras):
@@ -192,7 +185,7 @@ def main():
                               "recorder before the timed recorder starts", flush=True)
                         time.sleep(args.seconds)  # the measurement's window, not a wait
                         if window + 1 < args.baselines:
-                            print_scm(f"the SCM, baseline {window + 1}:",
+                            city_run.print_scm(f"the SCM, baseline {window + 1}:",
                                       scm_status(args, env, partition))
                     before = scm_status(args, env, partition)
                     print(f"city up in partition {partition}; recording {args.seconds:g} s",
@@ -238,8 +231,8 @@ def main():
 
         print(f"the recorder: {100 * (cpu1 - cpu0) / max(1e-9, wall1 - wall0):.1f}% of one core "
               f"over {wall1 - wall0:.1f} s, at nice {niceness}")
-        print_scm("the SCM before recording:", before)
-        print_scm("the SCM while recorded:  ", during)
+        city_run.print_scm("the SCM before recording:", before)
+        city_run.print_scm("the SCM while recorded:  ", during)
         if args.measure:
             for k in ("loop_work_p99_ms", "loop_late_p99_ms"):
                 if before.get(k):
