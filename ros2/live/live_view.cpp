@@ -221,50 +221,82 @@ void LiveView::OnClose(const std::shared_ptr<Connection>& connection) {
 
 void LiveView::Subscribe(const std::shared_ptr<Connection>& connection,
                          const live::Subscribe& request) {
+  // Readers are made without mutex_: making one takes Cyclone's locks, which a listener holds
+  // when it takes mutex_ (Forward), so holding mutex_ here could deadlock (ThreadSanitizer's
+  // lock-order report). lifecycle_mutex_, which no listener takes, keeps the rest out meanwhile.
   std::lock_guard lifecycle(lifecycle_mutex_);
-  std::vector<Reader*> started;
+  struct Wanted {
+    std::uint32_t sub = 0;
+    std::uint32_t channel = 0;
+    std::unique_ptr<Reader> made;  // a new reader, when the channel has none yet
+  };
+  std::vector<Wanted> wanted;
+  std::vector<std::pair<std::string, const TopicState*>> to_make;  // by index into wanted
   {
     std::lock_guard lock(mutex_);
     Client& client = clients_[connection.get()];
     for (const auto& [sub, channel] : request.subscriptions) {
       std::string refusal;
       const auto advertised = advertised_.find(channel);
-      if (client.subscriptions.contains(sub)) {
+      const auto taken = [&](std::uint32_t c, std::uint32_t s) {
+        return std::any_of(client.subscriptions.begin(), client.subscriptions.end(),
+                           [&](const auto& e) { return c ? e.second == c : e.first == s; }) ||
+               std::any_of(wanted.begin(), wanted.end(),
+                           [&](const Wanted& w) { return c ? w.channel == c : w.sub == s; });
+      };
+      if (taken(0, sub)) {
         refusal = "subscription id " + std::to_string(sub) + " is in use";
       } else if (advertised == advertised_.end()) {
         refusal = "channel " + std::to_string(channel) + " is not advertised";
-      } else if (std::any_of(client.subscriptions.begin(), client.subscriptions.end(),
-                             [&](const auto& s) { return s.second == channel; })) {
+      } else if (taken(channel, 0)) {
         refusal = "channel " + std::to_string(channel) + " is subscribed already";
       }
       if (!refusal.empty()) {
         connection->Send(OutFrame::Text(StatusJson(StatusLevel::kError, "subscribe: " + refusal)));
         continue;
       }
-      auto& reader = readers_[channel];
-      if (!reader) {
-        const TopicState& topic = topics_.at(advertised->second);
-        std::vector<OfferedQos> offered;
-        for (const auto& [key, qos] : topic.writers) offered.push_back(qos);
-        auto made = std::make_unique<Reader>();
-        made->channel_id = channel;
-        try {
-          made->reader =
-              std::make_unique<dds::RawReader>(participant_, topic.dds_name, topic.type->descriptor,
-                                               ReaderQos(offered, options_.reader_depth));
-        } catch (const std::exception& e) {
-          readers_.erase(channel);
-          connection->Send(OutFrame::Text(
-              StatusJson(StatusLevel::kError,
-                         "subscribe: cannot read " + topic.channel.topic + ": " + e.what())));
-          continue;
-        }
-        reader = std::move(made);
+      wanted.push_back({sub, channel, nullptr});
+      to_make.emplace_back(readers_.contains(channel) ? std::string() : advertised->second,
+                           &topics_.at(advertised->second));
+    }
+  }
+  for (std::size_t i = 0; i < wanted.size(); ++i) {
+    if (to_make[i].first.empty()) continue;
+    const TopicState& topic = *to_make[i].second;  // topics_ changes only under lifecycle_mutex_
+    std::vector<OfferedQos> offered;
+    for (const auto& [key, qos] : topic.writers) offered.push_back(qos);
+    auto made = std::make_unique<Reader>();
+    made->channel_id = wanted[i].channel;
+    try {
+      made->reader =
+          std::make_unique<dds::RawReader>(participant_, topic.dds_name, topic.type->descriptor,
+                                           ReaderQos(offered, options_.reader_depth));
+      wanted[i].made = std::move(made);
+    } catch (const std::exception& e) {
+      wanted[i].channel = 0;  // not subscribed
+      connection->Send(OutFrame::Text(StatusJson(
+          StatusLevel::kError, "subscribe: cannot read " + topic.channel.topic + ": " + e.what())));
+    }
+  }
+  std::vector<Reader*> started;
+  {
+    std::lock_guard lock(mutex_);
+    Client& client = clients_[connection.get()];
+    for (Wanted& w : wanted) {
+      if (w.channel == 0) continue;
+      auto& reader = readers_[w.channel];
+      if (w.made) {
+        reader = std::move(w.made);
         started.push_back(reader.get());
-        spdlog::info("autodrive-live: reading {}", topic.channel.topic);
+        spdlog::info("autodrive-live: reading {}",
+                     topics_.at(advertised_.at(w.channel)).channel.topic);
       }
-      reader->subscribers.emplace_back(connection, sub);
-      client.subscriptions[sub] = channel;
+      if (!reader) {  // cannot happen: readers_ changes only under lifecycle_mutex_
+        readers_.erase(w.channel);
+        continue;
+      }
+      reader->subscribers.emplace_back(connection, w.sub);
+      client.subscriptions[w.sub] = w.channel;
     }
   }
   // Outside mutex_: the listener takes it (and runs at once for what is waiting). The readers
