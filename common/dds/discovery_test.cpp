@@ -323,6 +323,8 @@ TEST(PublicationWatcher, ChangesReportAWriterAppearingAndGoing) {
   dds_durability_kind_t durability{};
   ASSERT_TRUE(dds_qget_durability(appeared->writer.qos.get(), &durability));
   EXPECT_EQ(durability, DDS_DURABILITY_TRANSIENT_LOCAL);
+  // A copy: `changes` grows below, which moves its elements (ASan found the iterator used after).
+  const auto appeared_key = appeared->writer.key;
   writer.reset();
   take_until([&] { return count(false) == 1; });
   EXPECT_EQ(count(false), 1) << "the writer's deletion is reported, once";
@@ -331,7 +333,7 @@ TEST(PublicationWatcher, ChangesReportAWriterAppearingAndGoing) {
     return c.writer.topic_name == topic && !c.alive;
   });
   ASSERT_NE(gone, changes.end());
-  EXPECT_EQ(gone->writer.key, appeared->writer.key);
+  EXPECT_EQ(gone->writer.key, appeared_key);
   for (auto& c : watcher.TakeChanges()) changes.push_back(std::move(c));
   EXPECT_EQ(std::count_if(changes.begin(), changes.end(),
                           [&](const WriterChange& c) { return c.writer.topic_name == theirs; }),
