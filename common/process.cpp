@@ -113,10 +113,7 @@ ChildProcess::ChildProcess(Tag, const std::vector<std::string>& argv, const Chil
   posix_spawnattr_setsigmask(&attributes, &none);
   posix_spawnattr_setsigdefault(&attributes, &all);
   int flags = POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF;
-  if (options.own_process_group) {
-    posix_spawnattr_setpgroup(&attributes, 0);
-    flags |= POSIX_SPAWN_SETPGROUP;
-  }
+  if (options.own_session) flags |= POSIX_SPAWN_SETSID;
   posix_spawnattr_setflags(&attributes, static_cast<short>(flags));
 
   std::vector<char*> envp;

@@ -34,9 +34,12 @@ struct ChildOptions {
   /// file (created when missing): a daemon's log. `ReadLine` and `Write` then have nothing to
   /// read or write. When empty, stdin and stdout are pipes to us and stderr is ours.
   std::filesystem::path output_file;
-  /// The child leads a process group of its own, so that a Ctrl-C at the terminal reaches
-  /// only us and we stop our children in our own order.
-  bool own_process_group = false;
+  /// The child leads a session (and so a process group) of its own: a Ctrl-C at the terminal
+  /// reaches only us and we stop our children in our own order, and the kernel's scheduler
+  /// autogroups (one per session, `sched_autogroup_enabled`) give it a CPU share of its own, as
+  /// a systemd unit's cgroup does: a light loop (the SCM's) does not queue behind a busy
+  /// simulator's threads in one shared group.
+  bool own_session = false;
 };
 
 /// One running child process. Move-only. The destructor stops a child that is still running

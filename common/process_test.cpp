@@ -2,11 +2,13 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <cstdint>
 #include <cstdlib>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "common/test_support.h"
@@ -118,6 +120,27 @@ TEST(ChildProcess, TellsAKillBySignalFromAnExitWithTheSameCode) {
   EXPECT_EQ(*exited.exit_status(), (ExitStatus{137, 0}));
   EXPECT_EQ(ToString(*exited.exit_status()), "exited with code 137");
   EXPECT_EQ(ToString(ExitStatus{0, 0}), "exited with code 0");
+}
+
+// The child's process group and session (/proc/self/stat fields 5 and 6), as it reads them.
+TEST(ChildProcess, OwnSessionLeadsASessionAndAProcessGroupOfItsOwn) {
+  const auto ids = [](bool own_session) {
+    ChildOptions options;
+    options.own_session = own_session;
+    ChildProcess child = ChildProcess::Start(
+        {"/bin/sh", "-c", "exec awk '{print $5, $6}' /proc/self/stat"}, options);
+    const int pid = child.pid();
+    child.CloseStdin();
+    const auto line = child.ReadLine(30s);
+    EXPECT_EQ(child.Wait(30s), 0);
+    return std::pair{line.value_or("<nothing>"), pid};
+  };
+  const auto [own, own_pid] = ids(true);
+  EXPECT_EQ(own, std::to_string(own_pid) + " " + std::to_string(own_pid))
+      << "process group and session of a child with own_session";
+  const auto [shared, shared_pid] = ids(false);
+  EXPECT_EQ(shared, std::to_string(::getpgrp()) + " " + std::to_string(::getsid(0)))
+      << "a child without own_session stays in ours";
 }
 
 TEST(ChildEnvironment, ExtraEntriesReplaceInheritedOnesAndLaterExtrasWin) {

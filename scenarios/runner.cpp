@@ -451,7 +451,7 @@ RunResult RunScenario(const RunOptions& options) {
   ChildOptions child_options;
   child_options.extra_env = {"TZ=UTC", fmt::format("{}={}", kStopWithParentEnv, getpid())};
   child_options.output_file = out / "launcher.log";
-  child_options.own_process_group = true;
+  child_options.own_session = true;
   std::vector<std::string> launcher_argv{(options.bin_dir / "autodrive-city").string(), "up",
                                          city_file.string(), "--partition", partition};
   if (options.record) {

@@ -223,7 +223,7 @@ struct Supervisor::Impl {
     // Its name in the process table: the ROS 2 node it appears as (common/dds/ros_graph.h).
     options.extra_env.push_back("AUTODRIVE_PROCESS_NAME=" + p.plan->name);
     options.output_file = p.plan->log;
-    options.own_process_group = true;
+    options.own_session = true;
     p.child.emplace(ChildProcess::Start(p.plan->argv, options));
     int starts = 0;
     {

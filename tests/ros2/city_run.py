@@ -6,6 +6,7 @@ CPU time from /proc."""
 import json
 import os
 import pathlib
+import re
 import signal
 import subprocess
 
@@ -75,6 +76,19 @@ def scm_status(args, env, partition):
         return f"scmctl status: {out.stdout}{out.stderr}"
     values = json.loads(out.stdout.splitlines()[0]).get("values", {})
     return values if isinstance(values, dict) else dict(values)
+
+
+def scm_log_lines(city_log, words):
+    """The lines of the SCM's own log (logs/scm.log in the run folder `autodrive-city up`
+    printed into `city_log`) that contain any of `words`: the evidence behind a failed check."""
+    text = pathlib.Path(city_log).read_text(errors="replace")
+    match = re.search(r"run folder (\S+)", text)
+    if match is None:
+        return ["(no run folder in the city's log)"]
+    log = pathlib.Path(match.group(1)) / "logs" / "scm.log"
+    if not log.exists():
+        return [f"(no {log})"]
+    return [x for x in log.read_text(errors="replace").splitlines() if any(w in x for w in words)]
 
 
 SCM_LOOP_KEYS = ("write_failures", "loop_passes", "loop_work_p50_ms", "loop_work_p99_ms",
