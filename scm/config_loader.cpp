@@ -12,12 +12,13 @@ namespace autodrive::scm {
 
 ConfigLoader::ConfigLoader(const dds::Participant& participant, ClockKind clock,
                            SignalCommandWriters& writers, Store& store, MapResolution resolution,
-                           std::function<void()> wake)
+                           std::string district, std::function<void()> wake)
     : participant_(participant),
       clock_(clock),
       writers_(writers),
       store_(store),
       resolution_(std::move(resolution)),
+      district_(std::move(district)),
       wake_(std::move(wake)) {
   thread_ = std::jthread([this](std::stop_token stop) {
     for (;;) {
@@ -103,6 +104,7 @@ std::unique_ptr<City> ConfigLoader::Load(const std::string& yaml, const std::str
                                          const Policy& policy) const {
   auto city = std::make_unique<City>(LoadCityString(yaml, label, resolution_));
   city->config_path = label;
+  if (!district_.empty()) NarrowToDistrict(*city, district_);
   if (policy) {
     if (auto refusal = policy(*city)) throw InputError(label + ": " + *refusal);
   }

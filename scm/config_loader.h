@@ -45,9 +45,11 @@ class ConfigLoader {
   /// Where network-supplied city text may find its map: relative to `base_dir`, under `root`.
   /// `wake` is called from the loader's thread when a completion is ready.
   /// Cities are built on `participant` with `writers` (both must outlive the loader), for a
-  /// daemon on a `clock` of that kind.
+  /// daemon on a `clock` of that kind; with a `district`, narrowed to it (`NarrowToDistrict`:
+  /// a configuration without that district is refused).
   ConfigLoader(const dds::Participant& participant, ClockKind clock, SignalCommandWriters& writers,
-               Store& store, MapResolution resolution, std::function<void()> wake);
+               Store& store, MapResolution resolution, std::string district,
+               std::function<void()> wake);
   ConfigLoader(const ConfigLoader&) = delete;
   ConfigLoader& operator=(const ConfigLoader&) = delete;
   /// Finishes the job under way, drops the rest, stops.
@@ -87,6 +89,7 @@ class ConfigLoader {
   SignalCommandWriters& writers_;
   Store& store_;
   MapResolution resolution_;
+  std::string district_;
   std::function<void()> wake_;
   mutable std::mutex mutex_;
   std::condition_variable_any cv_;

@@ -32,7 +32,7 @@ class ConfigLoaderTest : public ::testing::Test {
     writers_ = std::make_unique<SignalCommandWriters>(*participant_);
     loader_ = std::make_unique<ConfigLoader>(
         *participant_, ClockKind::kWall, *writers_, *store_,
-        MapResolution{test::SourceDir() / "config/cities", test::SourceDir()},
+        MapResolution{test::SourceDir() / "config/cities", test::SourceDir()}, "",
         [this] { woken_ = true; });
     yaml_ = config::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
   }
@@ -157,7 +157,7 @@ TEST_F(ConfigLoaderTest, ReplacingACityAgainAndAgainKeepsNothingOfTheOldOnes) {
       dds::ParticipantOptions{100 + static_cast<std::uint32_t>(::getpid() % 100), partition_, {}});
   writers_ = std::make_unique<SignalCommandWriters>(*participant_);
   loader_ = std::make_unique<ConfigLoader>(*participant_, ClockKind::kWall, *writers_, *store_,
-                                           MapResolution{dir_, dir_}, nullptr);
+                                           MapResolution{dir_, dir_}, "", nullptr);
   auto build = [&] {
     std::atomic<bool> done{false};
     std::unique_ptr<CityBundle> built;

@@ -168,9 +168,9 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
   });
   event_seq = static_cast<std::uint64_t>(persistence->store().LastEventId());
   signal_writers = std::make_unique<SignalCommandWriters>(participant);
-  loader =
-      std::make_unique<ConfigLoader>(participant, clock.kind(), *signal_writers,
-                                     persistence->store(), resolution, [this] { waitset.Wake(); });
+  loader = std::make_unique<ConfigLoader>(participant, clock.kind(), *signal_writers,
+                                          persistence->store(), resolution, options.district,
+                                          [this] { waitset.Wake(); });
   auto city = LoadStartupCity(resolution);
   figures.clock = clock.kind();
   ProcessWatchParams watch;
@@ -193,9 +193,11 @@ Scm::Impl::Impl(const ScmOptions& o, Clock& c, dds::Participant& p)
                                    persistence->store().LoadIntersectionStates(), ++map_revision);
   Install(std::move(first), now);
   Emit(Event{Severity::kInfo, "scm_started",
-             fmt::format("SCM started: city {}, {} signalised intersections, {} lights, {} clock",
-                         bundle->city().config.name, bundle->runtime->intersections().size(),
-                         bundle->runtime->heads().size(), ToString(clock.kind())),
+             fmt::format("SCM started: city {}{}, {} signalised intersections, {} lights, {} clock",
+                         bundle->city().config.name,
+                         options.district.empty() ? "" : ", district " + options.district,
+                         bundle->runtime->intersections().size(), bundle->runtime->heads().size(),
+                         ToString(clock.kind())),
              IntersectionId(0), "", "scm", false});
   WarnIfLockedOut();
 }
@@ -235,6 +237,7 @@ std::unique_ptr<City> Scm::Impl::LoadStartupCity(const MapResolution& resolution
         const auto cfg = store.ConfigById(*applied);
         auto city = std::make_unique<City>(LoadCityString(cfg->yaml, cfg->path, resolution));
         city->config_path = cfg->path;
+        if (!options.district.empty()) NarrowToDistrict(*city, options.district);
         spdlog::info("using the configuration applied by {} (the file {} is unchanged since)",
                      cfg->applied_by, options.config_path.string());
         return city;
@@ -244,6 +247,7 @@ std::unique_ptr<City> Scm::Impl::LoadStartupCity(const MapResolution& resolution
     if (!applied) applied = h.id;
   }
   auto city = std::make_unique<City>(LoadCity(options.config_path));
+  if (!options.district.empty()) NarrowToDistrict(*city, options.district);
   store.SaveAppliedConfig(options.config_path.string(), text, "scm", clock.Now());
   return city;
 }

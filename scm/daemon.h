@@ -28,7 +28,10 @@ namespace autodrive::scm {
 
 /// How the daemon runs.
 struct ScmOptions {
-  std::filesystem::path config_path;         ///< the city file
+  std::filesystem::path config_path;  ///< the city file
+  /// The district of the city this SCM runs (`--district`; docs/districts.md), or empty for
+  /// the whole city. Every configuration it loads or is sent is narrowed to it.
+  std::string district;
   std::string db_path = "autodrive-scm.db";  ///< the SQLite database (created when missing)
   /// Configurations sent by operators may name maps only under this folder. Default: the
   /// parent of the city file's folder (`config/` for `config/cities/x.yaml`).

@@ -44,6 +44,9 @@ int main(int argc, char** argv) {
                  "the SQLite database: event log, applied configurations, modes and plans "
                  "(created when missing)")
       ->capture_default_str();
+  app.add_option("--district", options.district,
+                 "run only this district of the city (its districts: section), on its DDS domain "
+                 "(docs/districts.md)");
   app.add_option("--config-root", config_root,
                  "configurations sent by operators may name maps only under this folder "
                  "(default: the parent of the city file's folder)");
@@ -108,7 +111,12 @@ int main(int argc, char** argv) {
       if (auto* d = running.load()) d->Stop();
       clock.Interrupt();
     });
-    dds::Participant participant(dds_cli.Participant());
+    dds::ParticipantOptions participant_options = dds_cli.Participant();
+    if (!options.district.empty()) {
+      participant_options.domain_id =
+          scm::DistrictDomain(config_path, options.district, participant_options.domain_id);
+    }
+    dds::Participant participant(participant_options);
     std::unique_ptr<dds::SimClockSubscriber> clock_subscriber;
     if (lockstep) {
       sim->AdvanceTo(Time{});  // the simulator's lockstep starts at 0; the steps move it on
@@ -121,8 +129,11 @@ int main(int argc, char** argv) {
     scm::Scm daemon(options, clock, participant);
     running = &daemon;
     if (clock.interrupted()) daemon.Stop();
-    spdlog::info("running city {} ({} clock, partition '{}')", daemon.city().config.name,
-                 lockstep ? "lockstep " + lockstep_name : clock_kind, dds_cli.partition());
+    spdlog::info("running city {}{} ({} clock, domain {}, partition '{}')",
+                 daemon.city().config.name,
+                 options.district.empty() ? "" : ", district " + options.district,
+                 lockstep ? "lockstep " + lockstep_name : clock_kind, participant.domain_id(),
+                 dds_cli.partition());
     if (lockstep) {
       // A pass at each step's time, answered once every reader has what it wrote.
       (void)dds::RunLockstepController(participant, lockstep_name, stop, [&](Time t) {

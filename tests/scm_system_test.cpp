@@ -140,6 +140,94 @@ TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
   EXPECT_TRUE(WaitSpat(two_greens, seconds(30)));
 }
 
+// Two districts of the small town on two DDS domains, an SCM each (docs/districts.md): a
+// subscriber on one domain hears that district's intersection and nothing of the other's.
+TEST_F(ScmSystem, EachDistrictsScmRunsItsOwnIntersectionsOnItsOwnDomain) {
+  // Domains of this test's own (tests run two at a time; the pid keeps them apart).
+  const std::uint32_t uptown = 100 + static_cast<std::uint32_t>(::getpid() % 60);
+  const std::uint32_t downtown = uptown + 60;
+  std::string text = CityText("small_town");
+  text.insert(text.find("\nfleet:") + 1,
+              fmt::format("districts:\n"
+                          "  - {{name: uptown, domain: {}, intersections: [north_t]}}\n"
+                          "  - {{name: downtown, domain: {}, intersections: [centre]}}\n"
+                          "devices: {{wait_for_lights: false}}\n",
+                          uptown, downtown));
+  const std::string city = Write("districts.yaml", text);
+  const auto scm = [&](const std::string& district, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{test::Bin("autodrive-scm"),
+                                  "--config",
+                                  city,
+                                  "--district",
+                                  district,
+                                  "--partition",
+                                  partition_,
+                                  "--db",
+                                  (dir_ / (district + ".db")).string(),
+                                  "--log-level",
+                                  "info"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return argv;
+  };
+  // A district the file does not have, or a domain that is not the district's: refused.
+  const test::Output unknown = test::RunCaptured(scm("midtown"));
+  EXPECT_EQ(unknown.code, 1);
+  EXPECT_THAT(unknown.text, HasSubstr("no district midtown (it has: uptown, downtown)"));
+  const test::Output wrong =
+      test::RunCaptured(scm("uptown", {"--domain", std::to_string(downtown)}));
+  EXPECT_EQ(wrong.code, 1);
+  EXPECT_THAT(wrong.text, HasSubstr(fmt::format("district uptown is on DDS domain {}", uptown)));
+
+  ChildProcess up(scm("uptown"), {test::NoonTimeZone()});
+  ChildProcess down(scm("downtown"), {test::NoonTimeZone()});
+  struct Listener {
+    dds::Participant participant;
+    dds::Reader<msg::Spat> spat;
+    dds::Reader<msg::MapData> map;
+    Listener(std::uint32_t domain, const std::string& partition)
+        : participant(dds::ParticipantOptions{domain, partition, {}}),
+          spat(participant, dds::topics::Spat().name, dds::Qos::Stream(256)),
+          map(participant, dds::topics::Map()) {}
+    // The intersections of the district's MAP with a signal group (within 60 s).
+    std::set<std::string> Mapped() {
+      std::set<std::string> names;
+      const auto end = Clock::now() + seconds(60);
+      while (names.empty() && Clock::now() < end) {
+        map.WaitForData(milliseconds(100));
+        for (const auto& m : map.TakeAll()) {
+          for (const auto& x : dds::Elements(m->intersections)) {
+            if (!dds::Elements(x.signal_groups).empty()) names.emplace(dds::View(x.name));
+          }
+        }
+      }
+      return names;
+    }
+    // The intersections named in the SPaT of the next 3 s once one has come (within 60 s).
+    std::set<std::string> Heard() {
+      std::set<std::string> names;
+      const auto end = Clock::now() + seconds(60);
+      std::optional<Clock::time_point> until;
+      while (Clock::now() < (until ? *until : end)) {
+        spat.WaitForData(milliseconds(100));
+        for (const auto& m : spat.TakeAll()) {
+          for (const auto& x : dds::Elements(m->intersections)) names.emplace(dds::View(x.name));
+          if (!until) until = Clock::now() + seconds(3);
+        }
+      }
+      return names;
+    }
+  };
+  Listener on_uptown(uptown, partition_);
+  Listener on_downtown(downtown, partition_);
+  EXPECT_EQ(on_uptown.Heard(), std::set<std::string>{"north_t"});
+  EXPECT_EQ(on_downtown.Heard(), std::set<std::string>{"centre"});
+  EXPECT_EQ(on_uptown.Mapped(), std::set<std::string>{"north_t"});
+  EXPECT_EQ(on_downtown.Mapped(), std::set<std::string>{"centre"});
+  // The default domain, where a city without districts runs, hears neither.
+  spat_->WaitForData(seconds(2));
+  EXPECT_TRUE(spat_->TakeAll().empty());
+}
+
 TEST_F(ScmSystem, AnEmergencyVehicleGetsItsMovementAndAStatusReply) {
   StartInfra();
   StartScm();

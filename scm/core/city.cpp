@@ -80,6 +80,37 @@ const IntersectionModel* City::Find(std::string_view intersection_name) const {
   return nullptr;
 }
 
+void NarrowToDistrict(City& city, std::string_view name) {
+  const maps::District* district = city.districts.Find(name);
+  if (district == nullptr) {
+    throw InputError(fmt::format("city {} has no district {} ({})", city.config.name, name,
+                                 city.districts.empty() ? "it has no districts: section"
+                                                        : "it has: " + city.districts.Names()));
+  }
+  std::erase_if(city.intersections, [&](const IntersectionModel& x) {
+    return std::ranges::find(district->intersections, x.id) == district->intersections.end();
+  });
+  city.district = district->name;
+}
+
+std::uint32_t DistrictDomain(const std::filesystem::path& path, std::string_view name,
+                             std::optional<std::uint32_t> requested) {
+  const auto config = config::LoadString<CityConfig>(config::ReadFile(path), path.string());
+  const auto it = std::ranges::find(config.districts, name, &maps::DistrictConfig::name);
+  if (it == config.districts.end()) {
+    std::string names;
+    for (const auto& d : config.districts) names += (names.empty() ? "" : ", ") + d.name;
+    throw InputError(
+        fmt::format("{}: no district {} ({})", path.string(), name,
+                    names.empty() ? "the city has no districts: section" : "it has: " + names));
+  }
+  if (requested && *requested != it->domain) {
+    throw InputError(fmt::format("district {} is on DDS domain {} ({}), not on --domain {}",
+                                 it->name, it->domain, path.string(), *requested));
+  }
+  return it->domain;
+}
+
 Duration Scaled(nanoseconds configured, double time_scale) {
   return FromSeconds(ToSeconds(configured) * time_scale);
 }
@@ -194,6 +225,12 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
     }
   }
   std::ranges::sort(city.intersections, {}, &IntersectionModel::id);
+  city.map = std::move(map);
+  try {
+    city.districts = maps::Districts(city.map, config.districts);
+  } catch (const InputError& e) {
+    root.Fail(e.what());
+  }
   for (const auto& v : config.fleet.vehicles) {
     try {
       (void)ParseVehicleName(v);
@@ -217,7 +254,6 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
       // The Eye reports its own section's errors.
     }
   }
-  city.map = std::move(map);
   return city;
 }
 

@@ -16,6 +16,7 @@
 #include "common/aspect.h"
 #include "common/ids.h"
 #include "common/time.h"
+#include "maps/districts.h"
 #include "maps/map.h"
 #include "scm/core/city_config.h"
 
@@ -119,12 +120,28 @@ struct City {
   Duration device_timeout{0};
   Duration device_mismatch{0};
   Duration fleet_staleness{0};
+  /// The city's districts, as configured (empty: the whole city is one).
+  maps::Districts districts;
+  /// The district this city is narrowed to (`NarrowToDistrict`), or empty for the whole city.
+  std::string district;
 
   /// The intersection with id `id`, or null.
   [[nodiscard]] const IntersectionModel* Find(IntersectionId id) const;
   /// The intersection named `name` (or with the decimal id `name`), or null.
   [[nodiscard]] const IntersectionModel* Find(std::string_view name) const;
 };
+
+/// Narrows `city` to its district `name`: it keeps only that district's signalised
+/// intersections (an SCM started with `--district` runs those and publishes only them in MAP and
+/// SPaT). Throws `InputError` naming the city's districts when it has no district `name`.
+void NarrowToDistrict(City& city, std::string_view name);
+
+/// The DDS domain of district `name` of the city file `path` (read, not checked: the SCM checks
+/// the whole city once it runs). `requested`: a domain the command line asked for, which must
+/// then be the district's. Throws `InputError` when the file has no such district or the
+/// domains differ, `ConfigError` when the file does not parse.
+[[nodiscard]] std::uint32_t DistrictDomain(const std::filesystem::path& path, std::string_view name,
+                                           std::optional<std::uint32_t> requested);
 
 /// The hard minimums of the safety floors, in lab time: no city file may go below them,
 /// whatever its `safety` section and `time_scale` say (docs/scm.md, "Safety floors").

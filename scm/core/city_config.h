@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/config.h"
+#include "maps/districts.h"
 
 namespace autodrive::scm {
 
@@ -376,6 +377,8 @@ struct CityConfig {
   FleetConfig fleet;
   DevicesConfig devices;
   OperatorsConfig operators;
+  /// Empty: one district, the whole city on one domain (the domain each program is given).
+  std::vector<maps::DistrictConfig> districts;
   /// The simulator's section (vehicle_sim/sim_config.h): carried, not read, by the SCM.
   std::optional<config::ForeignSection> sim;
   /// The Eye's section (eye/eye_config.h): carried, not read, by the SCM.
@@ -396,6 +399,7 @@ struct CityConfig {
     a.Optional("fleet", fleet);
     a.Optional("devices", devices);
     a.Optional("operators", operators);
+    a.Optional("districts", districts);
     a.Optional("sim", sim);
     a.Optional("eye", eye);
     a.Optional("traffic", traffic);

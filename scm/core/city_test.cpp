@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <regex>
 
 #include "common/test_support.h"
@@ -185,6 +186,112 @@ TEST(City, RefusesAHeadShowingAnotherApproach) {
   EXPECT_THAT(LoadError("    plans:\n      - name: day",
                         "    heads: [{head: 1, group: 3}]\n    plans:\n      - name: day"),
               HasSubstr("rule: a head shows its own approach"));
+}
+
+/// The Small Town's text with `districts` (YAML of the section's items) inserted before its
+/// fleet section.
+std::string SmallTownWithDistricts(const std::string& districts) {
+  std::string text = config::ReadFile(CitiesDir() / "small_town.yaml");
+  const auto pos = text.find("\nfleet:");
+  EXPECT_NE(pos, std::string::npos);
+  text.insert(pos + 1, "districts:\n" + districts);
+  return text;
+}
+
+std::string DistrictsError(const std::string& districts) {
+  return test::ErrorMessage<ConfigError>(
+      [&] { (void)LoadCityString(SmallTownWithDistricts(districts), "city.yaml", CitiesDir()); });
+}
+
+constexpr const char* kTwoDistricts =
+    "  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+    "  - {name: downtown, domain: 12, intersections: [centre]}\n";
+
+TEST(Districts, EachHasItsSignalsAndTheNearestUnsignalisedIntersections) {
+  City city = LoadCityString(SmallTownWithDistricts(kTwoDistricts), "city.yaml", CitiesDir());
+  ASSERT_EQ(city.districts.all().size(), 2u);
+  const maps::District& up = *city.districts.Find("uptown");
+  const maps::District& down = *city.districts.Find("downtown");
+  EXPECT_EQ(up.domain, 11u);
+  EXPECT_EQ(down.domain, 12u);
+  EXPECT_EQ(city.districts.Find("midtown"), nullptr);
+  // Every intersection of the map is in exactly one district; the signalised ones where the
+  // file puts them; each other one with its nearest signalised intersection.
+  std::size_t listed = 0;
+  for (const maps::Intersection& x : city.map.intersections) {
+    const bool in_up = std::ranges::find(up.intersections, x.id) != up.intersections.end();
+    const bool in_down = std::ranges::find(down.intersections, x.id) != down.intersections.end();
+    EXPECT_NE(in_up, in_down) << x.name;
+    ++listed;
+    const auto distance = [&](const char* name) {
+      return (city.map.intersection(city.Find(name)->id).centre - x.centre).norm();
+    };
+    EXPECT_EQ(in_up, distance("north_t") < distance("centre")) << x.name;
+  }
+  EXPECT_EQ(up.intersections.size() + down.intersections.size(), listed);
+  // A point's district: its nearest intersection's.
+  EXPECT_EQ(city.districts.At(city.map.intersection(city.Find("north_t")->id).centre), &up);
+  EXPECT_EQ(city.districts.At(city.map.intersection(city.Find("centre")->id).centre), &down);
+  EXPECT_EQ(city.districts.Of(city.Find("centre")->id), &down);
+
+  ASSERT_EQ(city.intersections.size(), 2u);
+  NarrowToDistrict(city, "uptown");
+  ASSERT_EQ(city.intersections.size(), 1u);
+  EXPECT_EQ(city.intersections[0].name, "north_t");
+  EXPECT_EQ(city.district, "uptown");
+  EXPECT_EQ(city.districts.all().size(), 2u) << "the city's districts stay known";
+  EXPECT_THAT(test::ErrorMessage<InputError>([&] { NarrowToDistrict(city, "midtown"); }),
+              HasSubstr("city small_town has no district midtown (it has: uptown, downtown)"));
+  City whole = LoadCity(CitiesDir() / "small_town.yaml");
+  EXPECT_TRUE(whole.districts.empty());
+  EXPECT_EQ(whole.districts.At(Eigen::Vector2d::Zero()), nullptr);
+  EXPECT_THAT(test::ErrorMessage<InputError>([&] { NarrowToDistrict(whole, "uptown"); }),
+              HasSubstr("has no district uptown (it has no districts: section)"));
+}
+
+TEST(Districts, TheDomainOfADistrictComesFromTheFileAndMustMatchAnyDomainAskedFor) {
+  const test::TempDir dir("district_domain");
+  const auto file = dir.path() / "city.yaml";
+  std::ofstream(file) << SmallTownWithDistricts(kTwoDistricts);
+  EXPECT_EQ(DistrictDomain(file, "uptown", std::nullopt), 11u);
+  EXPECT_EQ(DistrictDomain(file, "downtown", 12u), 12u);
+  EXPECT_THAT(test::ErrorMessage<InputError>([&] { (void)DistrictDomain(file, "uptown", 12u); }),
+              HasSubstr("district uptown is on DDS domain 11"));
+  EXPECT_THAT(
+      test::ErrorMessage<InputError>([&] { (void)DistrictDomain(file, "midtown", std::nullopt); }),
+      HasSubstr("no district midtown (it has: uptown, downtown)"));
+  EXPECT_THAT(test::ErrorMessage<InputError>([&] {
+                (void)DistrictDomain(CitiesDir() / "small_town.yaml", "uptown", std::nullopt);
+              }),
+              HasSubstr("no district uptown (the city has no districts: section)"));
+}
+
+TEST(Districts, RefusesWhatTwoSCMsWouldFightOverOrNoneWouldRun) {
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 11, intersections: [north_t]}\n"),
+              HasSubstr("districts: centre is in no district; rule: with districts, every "
+                        "signalised intersection is in one"));
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 11, intersections: [north_t, centre]}\n"
+                             "  - {name: downtown, domain: 12, intersections: [centre]}\n"),
+              HasSubstr("districts[1] (downtown): centre is in district uptown already; rule: "
+                        "each intersection is run by one district's SCM"));
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+                             "  - {name: downtown, domain: 11, intersections: [centre]}\n"),
+              HasSubstr("districts[1] (downtown): domain 11 is district uptown's too; rule: one "
+                        "DDS domain per district"));
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+                             "  - {name: uptown, domain: 12, intersections: [centre]}\n"),
+              HasSubstr("districts[1] (uptown): a district of this name comes before"));
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+                             "  - {name: downtown, domain: 12, intersections: [centre, x_r1c1]}\n"),
+              HasSubstr("x_r1c1 is not a signalised intersection of the map small_town (they "
+                        "are: "));
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+                             "  - {name: downtown, domain: 12, intersections: []}\n"),
+              HasSubstr("districts[1] (downtown): names no intersection"));
+  EXPECT_THAT(DistrictsError("  - {name: up-town, domain: 11, intersections: [north_t]}\n"),
+              HasSubstr("1 to 64 letters, digits or '_'"));
+  EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 233, intersections: [north_t]}\n"),
+              HasSubstr("233"));
 }
 
 }  // namespace

@@ -294,19 +294,23 @@ Polyline Decimate(const Polyline& line, double spacing_m) {
 }
 
 MapDataMessage BuildMapData(const Map& map, std::string_view city,
-                            const SignalGroupAssignment& groups, std::uint32_t revision) {
+                            const SignalGroupAssignment& groups, std::uint32_t revision,
+                            std::span<const IntersectionId> only) {
   const auto group_of = CheckGroups(map, groups);
+  std::vector<const maps::Intersection*> listed;
+  for (const maps::Intersection& x : map.intersections) {
+    if (only.empty() || std::ranges::find(only, x.id) != only.end()) listed.push_back(&x);
+  }
   MapDataMessage m;
   dds::SetString(m->header.frame_id, "map");
   dds::SetString(m->city, city);
   dds::SetString(m->map_name, map.name);
   m->revision = revision;
-  dds::ResizeSequence(m->intersections, static_cast<std::uint32_t>(map.intersections.size()));
+  dds::ResizeSequence(m->intersections, static_cast<std::uint32_t>(listed.size()));
   static const std::vector<SignalGroupInfo> kNoGroups;
-  for (std::size_t i = 0; i < map.intersections.size(); ++i) {
-    const maps::Intersection& x = map.intersections[i];
-    const auto g = groups.find(x.id);
-    FillIntersection(map, x, g == groups.end() ? kNoGroups : g->second, group_of, revision,
+  for (std::size_t i = 0; i < listed.size(); ++i) {
+    const auto g = groups.find(listed[i]->id);
+    FillIntersection(map, *listed[i], g == groups.end() ? kNoGroups : g->second, group_of, revision,
                      dds::Elements(m->intersections)[i]);
   }
   return m;

@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <map>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -56,16 +57,18 @@ struct SignalGroupInfo {
 /// The groups of each signalised intersection (others: no groups, signal_group 0).
 using SignalGroupAssignment = std::map<IntersectionId, std::vector<SignalGroupInfo>>;
 
-/// The MAP message of every intersection of `map` for city `city`, with the signal groups of
-/// `groups`, at `revision` (the message's and every intersection's revision). A movement of a
-/// signalised intersection that no group lists gets signal_group 0 (not signalised).
+/// The MAP message of every intersection of `map` for city `city` (or, when `only` is not
+/// empty, of those it lists: a district's), with the signal groups of `groups`, at `revision`
+/// (the message's and every intersection's revision). A movement of a signalised intersection
+/// that no group lists gets signal_group 0 (not signalised).
 /// @throws InputError naming the offending id when `groups` does not fit the map: an
 ///   intersection that is not in the map or not signalised, a group id 0 or used twice in one
 ///   intersection, a movement or head that is not of that intersection, a movement in two
 ///   groups.
 [[nodiscard]] MapDataMessage BuildMapData(const maps::Map& map, std::string_view city,
                                           const SignalGroupAssignment& groups,
-                                          std::uint32_t revision);
+                                          std::uint32_t revision,
+                                          std::span<const IntersectionId> only = {});
 
 /// The signs registry of every sign of `map` for city `city` at `revision`: id, type
 /// (`TrafficSign_Constants`), value, pose (position at terrain height, facing along +x), the

@@ -266,6 +266,25 @@ TEST(MapData, TerraceIntersectionsAreAtTheirHeight) {
   EXPECT_TRUE(found);
 }
 
+TEST(MapData, OnlyTheListedIntersectionsWhenAListIsGiven) {
+  const Map town = LoadShipped("small_town");
+  const auto names = [](const MapDataMessage& m) {
+    std::vector<std::string> out;
+    for (const auto& x : dds::Elements(m->intersections)) out.emplace_back(dds::View(x.name));
+    return out;
+  };
+  EXPECT_EQ(names(BuildMapData(town, "town", GroupPerApproach(town), 1)).size(),
+            town.intersections.size());
+  std::vector<IntersectionId> only;
+  for (const auto& x : town.intersections) {
+    if (x.name == "centre" || x.name == "west_t") only.push_back(x.id);
+  }
+  ASSERT_EQ(only.size(), 2u);
+  auto listed = names(BuildMapData(town, "town", GroupPerApproach(town), 1, only));
+  std::ranges::sort(listed);
+  EXPECT_EQ(listed, (std::vector<std::string>{"centre", "west_t"}));
+}
+
 TEST(MapData, UnsignalisedIntersectionsHaveNoGroupsAndGroupZero) {
   const Map town = LoadShipped("small_town");
   const auto m = BuildMapData(town, "town", {}, 1);

@@ -187,7 +187,11 @@ MapMessages BuildMapMessages(const City& city, std::uint32_t revision) {
     auto& list = groups[model.id];
     for (const auto& g : model.groups) list.push_back({g.id, g.name, g.movements, g.heads});
   }
-  MapMessages out{BuildMapData(city.map, city.config.name, groups, revision),
+  // A district's SCM describes its own intersections only.
+  const maps::District* district = city.districts.Find(city.district);
+  const std::span<const IntersectionId> only =
+      district == nullptr ? std::span<const IntersectionId>{} : district->intersections;
+  MapMessages out{BuildMapData(city.map, city.config.name, groups, revision, only),
                   BuildSignRegistry(city.map, city.config.name, revision),
                   {}};
   // V2I requests name lanes by their MAP ids: remember which map lane each one is.

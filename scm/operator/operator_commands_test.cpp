@@ -61,7 +61,8 @@ class OperatorCommandsTest : public ::testing::Test {
     publishers_->Reset(*bundle_->runtime, "small_town");
     loader_ = std::make_unique<ConfigLoader>(
         participant_, ClockKind::kWall, writers_, persistence_->store(),
-        MapResolution{test::SourceDir() / "config/cities", test::SourceDir() / "config"}, nullptr);
+        MapResolution{test::SourceDir() / "config/cities", test::SourceDir() / "config"}, "",
+        nullptr);
     service_ = std::make_unique<LoaderService>(*loader_);
     control_ = std::make_unique<ControlPlane>(ControlPlaneParams{});
   }
