@@ -152,6 +152,22 @@ class ScmProcesses : public ::testing::Test {
     text.replace(text.find(rel), rel.size(), Config("config/maps/" + city + ".yaml"));
     return text;
   }
+  /// The DDS domains of the two districts of `SmallTownInDistricts`, this test's own (tests run
+  /// two at a time, each in its own partition; the pid keeps their domains apart as well).
+  static std::uint32_t Uptown() { return 100 + static_cast<std::uint32_t>(::getpid() % 60); }
+  static std::uint32_t Downtown() { return Uptown() + 60; }
+  /// The small town's city text in two districts (docs/districts.md): uptown (north_t) on
+  /// domain `Uptown()`, downtown (centre) on `Downtown()`; `extra` is added after them.
+  std::string SmallTownInDistricts(const std::string& extra = "") const {
+    std::string text = CityText("small_town");
+    text.insert(text.find("\nfleet:") + 1,
+                fmt::format("districts:\n"
+                            "  - {{name: uptown, domain: {}, intersections: [north_t]}}\n"
+                            "  - {{name: downtown, domain: {}, intersections: [centre]}}\n",
+                            Uptown(), Downtown()) +
+                    extra);
+    return text;
+  }
   /// Writes `text` to `name` in the test's folder; returns its path.
   std::string Write(const std::string& name, const std::string& text) const {
     const auto path = (dir_ / name).string();

@@ -143,16 +143,9 @@ TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
 // Two districts of the small town on two DDS domains, an SCM each (docs/districts.md): a
 // subscriber on one domain hears that district's intersection and nothing of the other's.
 TEST_F(ScmSystem, EachDistrictsScmRunsItsOwnIntersectionsOnItsOwnDomain) {
-  // Domains of this test's own (tests run two at a time; the pid keeps them apart).
-  const std::uint32_t uptown = 100 + static_cast<std::uint32_t>(::getpid() % 60);
-  const std::uint32_t downtown = uptown + 60;
-  std::string text = CityText("small_town");
-  text.insert(text.find("\nfleet:") + 1,
-              fmt::format("districts:\n"
-                          "  - {{name: uptown, domain: {}, intersections: [north_t]}}\n"
-                          "  - {{name: downtown, domain: {}, intersections: [centre]}}\n"
-                          "devices: {{wait_for_lights: false}}\n",
-                          uptown, downtown));
+  const std::uint32_t uptown = Uptown();
+  const std::uint32_t downtown = Downtown();
+  const std::string text = SmallTownInDistricts("devices: {wait_for_lights: false}\n");
   const std::string city = Write("districts.yaml", text);
   const auto scm = [&](const std::string& district, std::vector<std::string> extra = {}) {
     std::vector<std::string> argv{test::Bin("autodrive-scm"),

@@ -46,11 +46,20 @@ struct SimService::Impl {
   SensorReadings readings;
   std::ostream* log = nullptr;
 
+  // Districts: the city's, and a participant on each one's domain (in the same order).
+  maps::Districts districts;
+  DistrictParticipants district_participants;
+
   Impl(const dds::Participant& participant, const SimCity& city, const maps::Map& map,
-       const ServiceOptions& o)
+       const ServiceOptions& o, const DistrictParticipants& dp)
       : options(o),
         world(SimulatedMap(city.sim, map), city.sim.world),
-        clock(participant, dds::topics::Clock()) {
+        clock(participant, dds::topics::Clock()),
+        districts(map, city.districts),
+        district_participants(dp) {
+    AUTODRIVE_THROW_UNLESS(dp.size() == districts.all().size(),
+                           "the city has " << districts.all().size() << " districts, " << dp.size()
+                                           << " participants were given for them");
     AUTODRIVE_THROW_UNLESS(o.control_period >= world.options().step,
                            "the control period " << ToSeconds(o.control_period)
                                                  << " s is shorter than the physics step "
@@ -63,7 +72,12 @@ struct SimService::Impl {
     // The DDS entities in the order they always were: cars, cameras, lamps, traffic, lockstep.
     cameras = std::make_unique<internal::CameraPublisher>(participant, city.sim, map, world,
                                                           o.mode == SimMode::kRealTime);
-    lamps = std::make_unique<internal::SignalLamps>(participant, map);
+    lamps = std::make_unique<internal::SignalLamps>(
+        [&](const maps::SignalHead& head) -> const dds::Participant& {
+          const maps::District* d = districts.Of(head.intersection);
+          return d == nullptr ? participant : *district_participants[DistrictIndex(d)];
+        },
+        map);
     std::vector<std::string> names;
     for (const auto& car : cars) names.push_back(car->name());
     traffic = std::make_unique<internal::BackgroundTraffic>(participant, o.traffic,
@@ -95,11 +109,22 @@ struct SimService::Impl {
       suites.emplace_back(EffectiveSensors(sim, i), index, sim.seed);
       cars.push_back(std::make_unique<internal::CarEndpoints>(
           participant, ParseVehicleName(c.name),
-          CommandNoise(sim.variability, c.params, sim.seed, index)));
+          CommandNoise(sim.variability, c.params, sim.seed, index), district_participants));
     }
   }
 
   Time Stamp(Duration t) const { return origin + t; }
+
+  std::size_t DistrictIndex(const maps::District* d) const {
+    return static_cast<std::size_t>(d - districts.all().data());
+  }
+
+  // Which district's `ips` writer of a car gets its position besides its own: 1 + the district's
+  // index (0: none, without districts).
+  std::size_t IpsTo(const SensorReadings& r) const {
+    if (districts.empty() || !r.ips) return 0;
+    return 1 + DistrictIndex(districts.At(r.ips->position_m.head<2>()));
+  }
 
   void TakeCommands() {
     const Duration now = world.time();
@@ -158,7 +183,7 @@ struct SimService::Impl {
       UpdateBoxes();
       for (std::size_t i = 0; i < cars.size(); ++i) {
         suites[i].Sample(world, world.Scene(), lidar_boxes[i], readings);
-        cars[i]->Publish(readings, suites[i].config().imu, origin);
+        cars[i]->Publish(readings, suites[i].config().imu, origin, IpsTo(readings));
       }
       PublishCameras();
     }
@@ -195,8 +220,9 @@ struct SimService::Impl {
 };
 
 SimService::SimService(const dds::Participant& participant, const SimCity& city,
-                       const maps::Map& map, const ServiceOptions& options)
-    : impl_(std::make_unique<Impl>(participant, city, map, options)) {}
+                       const maps::Map& map, const ServiceOptions& options,
+                       const DistrictParticipants& districts)
+    : impl_(std::make_unique<Impl>(participant, city, map, options, districts)) {}
 
 SimService::~SimService() = default;
 

@@ -16,6 +16,11 @@
 /// command stream stops (no throttle or steering command for `command_timeout`) is held still
 /// (throttle 0), as the real car's firmware does, until a command arrives again.
 ///
+/// Districts (docs/districts.md): in a city with a `districts:` section, each car's `ips` (what
+/// the SCMs' fleets read) goes also to the domain of the district the car is in, on that
+/// district's participant, and the lamp states of each district's heads are read there; every
+/// topic stays on the service's participant (the cars' own domain) as well.
+///
 /// Times: messages carry the simulated time as ROS time. In real time it starts at the wall
 /// clock's time when the service starts, so that programs on the wall clock (the SCM, the
 /// lights) and the simulator agree; in fast mode it starts at 0, as ROS simulators' /clock.
@@ -26,6 +31,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "common/dds/participant.h"
 #include "common/ids.h"
@@ -38,12 +44,17 @@ namespace autodrive::vehicle_sim {
 /// What a light shows: 0 off, 1 red, 2 yellow, 3 green (the devkit's values).
 using LampState = std::int32_t;
 
+/// A participant on each district's domain, in the order of the city's `districts:` section
+/// (each must outlive the service; one may be the service's own participant). Empty for a city
+/// without districts.
+using DistrictParticipants = std::vector<const dds::Participant*>;
+
 class SimService {
  public:
   /// Builds the world of `map` with the city's cars and their DDS endpoints on `participant`.
   /// @throws InputError (or ConfigError) for a bad configuration.
   SimService(const dds::Participant& participant, const SimCity& city, const maps::Map& map,
-             const ServiceOptions& options);
+             const ServiceOptions& options, const DistrictParticipants& districts = {});
   ~SimService();
   SimService(const SimService&) = delete;
   SimService& operator=(const SimService&) = delete;

@@ -204,6 +204,20 @@ void TakeEyeMountings(const std::string& path, const YAML::Node& root, SimConfig
 
 }  // namespace
 
+namespace {
+
+// The `districts:` section of a city file, alone of its top-level keys.
+struct DistrictsSection {
+  std::vector<maps::DistrictConfig> districts;
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Optional("districts", districts);
+  }
+};
+
+}  // namespace
+
 SimCity LoadSimCity(const std::string& path) {
   YAML::Node root;
   try {
@@ -228,6 +242,14 @@ SimCity LoadSimCity(const std::string& path) {
   if (map.is_relative()) map = std::filesystem::path(path).parent_path() / map;
   city.map_path = map.lexically_normal().string();
   if (root["sim"]) city.sim = config::LoadFile<SimConfig>(path, "sim");
+  if (const YAML::Node districts = root["districts"]) {
+    // Checked with its lines by the SCM and `autodrive-city check`; read here alone.
+    YAML::Emitter out;
+    out << YAML::BeginMap << YAML::Key << "districts" << YAML::Value << districts << YAML::EndMap;
+    city.districts =
+        config::LoadString<DistrictsSection>(out.c_str(), path + " (its districts: section)")
+            .districts;
+  }
   TakeEyeMountings(path, root, city.sim);
   const auto resolve = [&](LensConfig& lens) {
     if (!lens.calibration) return;

@@ -26,6 +26,7 @@
 #include "common/config.h"
 #include "common/geometry.h"
 #include "common/time.h"
+#include "maps/districts.h"
 #include "vehicle_sim/sensors.h"
 #include "vehicle_sim/vehicle_params.h"
 #include "vehicle_sim/world.h"
@@ -293,10 +294,12 @@ struct SimCity {
   std::string name;
   std::string map_path;  ///< resolved against the city file's folder
   SimConfig sim;
+  /// The city's `districts:` section (docs/districts.md): empty when it has none.
+  std::vector<maps::DistrictConfig> districts;
 };
-/// Reads `name`, `map` and `sim` of the city file at `path`, and of its `eye` section the cars'
-/// roof tag mountings (`camera::LoadCityRoofTagMounts`): a car the Eye lists gets the Eye's
-/// mounting in its `look` (its own `look` may not give one: one declaration for both); other
+/// Reads `name`, `map`, `sim` and `districts` of the city file at `path`, and of its `eye` section
+/// the cars' roof tag mountings (`camera::LoadCityRoofTagMounts`): a car the Eye lists gets the
+/// Eye's mounting in its `look` (its own `look` may not give one: one declaration for both); other
 /// sections belong to other programs and are not read. Relative paths (the map, lens
 /// calibration files) are resolved against the city file's folder.
 /// @throws ConfigError naming the file, line and key.

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -28,6 +29,7 @@
 #include "maps/map.h"
 #include "maps/map_io.h"
 #include "vehicle_sim/dataset.h"
+#include "vehicle_sim/district_domains.h"
 #include "vehicle_sim/lane_driver.h"
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/service.h"
@@ -316,7 +318,10 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
   // Before any other thread starts, so that they all inherit the blocked signals.
   ShutdownSignals signals([&] { stop.store(true); });
   dds::Participant participant(dds_cli.Participant());
-  SimService service(participant, city, map, options);
+  // A district's cars are heard on its domain (docs/districts.md).
+  const maps::Districts districts(map, city.districts);
+  const DistrictDomains district_domains(participant, dds_cli.Participant(), districts);
+  SimService service(participant, city, map, options, district_domains.participants());
   std::ofstream log;
   if (!log_path.empty()) {
     log.open(log_path, std::ios::binary);

@@ -23,13 +23,13 @@ void SetHeader(std_msgs_msg_dds__Header_& header, Time stamp, const char* frame)
 
 }  // namespace
 
-CarEndpoints::CarEndpoints(const dds::Participant& p, VehicleId id, CommandNoise command_noise)
+CarEndpoints::CarEndpoints(const dds::Participant& p, VehicleId id, CommandNoise command_noise,
+                           const std::vector<const dds::Participant*>& ips_participants)
     : name_(VehicleName(id)),
       throttle_(p, topics::Throttle(id)),
       steering_(p, topics::Steering(id)),
       left_encoder_(p, topics::LeftEncoder(id)),
       right_encoder_(p, topics::RightEncoder(id)),
-      ips_(p, topics::Ips(id)),
       imu_(p, topics::Imu(id)),
       lidar_(p, topics::Lidar(id)),
       ground_truth_(p, topics::GroundTruth(id)),
@@ -37,7 +37,12 @@ CarEndpoints::CarEndpoints(const dds::Participant& p, VehicleId id, CommandNoise
       steering_command_(p, topics::SteeringCommand(id)),
       headlights_command_(p, topics::HeadlightsCommand(id)),
       indicators_command_(p, topics::IndicatorsCommand(id)),
-      noise_(std::move(command_noise)) {}
+      noise_(std::move(command_noise)) {
+  ips_.push_back(std::make_unique<dds::Writer<msg::Point>>(p, topics::Ips(id)));
+  for (const dds::Participant* district : ips_participants) {
+    ips_.push_back(std::make_unique<dds::Writer<msg::Point>>(*district, topics::Ips(id)));
+  }
+}
 
 VehicleCommand CarEndpoints::TakeCommand(Duration now, Duration command_timeout) {
   bool fresh = false;
@@ -70,7 +75,8 @@ VehicleCommand CarEndpoints::TakeCommand(Duration now, Duration command_timeout)
   return applied;
 }
 
-void CarEndpoints::Publish(const SensorReadings& r, const ImuConfig& c, Time origin) {
+void CarEndpoints::Publish(const SensorReadings& r, const ImuConfig& c, Time origin,
+                           std::size_t ips_to) {
   if (r.feedback) {
     throttle_.Write(msg::Float32{static_cast<float>(r.feedback->throttle)});
     steering_.Write(msg::Float32{static_cast<float>(r.feedback->steering_rad)});
@@ -91,7 +97,9 @@ void CarEndpoints::Publish(const SensorReadings& r, const ImuConfig& c, Time ori
     const Eigen::Vector3d& p = r.ips->position_m;
     // geometry_msgs/Point has no header: the source timestamp says when the position was
     // taken (the SCM observes it then), however late a loaded simulator publishes it.
-    ips_.WriteAt(msg::Point{p.x(), p.y(), p.z()}, origin + r.ips->stamp);
+    const msg::Point point{p.x(), p.y(), p.z()};
+    ips_[0]->WriteAt(point, origin + r.ips->stamp);
+    if (ips_to > 0) ips_.at(ips_to)->WriteAt(point, origin + r.ips->stamp);
   }
   if (r.imu) {
     msg::Imu m{};
@@ -141,17 +149,21 @@ void CarEndpoints::PublishGroundTruth(const VehicleState& s, Time stamp) {
 }
 
 void CarEndpoints::WaitForAcks(std::chrono::steady_clock::duration timeout) const {
-  const bool ok = throttle_.WaitForAcks(timeout) && steering_.WaitForAcks(timeout) &&
-                  left_encoder_.WaitForAcks(timeout) && right_encoder_.WaitForAcks(timeout) &&
-                  ips_.WaitForAcks(timeout) && imu_.WaitForAcks(timeout) &&
-                  lidar_.WaitForAcks(timeout) && ground_truth_.WaitForAcks(timeout);
+  const bool ok =
+      throttle_.WaitForAcks(timeout) && steering_.WaitForAcks(timeout) &&
+      left_encoder_.WaitForAcks(timeout) && right_encoder_.WaitForAcks(timeout) &&
+      std::ranges::all_of(ips_, [&](const auto& w) { return w->WaitForAcks(timeout); }) &&
+      imu_.WaitForAcks(timeout) && lidar_.WaitForAcks(timeout) &&
+      ground_truth_.WaitForAcks(timeout);
   if (!ok) spdlog::warn("{}: a reader did not acknowledge its data in time", name_);
 }
 
-SignalLamps::SignalLamps(const dds::Participant& participant, const maps::Map& map) {
+SignalLamps::SignalLamps(
+    const std::function<const dds::Participant&(const maps::SignalHead&)>& participant_of,
+    const maps::Map& map) {
   for (const maps::SignalHead& head : map.signal_heads) {
     readers_.emplace_back(head.id, std::make_unique<dds::Reader<msg::Int32>>(
-                                       participant, topics::SignalState(head.id)));
+                                       participant_of(head), topics::SignalState(head.id)));
   }
 }
 

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -34,9 +35,11 @@ namespace autodrive::vehicle_sim::internal {
 /// readers and writers are not). For the loop's thread only.
 class CarEndpoints {
  public:
-  /// Creates the car's readers and writers on `participant` (which must outlive it);
+  /// Creates the car's readers and writers on `participant` (which must outlive it), and an
+  /// `ips` writer more on each of `ips_participants` (a district's each);
   /// `command_noise`: what the car's actuators add to its commands.
-  CarEndpoints(const dds::Participant& participant, VehicleId id, CommandNoise command_noise);
+  CarEndpoints(const dds::Participant& participant, VehicleId id, CommandNoise command_noise,
+               const std::vector<const dds::Participant*>& ips_participants = {});
   CarEndpoints(const CarEndpoints&) = delete;
   CarEndpoints& operator=(const CarEndpoints&) = delete;
 
@@ -47,8 +50,10 @@ class CarEndpoints {
   VehicleCommand TakeCommand(Duration now, Duration command_timeout);
 
   /// Publishes what the car's sensors read (`readings`; `imu`: the IMU's configuration, for
-  /// the covariances); `origin`: the ROS time of simulated time 0.
-  void Publish(const SensorReadings& readings, const ImuConfig& imu, Time origin);
+  /// the covariances); `origin`: the ROS time of simulated time 0. The position goes to the
+  /// car's own `ips` topic and, with `ips_to` > 0, to the `ips_to`-th district's too.
+  void Publish(const SensorReadings& readings, const ImuConfig& imu, Time origin,
+               std::size_t ips_to = 0);
 
   /// Publishes the car's ground truth `state`, observed at `stamp`.
   void PublishGroundTruth(const VehicleState& state, Time stamp);
@@ -66,7 +71,7 @@ class CarEndpoints {
   std::string name_;
   dds::Writer<msg::Float32> throttle_, steering_;
   dds::Writer<msg::JointState> left_encoder_, right_encoder_;
-  dds::Writer<msg::Point> ips_;
+  std::vector<std::unique_ptr<dds::Writer<msg::Point>>> ips_;
   dds::Writer<msg::Imu> imu_;
   dds::Writer<msg::LaserScan> lidar_;
   dds::Writer<msg::TrackedVehicle> ground_truth_;
@@ -86,8 +91,9 @@ using LampValue = std::int32_t;
 /// Thread-safe: `Take` on the loop's thread, the others from any.
 class SignalLamps {
  public:
-  /// A reader per signal head of `map` on `participant` (which must outlive it).
-  SignalLamps(const dds::Participant& participant, const maps::Map& map);
+  /// A reader per signal head of `map` on `participant_of(head)` (each must outlive it).
+  SignalLamps(const std::function<const dds::Participant&(const maps::SignalHead&)>& participant_of,
+              const maps::Map& map);
   SignalLamps(const SignalLamps&) = delete;
   SignalLamps& operator=(const SignalLamps&) = delete;
 

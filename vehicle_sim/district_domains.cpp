@@ -1,0 +1,36 @@
+#include "vehicle_sim/district_domains.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "common/error.h"
+
+namespace autodrive::vehicle_sim {
+
+DistrictDomains::DistrictDomains(const dds::Participant& main,
+                                 const dds::ParticipantOptions& options,
+                                 const maps::Districts& districts)
+    : main_(main), districts_(districts) {
+  for (const maps::District& d : districts.all()) {
+    if (d.domain == main.domain_id()) {
+      throw InputError(fmt::format(
+          "district {} is on DDS domain {}, this program's own, where the cars' own topics are: "
+          "that district would hear every car wherever it is. Run the program on a domain of "
+          "its own (--domain, ROS_DOMAIN_ID) or give the district another",
+          d.name, d.domain));
+    }
+    dds::ParticipantOptions o = options;
+    o.domain_id = d.domain;
+    owned_.push_back(std::make_unique<dds::Participant>(o));
+    pointers_.push_back(owned_.back().get());
+    spdlog::info("district {} on DDS domain {}", d.name, d.domain);
+  }
+}
+
+const dds::Participant& DistrictDomains::ForHead(const maps::SignalHead& head) const {
+  const maps::District* d = districts_.Of(head.intersection);
+  if (d == nullptr) return main_;
+  return *pointers_.at(static_cast<std::size_t>(d - districts_.all().data()));
+}
+
+}  // namespace autodrive::vehicle_sim
