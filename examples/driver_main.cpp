@@ -26,9 +26,9 @@
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "examples/common/agent_options.h"
+#include "maps/district_domains.h"
 #include "maps/districts.h"
 #include "maps/map_io.h"
-#include "vehicle_sim/district_domains.h"
 #include "vehicle_sim/lane_driver.h"
 #include "vehicle_sim/sim_config.h"
 
@@ -210,8 +210,7 @@ int main(int argc, char** argv) {
     // In a city of districts each district's lamps are heard on its domain (docs/districts.md).
     // (Before the readers: they go first.)
     const maps::Districts districts(map, city.districts);
-    const vehicle_sim::DistrictDomains district_domains(participant, agent.dds.Participant(),
-                                                        districts);
+    const maps::DistrictDomains district_domains(participant, agent.dds.Participant(), districts);
     std::map<SignalHeadId, std::unique_ptr<dds::Reader<msg::Int32>>> lamp_readers;
     std::map<SignalHeadId, std::int32_t> lamps;
     for (const auto& h : map.signal_heads) {

@@ -14,6 +14,7 @@
 
 #include "autodrive_msgs/msg/FleetState.h"
 #include "autodrive_msgs/msg/TrackedVehicle.h"
+#include "autodrive_msgs/msg/TrafficObjects.h"
 
 #include "common/dds/conversions.h"
 #include "common/dds/reader.h"
@@ -83,6 +84,8 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
          (dir_ / "down.db").string()});
   start({test::Bin("autodrive-sim"), "--city", city});
   start({test::Bin("autodrive-example-driver"), "--city", city});
+  start(
+      {test::Bin("autodrive-traffic"), "--city", city, "--work-dir", (dir_ / "traffic").string()});
 
   // A simulator or driver on a district's domain is refused, naming why.
   const test::Output refused = test::RunCaptured(
@@ -101,6 +104,10 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
                                         dds::Qos::Stream(256));
   dds::Reader<msg::FleetState> down_fleet(down_domain, dds::topics::Fleet().name,
                                           dds::Qos::Stream(256));
+  // SUMO's vehicles: all of them on the simulator's domain, each district's own on its domain.
+  dds::Reader<msg::TrafficObjects> all_traffic(*participant_, dds::topics::Traffic());
+  dds::Reader<msg::TrafficObjects> up_traffic(up_domain, dds::topics::Traffic());
+  dds::Reader<msg::TrafficObjects> down_traffic(down_domain, dds::topics::Traffic());
   const std::vector<std::string> cars{"nigel_1", "nigel_2", "nigel_3", "nigel_4"};
   std::vector<std::unique_ptr<dds::Reader<msg::TrackedVehicle>>> truth;
   for (const auto& car : cars) {
@@ -109,6 +116,22 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
   }
 
   std::map<std::string, FleetSeen> fleets;  // by district
+  // SUMO's vehicles as each domain heard them: how many, and any out of place.
+  std::map<std::string, std::size_t> traffic_heard;
+  std::vector<std::string> misplaced;
+  const auto take_traffic = [&](dds::Reader<msg::TrafficObjects>& reader, const std::string& name) {
+    for (const auto& m : reader.TakeAll()) {
+      for (const auto& v : dds::Elements(m->objects)) {
+        ++traffic_heard[name];
+        const auto* at = districts.At(Eigen::Vector2d(v.pose.position.x, v.pose.position.y));
+        if (name != "all" && at->name != name && misplaced.size() < 5) {
+          misplaced.push_back(fmt::format("{} at ({:.2f}, {:.2f}), {}'s, on {}'s domain",
+                                          dds::View(v.object_id), v.pose.position.x,
+                                          v.pose.position.y, at->name, name));
+        }
+      }
+    }
+  };
   // Each car's district by its ground truth, and the times it changed: (time, from, to).
   std::map<std::string, std::string> district_of;
   struct Crossing {
@@ -133,6 +156,9 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
     up_fleet.WaitForData(milliseconds(50));
     take_fleet(up_fleet, "uptown");
     take_fleet(down_fleet, "downtown");
+    take_traffic(all_traffic, "all");
+    take_traffic(up_traffic, "uptown");
+    take_traffic(down_traffic, "downtown");
     for (std::size_t i = 0; i < cars.size(); ++i) {
       for (const auto& m : truth[i]->TakeAll()) {
         const auto& p = m->pose.pose.position;
@@ -156,6 +182,14 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
     seen += ";";
   }
   ASSERT_GE(crossings.size(), 1u) << "no car drove from one district into the other:" << seen;
+  // One SUMO feeds both districts, each with its own vehicles only.
+  std::printf(
+      "SUMO's vehicles heard: %zu on the simulator's domain, %zu on uptown's, %zu on "
+      "downtown's\n",
+      traffic_heard["all"], traffic_heard["uptown"], traffic_heard["downtown"]);
+  EXPECT_GT(traffic_heard["uptown"], 0u);
+  EXPECT_GT(traffic_heard["downtown"], 0u);
+  EXPECT_THAT(misplaced, ::testing::IsEmpty());
   for (const Crossing& c : crossings) {
     if (!latest || *latest < c.at + seconds(3)) continue;  // not followed long enough
     const auto arrived = fleets[c.to].First(c.car, c.at, true);

@@ -96,7 +96,11 @@ struct TrafficService::Impl {
   CoSimulation cosim;
   std::string source;
   dds::Writer<msg::TrafficObjects> writer;
-  LampInbox lamps;
+  // One inbox per domain the lamps are heard on: the service's, then each district's.
+  std::vector<std::unique_ptr<LampInbox>> lamps;
+  // Each district's own vehicles, on its domain (in the order of `city.districts.all()`).
+  std::vector<std::unique_ptr<dds::Writer<msg::TrafficObjects>>> district_writers;
+  std::vector<std::vector<TrafficVehicle>> district_vehicles;
   std::vector<LampInbox::Lamp> lamps_taken;
   std::vector<std::unique_ptr<dds::Reader<msg::TrackedVehicle>>> truth_readers;
   std::unique_ptr<dds::Reader<msg::FleetState>> fleet_reader;
@@ -113,8 +117,28 @@ struct TrafficService::Impl {
         options(std::move(o)),
         step_s(ToSeconds(config.step_s)),
         cosim(c, config, CosimOptions(c, config, options)),
-        writer(p, topics::Traffic()),
-        lamps(p, cosim.lights().heads()) {
+        writer(p, topics::Traffic()) {
+    const std::vector<maps::District>& districts = c.districts.all();
+    AUTODRIVE_THROW_UNLESS(options.districts.size() == districts.size(),
+                           "the city has " << districts.size() << " districts, "
+                                           << options.districts.size()
+                                           << " participants were given for them");
+    // The heads by the domain they are heard on: 0 the service's, 1 + i district i's.
+    std::vector<std::vector<SignalHeadId>> heads(1 + districts.size());
+    for (const SignalHeadId h : cosim.lights().heads()) {
+      const maps::District* d = c.districts.Of(c.map.signal_head(h).intersection);
+      heads[d == nullptr ? 0 : 1 + static_cast<std::size_t>(d - districts.data())].push_back(h);
+    }
+    for (std::size_t i = 0; i < heads.size(); ++i) {
+      if (heads[i].empty()) continue;
+      lamps.push_back(
+          std::make_unique<LampInbox>(i == 0 ? p : *options.districts[i - 1], heads[i]));
+    }
+    for (const dds::Participant* d : options.districts) {
+      district_writers.push_back(
+          std::make_unique<dds::Writer<msg::TrafficObjects>>(*d, topics::Traffic()));
+    }
+    district_vehicles.resize(districts.size());
     source = config.lab_cars.source;
     if (source == "auto") source = c.config.sim ? "ground_truth" : "fleet";
     if (source == "ground_truth") {
@@ -148,8 +172,10 @@ struct TrafficService::Impl {
 
   // Takes what arrived: lamps (reported at `now`) and lab cars.
   void TakeInputs(MonoTime now) {
-    lamps.Take(lamps_taken);
-    for (const LampInbox::Lamp& l : lamps_taken) cosim.ReportLamp(l.head, l.lamp, now);
+    for (auto& inbox : lamps) {
+      inbox->Take(lamps_taken);
+      for (const LampInbox::Lamp& l : lamps_taken) cosim.ReportLamp(l.head, l.lamp, now);
+    }
     fresh.clear();
     for (auto& r : truth_readers) {
       while (r->TakeOne(truth_sample)) Observe(*truth_sample);
@@ -166,6 +192,19 @@ struct TrafficService::Impl {
     msg::TrafficObjects m{};
     FillTrafficObjects(vehicles, stamp, objects, m);
     writer.Write(m);
+    if (!district_writers.empty()) {
+      for (auto& list : district_vehicles) list.clear();
+      const maps::District* first = city.districts.all().data();
+      for (const TrafficVehicle& v : vehicles) {
+        district_vehicles[static_cast<std::size_t>(city.districts.At(v.centre) - first)].push_back(
+            v);
+      }
+      for (std::size_t i = 0; i < district_writers.size(); ++i) {
+        msg::TrafficObjects own{};
+        FillTrafficObjects(district_vehicles[i], stamp, objects, own);
+        district_writers[i]->Write(own);
+      }
+    }
     if (options.log != nullptr) {
       std::ostream& log = *options.log;
       const double t = ToSeconds(stamp - Time{});

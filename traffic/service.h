@@ -42,6 +42,11 @@ struct TrafficServiceOptions {
   Duration duration{0};
   /// Every step's objects as CSV lines (`ObjectsCsvHeader`), e.g. for comparing runs.
   std::ostream* log = nullptr;
+  /// A city of districts (docs/districts.md): a participant on each district's domain, in the
+  /// order of the city's `districts:` section (each must outlive the service). Each district's
+  /// lamps are read there, and its own vehicles (by `maps::Districts::At`) are published there
+  /// as well; every vehicle still goes to the service's participant (the simulator's domain).
+  std::vector<const dds::Participant*> districts;
 };
 
 /// `out` holding `vehicles` (strings and the sequence borrowed from `vehicles` and `buffer`,

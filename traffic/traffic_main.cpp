@@ -21,6 +21,7 @@
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "common/time.h"
+#include "maps/district_domains.h"
 #include "scm/core/city.h"
 
 namespace autodrive::traffic {
@@ -97,6 +98,9 @@ int Run(const RunOptions& o) {
                                   : std::string("in process (libsumo)"),
       o.lockstep.empty() ? o.clock + " clock" : "lockstep as " + o.lockstep,
       options.work_dir.string());
+  // A district's lamps and vehicles are on its domain (docs/districts.md).
+  const maps::DistrictDomains district_domains(participant, o.dds.Participant(), city.districts);
+  options.districts = district_domains.participants();
   TrafficService service(participant, city, config, options);
   service.Run(stop);
   if (log.is_open()) {

@@ -26,10 +26,10 @@
 #include "common/ids.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "maps/district_domains.h"
 #include "maps/map.h"
 #include "maps/map_io.h"
 #include "vehicle_sim/dataset.h"
-#include "vehicle_sim/district_domains.h"
 #include "vehicle_sim/lane_driver.h"
 #include "vehicle_sim/replay.h"
 #include "vehicle_sim/service.h"
@@ -320,7 +320,7 @@ int Serve(const std::string& city_path, const ServiceOverrides& overrides,
   dds::Participant participant(dds_cli.Participant());
   // A district's cars are heard on its domain (docs/districts.md).
   const maps::Districts districts(map, city.districts);
-  const DistrictDomains district_domains(participant, dds_cli.Participant(), districts);
+  const maps::DistrictDomains district_domains(participant, dds_cli.Participant(), districts);
   SimService service(participant, city, map, options, district_domains.participants());
   std::ofstream log;
   if (!log_path.empty()) {

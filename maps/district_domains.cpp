@@ -1,17 +1,16 @@
-#include "vehicle_sim/district_domains.h"
+#include "maps/district_domains.h"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "common/error.h"
 
-namespace autodrive::vehicle_sim {
+namespace autodrive::maps {
 
 DistrictDomains::DistrictDomains(const dds::Participant& main,
-                                 const dds::ParticipantOptions& options,
-                                 const maps::Districts& districts)
+                                 const dds::ParticipantOptions& options, const Districts& districts)
     : main_(main), districts_(districts) {
-  for (const maps::District& d : districts.all()) {
+  for (const District& d : districts.all()) {
     if (d.domain == main.domain_id()) {
       throw InputError(fmt::format(
           "district {} is on DDS domain {}, this program's own, where the cars' own topics are: "
@@ -27,10 +26,10 @@ DistrictDomains::DistrictDomains(const dds::Participant& main,
   }
 }
 
-const dds::Participant& DistrictDomains::ForHead(const maps::SignalHead& head) const {
-  const maps::District* d = districts_.Of(head.intersection);
+const dds::Participant& DistrictDomains::ForHead(const SignalHead& head) const {
+  const District* d = districts_.Of(head.intersection);
   if (d == nullptr) return main_;
   return *pointers_.at(static_cast<std::size_t>(d - districts_.all().data()));
 }
 
-}  // namespace autodrive::vehicle_sim
+}  // namespace autodrive::maps

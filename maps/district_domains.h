@@ -11,7 +11,7 @@
 #include "maps/districts.h"
 #include "maps/map.h"
 
-namespace autodrive::vehicle_sim {
+namespace autodrive::maps {
 
 class DistrictDomains {
  public:
@@ -21,20 +21,20 @@ class DistrictDomains {
   /// @throws InputError when a district is on `main`'s domain: the cars' own topics there would
   ///   be heard by that district wherever the cars are.
   DistrictDomains(const dds::Participant& main, const dds::ParticipantOptions& options,
-                  const maps::Districts& districts);
+                  const Districts& districts);
 
   /// One per district, in the order of `districts.all()`.
   [[nodiscard]] const std::vector<const dds::Participant*>& participants() const {
     return pointers_;
   }
   /// Where the lamps of `head` are heard: its intersection's district's domain, else `main`'s.
-  [[nodiscard]] const dds::Participant& ForHead(const maps::SignalHead& head) const;
+  [[nodiscard]] const dds::Participant& ForHead(const SignalHead& head) const;
 
  private:
   const dds::Participant& main_;
-  const maps::Districts& districts_;
+  const Districts& districts_;
   std::vector<std::unique_ptr<dds::Participant>> owned_;
   std::vector<const dds::Participant*> pointers_;
 };
 
-}  // namespace autodrive::vehicle_sim
+}  // namespace autodrive::maps
