@@ -257,6 +257,16 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
   // The SCM's view: every intersection, plan and safety rule checked against the map.
   const scm::City city = scm::LoadCity(plan.city_file);
   plan.city_name = city.config.name;
+  if (!city.districts.empty()) {
+    // Its SCMs, light hosts and their readiness live on the districts' domains, which the
+    // launcher does not watch yet.
+    throw ConfigError(fmt::format(
+        "{}: districts: autodrive-city does not start a city of districts yet; run each "
+        "district's autodrive-scm --district and its light host (autodrive-infra --domain), and "
+        "the simulator, the driver and autodrive-traffic on a domain of their own "
+        "(docs/districts.md)",
+        plan.city_file.string()));
+  }
   const LaunchConfig launch = LoadLaunch(plan.city_file);
 
   plan.run_dir = ResolveRunDir(plan.city_file, plan.city_name, launch.run_dir);

@@ -190,6 +190,18 @@ TEST_F(Plan, ALockstepCityStartsItsControllersWithTheirNamesAndWaitsForNone) {
                         "the launcher does not start"));
 }
 
+TEST_F(Plan, ACityOfDistrictsIsRefusedSayingHowToRunIt) {
+  const auto f = City(Lights());
+  std::string text = config::ReadFile(f);
+  text.insert(text.find("\nfleet:") + 1,
+              "districts:\n"
+              "  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+              "  - {name: downtown, domain: 12, intersections: [centre]}\n");
+  std::ofstream(f) << text;
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] { (void)PlanCity(f, dir_ / "bin"); }),
+              HasSubstr("districts: autodrive-city does not start a city of districts yet"));
+}
+
 TEST_F(Plan, BadFilesAreRefusedWithOneErrorNamingWhere) {
   // A misspelt key in another program's section: refused here, before anything starts.
   {
