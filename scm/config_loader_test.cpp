@@ -213,6 +213,47 @@ TEST_F(ConfigLoaderTest, ABrokenConfigurationIsAnsweredWithItsErrorAndEndsTheReq
   EXPECT_FALSE(loader_->busy());
 }
 
+// An SCM of one district (docs/districts.md) narrows what it is sent to its district, and refuses
+// a configuration without that district.
+TEST_F(ConfigLoaderTest, ADistrictsLoaderNarrowsToItsDistrictAndRefusesACityWithoutIt) {
+  ConfigLoader uptown(*participant_, ClockKind::kWall, *writers_, *store_,
+                      MapResolution{test::SourceDir() / "config/cities", test::SourceDir()},
+                      "uptown", [this] { woken_ = true; });
+  std::string town = config::ReadFile(test::SourceDir() / "config/cities/small_town.yaml");
+  const std::string plain = town;
+  town.insert(town.find("\nfleet:") + 1,
+              "districts:\n"
+              "  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+              "  - {name: downtown, domain: 12, intersections: [centre]}\n");
+  const auto check = [&](const std::string& text) {
+    std::atomic<bool> done{false};
+    std::unique_ptr<City> got;
+    std::string error;
+    uptown.Check(text, "sent.yaml", {}, [&](std::unique_ptr<City> city, std::string e) {
+      got = std::move(city);
+      error = std::move(e);
+      done = true;
+    });
+    for (const auto end = std::chrono::steady_clock::now() + seconds(60);
+         !done && std::chrono::steady_clock::now() < end;) {
+      uptown.RunCompletions();
+      std::this_thread::yield();
+    }
+    EXPECT_TRUE(done);
+    return std::pair{std::move(got), error};
+  };
+  const auto [narrowed, no_error] = check(town);
+  ASSERT_TRUE(narrowed) << no_error;
+  EXPECT_EQ(narrowed->district, "uptown");
+  ASSERT_EQ(narrowed->intersections.size(), 1u);
+  EXPECT_EQ(narrowed->intersections[0].name, "north_t");
+  const auto [refused, error] = check(plain);
+  EXPECT_FALSE(refused);
+  EXPECT_NE(error.find("city small_town has no district uptown (it has no districts: section)"),
+            std::string::npos)
+      << error;
+}
+
 // Found from outside (issue 30): a city file without `operators:` was validated and applied,
 // and from then on every state change, reset included, was refused; applying another city's
 // file left every intersection in start-up flash. Both are refused with the reason, and the
