@@ -7,22 +7,30 @@
 
 namespace autodrive::maps {
 
+std::unique_ptr<dds::Participant> JoinDistrictDomain(const dds::Participant& main,
+                                                     const dds::ParticipantOptions& options,
+                                                     const std::string& name,
+                                                     std::uint32_t domain) {
+  if (domain == main.domain_id()) {
+    throw InputError(fmt::format(
+        "district {} is on DDS domain {}, this program's own, where the cars' own topics are: "
+        "that district would hear every car wherever it is. Run the program on a domain of "
+        "its own (--domain, ROS_DOMAIN_ID) or give the district another",
+        name, domain));
+  }
+  dds::ParticipantOptions o = options;
+  o.domain_id = domain;
+  auto participant = std::make_unique<dds::Participant>(o);
+  spdlog::info("district {} on DDS domain {}", name, domain);
+  return participant;
+}
+
 DistrictDomains::DistrictDomains(const dds::Participant& main,
                                  const dds::ParticipantOptions& options, const Districts& districts)
     : main_(main), districts_(districts) {
   for (const District& d : districts.all()) {
-    if (d.domain == main.domain_id()) {
-      throw InputError(fmt::format(
-          "district {} is on DDS domain {}, this program's own, where the cars' own topics are: "
-          "that district would hear every car wherever it is. Run the program on a domain of "
-          "its own (--domain, ROS_DOMAIN_ID) or give the district another",
-          d.name, d.domain));
-    }
-    dds::ParticipantOptions o = options;
-    o.domain_id = d.domain;
-    owned_.push_back(std::make_unique<dds::Participant>(o));
+    owned_.push_back(JoinDistrictDomain(main, options, d.name, d.domain));
     pointers_.push_back(owned_.back().get());
-    spdlog::info("district {} on DDS domain {}", d.name, d.domain);
   }
 }
 

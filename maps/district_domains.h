@@ -4,7 +4,9 @@
 /// (docs/districts.md): the simulator publishes each car's `ips` where the car is, and it and the
 /// example driver read each district's lamps there.
 
+#include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "common/dds/participant.h"
@@ -12,6 +14,14 @@
 #include "maps/map.h"
 
 namespace autodrive::maps {
+
+/// A participant made with `options` but on the domain of district `name`, `domain`, for a
+/// program whose own participant is `main`.
+/// @throws InputError when `domain` is `main`'s: the cars' own topics there would be heard by
+///   that district wherever the cars are.
+[[nodiscard]] std::unique_ptr<dds::Participant> JoinDistrictDomain(
+    const dds::Participant& main, const dds::ParticipantOptions& options, const std::string& name,
+    std::uint32_t domain);
 
 class DistrictDomains {
  public:

@@ -57,14 +57,7 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
   const std::uint32_t uptown = Uptown();
   const std::uint32_t downtown = Downtown();
   const std::string city = Write("city.yaml", SmallTownInDistricts());
-  // The small town's lights, split by district: north_t's heads 1-3, centre's 4-7.
-  std::string lights = config::ReadFile(Config("config/infra/small_town.yaml"));
-  lights.replace(lights.find("../maps/small_town.yaml"), 23, Config("config/maps/small_town.yaml"));
-  const auto heads = lights.find("heads: [1, 2, 3, 4, 5, 6, 7]");
-  ASSERT_NE(heads, std::string::npos);
-  std::string up_lights = lights, down_lights = lights;
-  up_lights.replace(heads, 28, "heads: [1, 2, 3]");
-  down_lights.replace(heads, 28, "heads: [4, 5, 6, 7]");
+  const auto [up_lights, down_lights] = SmallTownDistrictLights();
   const auto common = [&](std::vector<std::string> argv) {
     argv.insert(argv.end(), {"--partition", partition_, "--log-level", "warn"});
     return argv;
@@ -74,9 +67,8 @@ TEST_F(DistrictCity, ACarCrossingIntoAnotherDistrictMovesToThatDistrictsFleet) {
     processes.push_back(std::make_unique<ChildProcess>(
         common(std::move(argv)), std::vector<std::string>{test::NoonTimeZone()}));
   };
-  start({test::Bin("autodrive-infra"), "--config", Write("up.yaml", up_lights), "--domain",
-         std::to_string(uptown)});
-  start({test::Bin("autodrive-infra"), "--config", Write("down.yaml", down_lights), "--domain",
+  start({test::Bin("autodrive-infra"), "--config", up_lights, "--domain", std::to_string(uptown)});
+  start({test::Bin("autodrive-infra"), "--config", down_lights, "--domain",
          std::to_string(downtown)});
   start({test::Bin("autodrive-scm"), "--config", city, "--district", "uptown", "--db",
          (dir_ / "up.db").string()});

@@ -67,17 +67,19 @@ class Launcher : public ScmProcesses {
   }
 
   std::unique_ptr<ChildProcess> Up(const std::string& city, std::vector<std::string> extra = {},
-                                   std::vector<std::string> env = {}) {
+                                   std::vector<std::string> env = {},
+                                   const std::string& log = "launcher.log") {
     std::vector<std::string> argv{Bin("autodrive-city"), "up", city, "--partition", partition_};
     argv.insert(argv.end(), extra.begin(), extra.end());
     ChildOptions options;
     options.extra_env = std::move(env);
-    options.output_file = dir_ / "launcher.log";
+    options.output_file = dir_ / log;
     return std::make_unique<ChildProcess>(ChildProcess::Start(argv, options));
   }
 
-  nlohmann::json Status() const {
-    std::ifstream in(dir_ / "run" / "status.json");
+  /// The launcher's status.json, or a host's share's (status-HOST.json).
+  nlohmann::json Status(const std::string& host = "") const {
+    std::ifstream in(dir_ / "run" / (host.empty() ? "status.json" : "status-" + host + ".json"));
     if (!in) return {};
     try {
       return nlohmann::json::parse(in);
@@ -88,10 +90,11 @@ class Launcher : public ScmProcesses {
 
   // Waits until `pred(status)` holds (generous deadline); gives up when the launcher exits.
   template <typename P>
-  nlohmann::json WaitStatus(ChildProcess& launcher, P pred, SteadyClock::duration timeout) {
+  nlohmann::json WaitStatus(ChildProcess& launcher, P pred, SteadyClock::duration timeout,
+                            const std::string& host = "") {
     const auto end = SteadyClock::now() + timeout;
     for (;;) {
-      nlohmann::json s = Status();
+      nlohmann::json s = Status(host);
       if (!s.is_null() && pred(s)) return s;
       if (SteadyClock::now() > end || launcher.Wait(milliseconds(0))) return {};
       std::this_thread::sleep_for(milliseconds(100));
@@ -112,7 +115,9 @@ class Launcher : public ScmProcesses {
     return true;
   }
 
-  std::string LauncherLog() const { return config::ReadFile(dir_ / "launcher.log"); }
+  std::string LauncherLog(const std::string& log = "launcher.log") const {
+    return config::ReadFile(dir_ / log);
+  }
 
   /// The dashboard's port, from the launcher's line "dashboard: http://127.0.0.1:PORT/" (it
   /// prints it once the city is up), or 0 when it does not come.
@@ -549,6 +554,91 @@ TEST_F(Launcher, ACrashLoopIsReportedNotHidden) {
   const Output status = RunCaptured({Bin("autodrive-city"), "status", city});
   EXPECT_THAT(status.text, HasSubstr("crash-loop"));
   up->Stop(milliseconds(60000));
+}
+
+// A city of districts from one file (docs/districts.md), its shares on two hosts: uptown's light
+// host and SCM on one, downtown's on the other. Each is ready on its district's domain, each
+// district's SCM hears both hosts' process tables (it logs the other district's SCM's death),
+// and a killed district SCM is started again at once.
+TEST_F(Launcher, ACityOfDistrictsStartsEachDistrictsScmAndLightsOnItsDomainFromOneFile) {
+  const auto [up_lights, down_lights] = SmallTownDistrictLights();
+  const std::string city =
+      Write("city.yaml",
+            SmallTownInDistricts() +
+                fmt::format("launch:\n  run_dir: {}\n  lights:\n    districts: {{uptown: {}, "
+                            "downtown: {}}}\n  sim: {{mode: off}}\n  eye: {{mode: off}}\n"
+                            "  traffic: {{mode: off}}\n  dashboard: {{mode: off}}\n  hosts:\n"
+                            "    up_host: [lights_uptown, scm_uptown]\n"
+                            "    down_host: [lights_downtown, scm_downtown]\n",
+                            (dir_ / "run").string(), up_lights, down_lights));
+  // The launcher's own domain may be no district's.
+  const Output refused =
+      RunCaptured({"env", fmt::format("ROS_DOMAIN_ID={}", Uptown()), Bin("autodrive-city"), "up",
+                   city, "--host", "up_host", "--partition", partition_});
+  EXPECT_EQ(refused.code, 1) << refused.text;
+  EXPECT_THAT(
+      refused.text,
+      HasSubstr(fmt::format("district uptown is on DDS domain {}, this program's own", Uptown())));
+
+  auto up = Up(city, {"--host", "up_host"}, {}, "up_host.log");
+  auto down = Up(city, {"--host", "down_host"}, {}, "down_host.log");
+  const auto up_status = WaitStatus(*up, AllRunning, seconds(120), "up_host");
+  ASSERT_FALSE(up_status.is_null()) << LauncherLog("up_host.log");
+  const auto down_status = WaitStatus(*down, AllRunning, seconds(120), "down_host");
+  ASSERT_FALSE(down_status.is_null()) << LauncherLog("down_host.log");
+  EXPECT_NE(Process(up_status, "scm_uptown"), nullptr);
+  EXPECT_NE(Process(down_status, "lights_downtown"), nullptr);
+
+  // Each district's SCM runs its intersection on its domain, where its lights follow it.
+  dds::Participant up_domain(dds::ParticipantOptions{Uptown(), partition_, {}});
+  dds::Participant down_domain(dds::ParticipantOptions{Downtown(), partition_, {}});
+  const auto green_on = [&](dds::Participant& domain, const std::string& intersection) {
+    dds::Reader<msg::Spat> spat(domain, dds::topics::Spat().name, dds::Qos::Stream(64));
+    for (const auto end = SteadyClock::now() + seconds(60); SteadyClock::now() < end;) {
+      spat.WaitForData(milliseconds(100));
+      for (const auto& m : spat.TakeAll()) {
+        const auto* x = FindIntersection(*m, intersection);
+        if (x != nullptr && AnyGreen(*m)) return true;
+      }
+    }
+    return false;
+  };
+  EXPECT_TRUE(green_on(up_domain, "north_t")) << LauncherLog("up_host.log");
+  EXPECT_TRUE(green_on(down_domain, "centre")) << LauncherLog("down_host.log");
+
+  // Killing downtown's SCM: started again at once by its host's launcher, and uptown's SCM,
+  // which hears that launcher's table on its own domain, logs the death.
+  dds::Reader<msg::Event> up_events(up_domain, dds::topics::Events());
+  const int scm = Process(down_status, "scm_downtown")->value("pid", -1);
+  ASSERT_GT(scm, 0);
+  ::kill(scm, SIGKILL);
+  bool logged = false;
+  for (const auto end = SteadyClock::now() + seconds(60); !logged && SteadyClock::now() < end;) {
+    up_events.WaitForData(milliseconds(100));
+    for (const auto& e : up_events.TakeAll()) {
+      logged = logged || (dds::View(e->code) == "process_exited" &&
+                          dds::View(e->device_id) == "process/scm_downtown");
+    }
+  }
+  EXPECT_TRUE(logged) << "uptown's SCM did not log downtown's SCM's death";
+  const auto again = WaitStatus(
+      *down,
+      [](const nlohmann::json& st) {
+        const auto* p = Process(st, "scm_downtown");
+        return p != nullptr && p->value("starts", 0) == 2 && p->value("phase", "") == "running";
+      },
+      seconds(60), "down_host");
+  ASSERT_FALSE(again.is_null()) << LauncherLog("down_host.log");
+  EXPECT_THAT(LauncherLog("down_host.log"),
+              HasSubstr("scm_downtown exited with code 137: starting it again"));
+  EXPECT_TRUE(green_on(down_domain, "centre")) << LauncherLog("down_host.log");
+
+  for (const char* host : {"up_host", "down_host"}) {
+    const Output out = RunCaptured({Bin("autodrive-city"), "down", city, "--host", host});
+    EXPECT_EQ(out.code, 0) << out.text;
+  }
+  EXPECT_EQ(up->Wait(milliseconds(60000)), std::optional<int>(0)) << LauncherLog("up_host.log");
+  EXPECT_EQ(down->Wait(milliseconds(60000)), std::optional<int>(0)) << LauncherLog("down_host.log");
 }
 
 TEST_F(Launcher, ABadCityFileIsRefusedBeforeAnyProcessStarts) {

@@ -168,6 +168,22 @@ class ScmProcesses : public ::testing::Test {
                     extra);
     return text;
   }
+  /// The small town's light host split by `SmallTownInDistricts`' districts, written into the
+  /// test's folder as up.yaml (north_t's heads 1-3, host uptown_lights) and down.yaml (centre's
+  /// 4-7, downtown_lights); returns their paths.
+  std::pair<std::string, std::string> SmallTownDistrictLights() const {
+    std::string lights = config::ReadFile(Config("config/infra/small_town.yaml"));
+    const std::string map = "../maps/small_town.yaml";
+    lights.replace(lights.find(map), map.size(), Config("config/maps/small_town.yaml"));
+    const std::string heads = "heads: [1, 2, 3, 4, 5, 6, 7]";
+    const std::string name = "name: small_town_lights";
+    std::string up = lights, down = lights;
+    up.replace(up.find(heads), heads.size(), "heads: [1, 2, 3]");
+    up.replace(up.find(name), name.size(), "name: uptown_lights");
+    down.replace(down.find(heads), heads.size(), "heads: [4, 5, 6, 7]");
+    down.replace(down.find(name), name.size(), "name: downtown_lights");
+    return {Write("up.yaml", up), Write("down.yaml", down)};
+  }
   /// Writes `text` to `name` in the test's folder; returns its path.
   std::string Write(const std::string& name, const std::string& text) const {
     const auto path = (dir_ / name).string();

@@ -1,6 +1,7 @@
 // autodrive-city: brings a whole city up from its file and down again (docs/launcher.md).
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <netdb.h>
 #include <signal.h>
 #include <sys/socket.h>
@@ -31,6 +32,7 @@
 #include "common/logging.h"
 #include "common/process.h"
 #include "common/shutdown.h"
+#include "maps/district_domains.h"
 
 namespace autodrive::launcher {
 namespace {
@@ -199,9 +201,6 @@ int Up(const UpOptions& o) {
       }
     }
   }
-  std::filesystem::create_directories(plan.run_dir);
-  std::ofstream(plan.pid_file) << ::getpid() << '\n';
-  if (plan.dashboard) MakeTokens(*plan.dashboard);
   std::atomic<bool> stop{false};
   ShutdownSignals signals([&](int) { stop.store(true); });
   StopWithParentIfAsked();
@@ -222,12 +221,25 @@ int Up(const UpOptions& o) {
   }
   participant_options.ros_node = dds::RosNodeFor("/autodrive/launcher");
   dds::Participant participant(participant_options);
+  // A city of districts: the districts' SCMs and light hosts are heard on their domains, and
+  // the process table goes there too. The launcher's own domain, where the simulator, the driver
+  // and SUMO run, must be no district's (the simulator would refuse it).
+  std::vector<std::unique_ptr<dds::Participant>> district_domains;
+  std::vector<const dds::Participant*> districts;
+  for (const auto& [name, domain] : plan.districts) {
+    district_domains.push_back(
+        maps::JoinDistrictDomain(participant, participant_options, name, domain));
+    districts.push_back(district_domains.back().get());
+  }
+  std::filesystem::create_directories(plan.run_dir);
+  std::ofstream(plan.pid_file) << ::getpid() << '\n';
+  if (plan.dashboard) MakeTokens(*plan.dashboard);
   Say(fmt::format("city {}: {} processes{}; run folder {}", plan.city_name, plan.processes.size(),
                   plan.host.empty() ? "" : fmt::format(" (host {}'s share)", plan.host),
                   plan.run_dir.string()));
   int code = 0;
   {
-    Supervisor supervisor(plan, participant, Say);
+    Supervisor supervisor(plan, participant, Say, districts);
     try {
       supervisor.Up(stop);
       if (!stop.load()) {
@@ -318,13 +330,17 @@ int Status(const std::string& city, const std::string& host, bool json) {
   std::printf("city %s%s: %s (as of %s)\n", j.value("city", "?").c_str(),
               host.empty() ? "" : (", host " + host).c_str(), up ? "up" : "not running",
               j.value("updated", "?").c_str());
-  std::printf("%-12s %-10s %8s %7s %9s  %s\n", "process", "state", "pid", "starts", "last exit",
-              "since");
+  std::size_t width = 12;  // a district's lights_<district> may be longer
+  for (const auto& p : j.at("processes")) width = std::max(width, p.value("name", "?").size());
+  std::printf("%s\n", fmt::format("{:<{}} {:<10} {:>8} {:>7} {:>9}  {}", "process", width, "state",
+                                  "pid", "starts", "last exit", "since")
+                          .c_str());
   for (const auto& p : j.at("processes")) {
     const std::string last = p["last_exit"].is_null() ? "-" : p["last_exit"].dump();
-    std::printf("%-12s %-10s %8d %7d %9s  %s\n", p.value("name", "?").c_str(),
-                p.value("phase", "?").c_str(), p.value("pid", -1), p.value("starts", 0),
-                last.c_str(), p.value("since", "?").c_str());
+    std::printf("%s\n", fmt::format("{:<{}} {:<10} {:>8} {:>7} {:>9}  {}", p.value("name", "?"),
+                                    width, p.value("phase", "?"), p.value("pid", -1),
+                                    p.value("starts", 0), last, p.value("since", "?"))
+                            .c_str());
   }
   return up ? 0 : 3;
 }
@@ -427,8 +443,13 @@ int InstallUnits(const std::string& city, const std::string& host, const std::st
 int Check(const std::string& city, const std::string& bin_dir) {
   const LaunchPlan plan = PlanCity(city, bin_dir.empty() ? ExecutableDir() : bin_dir);
   std::printf("city %s: run folder %s\n", plan.city_name.c_str(), plan.run_dir.c_str());
+  std::size_t width = 10;
+  for (const ProcessPlan& p : plan.processes) width = std::max(width, p.name.size());
+  for (const auto& [name, domain] : plan.districts) {
+    std::printf("district %s: DDS domain %u\n", name.c_str(), domain);
+  }
   for (const ProcessPlan& p : plan.processes) {
-    std::printf("  %-10s %s\n", p.name.c_str(), fmt::format("{}", fmt::join(p.argv, " ")).c_str());
+    std::printf("  %s\n", fmt::format("{:<{}} {}", p.name, width, fmt::join(p.argv, " ")).c_str());
   }
   return 0;
 }

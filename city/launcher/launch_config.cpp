@@ -141,11 +141,17 @@ std::filesystem::path RunDirOf(const std::filesystem::path& city_file) {
 
 namespace {
 
-// The city's light host must drive every head of the city's signalised intersections, and only
-// those, each at the same intersection and approach in its map as in the city's: a head that
-// no one drives keeps its intersection in start-up flash for good.
-void CheckHeadsHosted(const maps::Map& city_map, const infrastructure::HostPlan& host,
-                      const std::string& city_path, const std::string& lights_path) {
+// A light host must drive every head of the signalised intersections it serves (the city's,
+// or in a city of districts its district's), and only those, each at the same intersection and
+// approach in its map as in the city's: a head that no one drives keeps its intersection in
+// start-up flash for good.
+void CheckHeadsHosted(const scm::City& city, const maps::District* district,
+                      const infrastructure::HostPlan& host, const std::string& city_path,
+                      const std::string& lights_path) {
+  const maps::Map& city_map = city.map;
+  const auto served = [&](const maps::SignalHead& h) {
+    return district == nullptr || city.districts.Of(h.intersection) == district;
+  };
   std::set<SignalHeadId> hosted;
   std::vector<std::string> problems;
   for (const infrastructure::HeadPlan& h : host.heads) {
@@ -157,22 +163,30 @@ void CheckHeadsHosted(const maps::Map& city_map, const infrastructure::HostPlan&
           fmt::format("it hosts {}, which the city's map {} has not", there, city_map.name));
     } else if (there != here) {
       problems.push_back(fmt::format("its map has {} where the city's has {}", there, here));
+    } else if (!served(city_map.signal_head(h.id))) {
+      const maps::District* other = city.districts.Of(city_map.signal_head(h.id).intersection);
+      problems.push_back(fmt::format("it hosts {}, which is district {}'s", there,
+                                     other == nullptr ? "(none)" : other->name));
     }
   }
   std::vector<std::string> missing;
   for (const maps::SignalHead& h : city_map.signal_heads) {
-    if (!hosted.contains(h.id)) missing.push_back(city_map.DescribeSignalHead(h.id));
+    if (served(h) && !hosted.contains(h.id)) missing.push_back(city_map.DescribeSignalHead(h.id));
   }
   if (!missing.empty()) {
     problems.push_back(fmt::format("it does not host {} (add {} to its heads)",
                                    fmt::join(missing, ", "), missing.size() == 1 ? "it" : "them"));
   }
   if (!problems.empty()) {
+    const std::string key =
+        district == nullptr ? "launch.lights" : "launch.lights (district " + district->name + ")";
     throw ConfigError(fmt::format(
-        "{}: launch.lights: the light host's file {} does not match the city: {}. Head ids are "
-        "the map's heads= (autodrive-map info lists them); set launch.lights.mode: off when the "
-        "lights run on other hosts",
-        city_path, lights_path, fmt::join(problems, "; ")));
+        "{}: {}: the light host's file {} does not match the city{}: {}. Head ids are the map's "
+        "heads= (autodrive-map info lists them); set launch.lights.mode: off when the lights run "
+        "on other hosts",
+        city_path, key, lights_path,
+        district == nullptr ? "" : fmt::format(" (district {}'s heads)", district->name),
+        fmt::join(problems, "; ")));
   }
 }
 
@@ -257,16 +271,7 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
   // The SCM's view: every intersection, plan and safety rule checked against the map.
   const scm::City city = scm::LoadCity(plan.city_file);
   plan.city_name = city.config.name;
-  if (!city.districts.empty()) {
-    // Its SCMs, light hosts and their readiness live on the districts' domains, which the
-    // launcher does not watch yet.
-    throw ConfigError(fmt::format(
-        "{}: districts: autodrive-city does not start a city of districts yet; run each "
-        "district's autodrive-scm --district and its light host (autodrive-infra --domain), and "
-        "the simulator, the driver and autodrive-traffic on a domain of their own "
-        "(docs/districts.md)",
-        plan.city_file.string()));
-  }
+  for (const maps::District& d : city.districts.all()) plan.districts.emplace(d.name, d.domain);
   const LaunchConfig launch = LoadLaunch(plan.city_file);
 
   plan.run_dir = ResolveRunDir(plan.city_file, plan.city_name, launch.run_dir);
@@ -282,6 +287,7 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
     argv.insert(argv.end(), p.args.begin(), p.args.end());
     ProcessPlan process;
     process.name = name;
+    process.program = name;
     process.argv = std::move(argv);
     process.restart = RestartOf(p.restart, fallback);
     process.ready = std::move(ready);
@@ -291,17 +297,18 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
     plan.processes.push_back(std::move(process));
   };
 
-  // 1. The lights: they flash on their own until the SCM is up, and last when it goes.
+  // 1. The lights: they flash on their own until the SCM is up, and last when it goes. A city
+  // of districts has a light host per district, on its domain.
   const LightsProcessConfig& lights = launch.lights;
-  if (lights.process.mode != "off") {
-    const std::filesystem::path file = lights.config.empty()
-                                           ? base / ".." / "infra" / (plan.city_name + ".yaml")
-                                           : base / lights.config;
+  const auto add_lights = [&](const std::string& name, const std::filesystem::path& file,
+                              const maps::District* district) {
     if (!std::filesystem::exists(file)) {
       throw ConfigError(fmt::format(
-          "{}: launch.lights: the light host's file {} does not exist (set launch.lights.config, "
-          "or launch.lights.mode: off when the lights run on another host)",
-          city_path, file.lexically_normal().string()));
+          "{}: launch.lights: the light host's file {}{} does not exist (set "
+          "launch.lights.{}, or launch.lights.mode: off when the lights run on another host)",
+          city_path, file.lexically_normal().string(),
+          district == nullptr ? "" : " of district " + district->name,
+          district == nullptr ? "config" : "districts." + district->name));
     }
     const infrastructure::InfraConfig infra = infrastructure::LoadInfraConfig(file);
     if (infra.city != plan.city_name) {
@@ -309,17 +316,67 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
                                     city_path, file.lexically_normal().string(), infra.city,
                                     plan.city_name));
     }
-    CheckHeadsHosted(city.map, infrastructure::PlanHost(infra, file), city_path,
+    CheckHeadsHosted(city, district, infrastructure::PlanHost(infra, file), city_path,
                      file.lexically_normal().string());
-    add("lights", lights.process,
-        {bin("autodrive-infra"), "--config", file.lexically_normal().string()}, Restart::kAlways,
-        {Readiness::Kind::kHeartbeat, "infra/" + infra.name, {}});
+    std::vector<std::string> argv{bin("autodrive-infra"), "--config",
+                                  file.lexically_normal().string()};
+    Readiness ready{Readiness::Kind::kHeartbeat, "infra/" + infra.name, {}};
+    if (district != nullptr) {
+      argv.insert(argv.end(), {"--domain", std::to_string(district->domain)});
+      ready.domain = district->domain;
+    }
+    add(name, lights.process, std::move(argv), Restart::kAlways, std::move(ready));
+    plan.processes.back().program = "lights";
+  };
+  if (city.districts.empty() && !lights.districts.empty()) {
+    throw ConfigError(fmt::format(
+        "{}: launch.lights.districts: the city has no districts (docs/districts.md)", city_path));
   }
-  // 2. The SCM, restarted at once whatever ended it.
+  for (const auto& [name, file] : lights.districts) {
+    if (city.districts.Find(name) == nullptr) {
+      throw ConfigError(
+          fmt::format("{}: launch.lights.districts: {} is not a district (the city "
+                      "has {})",
+                      city_path, name, city.districts.Names()));
+    }
+  }
+  if (!city.districts.empty() && !lights.config.empty() && lights.process.mode != "off") {
+    throw ConfigError(fmt::format(
+        "{}: launch.lights.config: a city of districts has a light host per district; name their "
+        "files in launch.lights.districts (NAME: FILE; by default ../infra/{}_NAME.yaml)",
+        city_path, plan.city_name));
+  }
+  if (lights.process.mode != "off") {
+    if (city.districts.empty()) {
+      add_lights("lights",
+                 lights.config.empty() ? base / ".." / "infra" / (plan.city_name + ".yaml")
+                                       : base / lights.config,
+                 nullptr);
+    }
+    for (const maps::District& d : city.districts.all()) {
+      const auto named = lights.districts.find(d.name);
+      add_lights("lights_" + d.name,
+                 named != lights.districts.end()
+                     ? base / named->second
+                     : base / ".." / "infra" / fmt::format("{}_{}.yaml", plan.city_name, d.name),
+                 &d);
+    }
+  }
+  // 2. The SCM, restarted at once whatever ended it; in a city of districts, one per district
+  // on its domain (`--district`), each with a database of its own.
   if (launch.scm.mode != "off") {
-    add("scm", launch.scm,
-        {bin("autodrive-scm"), "--config", city_path, "--db", (plan.run_dir / "scm.db").string()},
-        Restart::kAlways, {Readiness::Kind::kHeartbeat, "scm", {}});
+    if (city.districts.empty()) {
+      add("scm", launch.scm,
+          {bin("autodrive-scm"), "--config", city_path, "--db", (plan.run_dir / "scm.db").string()},
+          Restart::kAlways, {Readiness::Kind::kHeartbeat, "scm", {}});
+    }
+    for (const maps::District& d : city.districts.all()) {
+      add("scm_" + d.name, launch.scm,
+          {bin("autodrive-scm"), "--config", city_path, "--district", d.name, "--db",
+           (plan.run_dir / fmt::format("scm_{}.db", d.name)).string()},
+          Restart::kAlways, {Readiness::Kind::kHeartbeat, "scm", {}, d.domain});
+      plan.processes.back().program = "scm";
+    }
   }
   // 3. The simulator and the cars' driver.
   const bool sim = IsOn(launch.sim, city.config.sim.has_value(), "sim", plan.city_file);
@@ -327,6 +384,14 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
   if (sim) {
     const vehicle_sim::SimCity sim_city = vehicle_sim::LoadSimCity(city_path);
     if (sim_city.sim.service.mode == vehicle_sim::SimMode::kLockstep) {
+      if (!city.districts.empty()) {
+        // The lockstep handshake is on the simulator's domain; the districts' SCMs and lights
+        // are on theirs.
+        throw ConfigError(fmt::format(
+            "{}: sim.service.mode: lockstep is not for a city of districts (its controllers would "
+            "be on the districts' domains, the simulator's handshake on its own); use realtime",
+            city_path));
+      }
       lockstep = sim_city.sim.service;
     }
     add("sim", launch.sim, {bin("autodrive-sim"), "--city", city_path}, Restart::kOnFailure,
@@ -342,7 +407,14 @@ LaunchPlan PlanCity(const std::filesystem::path& city_file, const std::filesyste
   }
   // 5. The Eye.
   if (IsOn(launch.eye, city.config.eye.has_value(), "eye", plan.city_file)) {
-    (void)eye::LoadEyeConfig(plan.city_file);
+    if (eye::LoadEyeConfig(plan.city_file).outputs.ips && !city.districts.empty()) {
+      // Its cars' positions would be heard on its own domain only, by no district's SCM.
+      throw ConfigError(fmt::format(
+          "{}: eye.outputs.ips: the Eye publishes the cars' ips on its own domain only, which is "
+          "no district's; in a city of districts the cars' positions come from the cars or the "
+          "simulator (docs/districts.md)",
+          city_path));
+    }
     add("eye", launch.eye, {bin("autodrive-eye"), "run", "--config", city_path},
         Restart::kOnFailure, {});
   }

@@ -20,8 +20,13 @@
 ///     server: [scm, sim, driver, traffic, dashboard, planner]
 ///     track: [lights]                  # `autodrive-city up CITY --host track` on that host
 /// ```
+///
+/// A city of districts (docs/districts.md) runs an SCM (`scm_<district>`) and a light host
+/// (`lights_<district>`) per district, each on the district's domain; the rest on the
+/// launcher's own domain, which must be no district's.
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -57,16 +62,21 @@ struct ProcessConfig {
 };
 
 /// The traffic lights' host (`autodrive-infra`): its own file says which heads are simulated
-/// and which are real (serial); off when the lights run on another host.
+/// and which are real (serial); off when the lights run on another host. A city of districts
+/// has a light host per district (`lights_<district>`), on the district's domain.
 struct LightsProcessConfig {
   ProcessConfig process;
   /// The light host's file, relative to the city file. Empty: ../infra/<city name>.yaml.
   std::string config;
+  /// With districts: each district's light host file by district name, relative to the city
+  /// file. A district not named: ../infra/<city name>_<district>.yaml.
+  std::map<std::string, std::string> districts;
 
   template <typename Archive>
   void Serialize(Archive& a) {
     process.Serialize(a);
     a.Optional("config", config);
+    a.Optional("districts", districts);
   }
   bool operator==(const LightsProcessConfig&) const = default;
 };
@@ -169,11 +179,18 @@ struct Readiness {
   /// (on the device hosts' topic), of the plan's city.
   std::string sender;
   std::filesystem::path file;  ///< kFile: a file the process writes once it is ready
+  /// kHeartbeat: the DDS domain it is heard on, a district's; unset: the launcher's own.
+  std::optional<std::uint32_t> domain = std::nullopt;
 };
 
 /// One process of the plan, fully resolved.
 struct ProcessPlan {
-  std::string name;  ///< lights, scm, sim, driver, eye, traffic, dashboard, or an agent's
+  /// lights, scm, sim, driver, eye, traffic, dashboard, or an agent's; in a city of districts,
+  /// lights_<district> and scm_<district> for each district.
+  std::string name;
+  /// The city's program it runs, as `name` without the district: lights, scm, ... (an agent:
+  /// its name).
+  std::string program;
   std::vector<std::string> argv;  ///< argv[0]: a path (the city's programs) or a name on PATH
   std::vector<std::string> env;
   Restart restart = Restart::kOnFailure;
@@ -188,7 +205,11 @@ struct ProcessPlan {
 struct LaunchPlan {
   std::string city_name;
   std::filesystem::path city_file;  ///< absolute
-  std::filesystem::path run_dir;    ///< absolute
+  /// The city's districts (docs/districts.md): name -> DDS domain. The launcher joins each
+  /// district's domain to hear its SCM and light host get ready and to send its process table
+  /// to the district's SCM.
+  std::map<std::string, std::uint32_t> districts;
+  std::filesystem::path run_dir;  ///< absolute
   std::vector<ProcessPlan> processes;
   int crash_loop_exits = 5;
   nanoseconds crash_loop_window{std::chrono::seconds(60)};

@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
+#include <map>
 
 #include "common/config.h"
 #include "common/test_support.h"
@@ -190,16 +192,113 @@ TEST_F(Plan, ALockstepCityStartsItsControllersWithTheirNamesAndWaitsForNone) {
                         "the launcher does not start"));
 }
 
-TEST_F(Plan, ACityOfDistrictsIsRefusedSayingHowToRunIt) {
-  const auto f = City(Lights());
-  std::string text = config::ReadFile(f);
-  text.insert(text.find("\nfleet:") + 1,
-              "districts:\n"
-              "  - {name: uptown, domain: 11, intersections: [north_t]}\n"
-              "  - {name: downtown, domain: 12, intersections: [centre]}\n");
-  std::ofstream(f) << text;
-  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] { (void)PlanCity(f, dir_ / "bin"); }),
-              HasSubstr("districts: autodrive-city does not start a city of districts yet"));
+// A city of districts (docs/districts.md): a light host and an SCM per district, each on the
+// district's domain, the rest on the launcher's; each district's light file hosts exactly its
+// district's heads.
+TEST_F(Plan, ACityOfDistrictsStartsALightHostAndAnScmPerDistrictOnItsDomain) {
+  // The small town's lights split by district: north_t's heads 1-3, centre's 4-7.
+  const auto write_lights = [&](const std::string& name, const std::string& heads) {
+    std::string text = config::ReadFile(test::SourceDir() / "config/infra/small_town.yaml");
+    text.replace(text.find("map: ../maps/"), 13,
+                 "map: " + (test::SourceDir() / "config/maps").string() + "/");
+    text.replace(text.find("heads: [1, 2, 3, 4, 5, 6, 7]"), 28, "heads: " + heads);
+    text.replace(text.find("name: small_town_lights"), 23, "name: " + name);
+    const auto file = dir_ / (name + ".yaml");
+    std::ofstream(file) << text;
+    return file.string();
+  };
+  const std::string up = write_lights("uptown_lights", "[1, 2, 3]");
+  const std::string down = write_lights("downtown_lights", "[4, 5, 6, 7]");
+  const auto city = [&](const std::string& launch) {
+    const auto f = City(launch);
+    std::string text = config::ReadFile(f);
+    text.insert(text.find("\nfleet:") + 1,
+                "districts:\n"
+                "  - {name: uptown, domain: 11, intersections: [north_t]}\n"
+                "  - {name: downtown, domain: 12, intersections: [centre]}\n");
+    std::ofstream(f) << text;
+    return f;
+  };
+  const std::string both =
+      "launch:\n  lights:\n    districts: {uptown: " + up + ", downtown: " + down + "}\n";
+  const LaunchPlan plan = PlanCity(city(both), dir_ / "bin");
+  EXPECT_EQ(Names(plan),
+            (std::vector<std::string>{"lights_uptown", "lights_downtown", "scm_uptown",
+                                      "scm_downtown", "sim", "traffic", "eye", "driver"}));
+  EXPECT_EQ(plan.districts,
+            (std::map<std::string, std::uint32_t>{{"uptown", 11}, {"downtown", 12}}));
+  const auto process = [&](const std::string& name) -> const ProcessPlan& {
+    return *std::ranges::find(plan.processes, name, &ProcessPlan::name);
+  };
+  const ProcessPlan& lights_up = process("lights_uptown");
+  EXPECT_EQ(lights_up.program, "lights");
+  EXPECT_EQ(lights_up.argv, (std::vector<std::string>{(dir_ / "bin" / "autodrive-infra").string(),
+                                                      "--config", up, "--domain", "11"}));
+  EXPECT_EQ(lights_up.ready.sender, "infra/uptown_lights");
+  EXPECT_EQ(lights_up.ready.domain, 11u);
+  EXPECT_EQ(process("lights_downtown").ready.domain, 12u);
+  const ProcessPlan& scm_down = process("scm_downtown");
+  EXPECT_EQ(scm_down.program, "scm");
+  EXPECT_EQ(scm_down.restart, Restart::kAlways);
+  EXPECT_EQ(scm_down.argv,
+            (std::vector<std::string>{(dir_ / "bin" / "autodrive-scm").string(), "--config",
+                                      (dir_ / "city.yaml").string(), "--district", "downtown",
+                                      "--db", (plan.run_dir / "scm_downtown.db").string()}));
+  EXPECT_EQ(scm_down.ready.sender, "scm");
+  EXPECT_EQ(scm_down.ready.domain, 12u);
+  EXPECT_EQ(process("sim").ready.domain, std::nullopt) << "on the launcher's own domain";
+
+  // Each district's share on a host of its own (`up --host uptown`).
+  LaunchPlan uptown = PlanCity(
+      city(both + "  hosts:\n    uptown: [lights_uptown, scm_uptown]\n"
+                  "    downtown: [lights_downtown, scm_downtown]\n    server: [sim, traffic, eye, "
+                  "driver]\n"),
+      dir_ / "bin");
+  SelectHost(uptown, "uptown");
+  EXPECT_EQ(Names(uptown), (std::vector<std::string>{"lights_uptown", "scm_uptown"}));
+  EXPECT_EQ(uptown.districts.size(), 2u) << "its table goes to every district's SCM";
+
+  // Refused: a district's file that hosts another's head, or is missing; one file for all;
+  // a district that is none; lockstep.
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] {
+                (void)PlanCity(
+                    city("launch:\n  lights:\n    districts: {uptown: " +
+                         write_lights("all", "[1, 2, 3, 4]") + ", downtown: " + down + "}\n"),
+                    dir_ / "bin");
+              }),
+              HasSubstr("launch.lights (district uptown): the light host's file " +
+                        (dir_ / "all.yaml").string() +
+                        " does not match the city (district uptown's heads): it hosts signal_4 "
+                        "(centre, E approach), which is district downtown's"));
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] {
+                (void)PlanCity(city("launch:\n  lights:\n    districts: {uptown: " + up + "}\n"),
+                               dir_ / "bin");
+              }),
+              HasSubstr("small_town_downtown.yaml of district downtown does not exist (set "
+                        "launch.lights.districts.downtown"));
+  EXPECT_THAT(
+      test::ErrorMessage<ConfigError>([&] { (void)PlanCity(city(Lights()), dir_ / "bin"); }),
+      HasSubstr("launch.lights.config: a city of districts has a light host per district"));
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] {
+                (void)PlanCity(city("launch:\n  lights:\n    districts: {midtown: " + up + "}\n"),
+                               dir_ / "bin");
+              }),
+              HasSubstr("launch.lights.districts: midtown is not a district (the city has "
+                        "uptown, downtown)"));
+  EXPECT_THAT(test::ErrorMessage<ConfigError>([&] {
+                (void)PlanCity(City("launch:\n  lights:\n    districts: {uptown: " + up + "}\n"),
+                               dir_ / "bin");
+              }),
+              HasSubstr("launch.lights.districts: the city has no districts"));
+  {
+    std::string text = config::ReadFile(city(both));
+    text.replace(text.find("\nsim:\n"), 6,
+                 "\nsim:\n  service: {mode: lockstep, controllers: [driver]}\n");
+    std::ofstream(dir_ / "city.yaml") << text;
+    EXPECT_THAT(
+        test::ErrorMessage<ConfigError>([&] { (void)PlanCity(dir_ / "city.yaml", dir_ / "bin"); }),
+        HasSubstr("sim.service.mode: lockstep is not for a city of districts"));
+  }
 }
 
 TEST_F(Plan, BadFilesAreRefusedWithOneErrorNamingWhere) {

@@ -77,27 +77,54 @@ struct Supervisor::Impl {
     Clock::time_point start_at{};         // when to start it again
   };
 
+  // What the launcher hears and says on one DDS domain: its own, or a district's.
+  struct Domain {
+    std::optional<std::uint32_t> district;         // unset: the launcher's own domain
+    dds::Reader<msg::Heartbeat> scm_heartbeats;    // the SCM's (sender "scm")
+    dds::Reader<msg::Heartbeat> infra_heartbeats;  // the device hosts' (sender "infra/<name>")
+    ProcessTableWriter table;  // the processes for the SCM (/autodrive/scm/processes)
+
+    Domain(const dds::Participant& participant, std::optional<std::uint32_t> id,
+           const LaunchPlan& plan)
+        : district(id),
+          scm_heartbeats(participant, dds::topics::Heartbeat()),
+          infra_heartbeats(participant, dds::topics::InfraHeartbeat()),
+          table(participant, plan.city_name, plan.host) {}
+  };
+
   LaunchPlan plan;
   std::function<void(const std::string&)> say;
-  dds::Reader<msg::Heartbeat> scm_heartbeats;    // the SCM's (sender "scm")
-  dds::Reader<msg::Heartbeat> infra_heartbeats;  // the device hosts' (sender "infra/<name>")
+  std::vector<std::unique_ptr<Domain>> domains;  // the launcher's own first
   dds::Reader<msg::Clock> clock;
   dds::Reader<msg::TrafficObjects> traffic;
-  ProcessTableWriter table;  // the processes for the SCM (/autodrive/scm/processes)
   LauncherState launcher_state = LauncherState::kStarting;
   mutable std::mutex mutex;  // guards the states
   std::vector<Process> processes;
-  std::set<std::string> heard;  // "sender|city" of heartbeats since the last drain
+  // "domain|sender|city" of heartbeats since the last drain (domain: empty for the launcher's)
+  std::set<std::string> heard;
   bool heard_clock = false, heard_traffic = false;
 
-  Impl(LaunchPlan p, const dds::Participant& participant, std::function<void(const std::string&)> s)
+  Impl(LaunchPlan p, const dds::Participant& participant,
+       const std::vector<const dds::Participant*>& districts,
+       std::function<void(const std::string&)> s)
       : plan(std::move(p)),
         say(std::move(s)),
-        scm_heartbeats(participant, dds::topics::Heartbeat()),
-        infra_heartbeats(participant, dds::topics::InfraHeartbeat()),
         clock(participant, dds::topics::Clock()),
-        traffic(participant, dds::topics::Traffic()),
-        table(participant, plan.city_name, plan.host) {
+        traffic(participant, dds::topics::Traffic()) {
+    domains.push_back(std::make_unique<Domain>(participant, std::nullopt, plan));
+    for (const dds::Participant* d : districts) {
+      domains.push_back(std::make_unique<Domain>(*d, d->domain_id(), plan));
+    }
+    for (const ProcessPlan& pp : plan.processes) {
+      if (pp.ready.domain && std::ranges::none_of(domains, [&](const auto& d) {
+            return d->district == pp.ready.domain;
+          })) {
+        throw LaunchError(
+            fmt::format("{} is ready on DDS domain {}, which the launcher has not "
+                        "joined",
+                        pp.name, *pp.ready.domain));
+      }
+    }
     std::filesystem::create_directories(plan.run_dir / "logs");
     for (const ProcessPlan& pp : plan.processes) {
       Process& process = processes.emplace_back();
@@ -133,12 +160,19 @@ struct Supervisor::Impl {
   void Publish() {
     const std::vector<ProcessState> states = Snapshot();
     WriteStatus(states);
-    table.Write(launcher_state, states);
+    WriteTables(states);
+  }
+
+  // The process table on every domain: each district's SCM watches the whole city's processes.
+  void WriteTables(const std::vector<ProcessState>& states) {
+    for (const auto& d : domains) d->table.Write(launcher_state, states);
   }
 
   // The table at least every ProcessTableWriter::kPeriod, also when nothing changes.
   void PublishIfDue() {
-    if (table.due()) table.Write(launcher_state, Snapshot());
+    if (std::ranges::any_of(domains, [](const auto& d) { return d->table.due(); })) {
+      WriteTables(Snapshot());
+    }
   }
 
   // status.json, replaced whole (written beside and renamed).
@@ -179,9 +213,12 @@ struct Supervisor::Impl {
 
   void Drain() {
     dds::Message<msg::Heartbeat> hb;
-    for (auto* reader : {&scm_heartbeats, &infra_heartbeats}) {
-      while (reader->TakeOne(hb)) {
-        heard.insert(fmt::format("{}|{}", dds::View(hb->sender), dds::View(hb->city)));
+    for (const auto& d : domains) {
+      const std::string domain = d->district ? std::to_string(*d->district) : "";
+      for (auto* reader : {&d->scm_heartbeats, &d->infra_heartbeats}) {
+        while (reader->TakeOne(hb)) {
+          heard.insert(fmt::format("{}|{}|{}", domain, dds::View(hb->sender), dds::View(hb->city)));
+        }
       }
     }
     dds::Message<msg::Clock> c;
@@ -195,7 +232,9 @@ struct Supervisor::Impl {
       case Readiness::Kind::kNone:
         return true;
       case Readiness::Kind::kHeartbeat:
-        return heard.contains(p.ready.sender + "|" + plan.city_name);
+        return heard.contains(fmt::format("{}|{}|{}",
+                                          p.ready.domain ? std::to_string(*p.ready.domain) : "",
+                                          p.ready.sender, plan.city_name));
       case Readiness::Kind::kClock:
         return heard_clock;
       case Readiness::Kind::kTraffic:
@@ -294,7 +333,7 @@ struct Supervisor::Impl {
 
   void Supervise(const std::atomic<bool>& stop) {
     launcher_state = LauncherState::kRunning;
-    table.Write(launcher_state, Snapshot());
+    WriteTables(Snapshot());
     while (!stop.load()) {
       const auto now = Clock::now();
       for (Process& p : processes) {
@@ -365,7 +404,7 @@ struct Supervisor::Impl {
       return;
     }
     // The SCM at once (the lights flash until it is back); the others after a second.
-    p.start_at = p.plan->name == "scm" ? now : now + 1s;
+    p.start_at = p.plan->program == "scm" ? now : now + 1s;
     SetRestartAt(p, p.start_at - now);
     SetPhase(p, Phase::kExited,
              fmt::format("{}; restart {} in {:.1f} s", ToString(status), restart,
@@ -382,7 +421,7 @@ struct Supervisor::Impl {
 
   void Down() {
     launcher_state = LauncherState::kStopping;
-    table.Write(launcher_state, Snapshot());
+    WriteTables(Snapshot());
     for (auto it = processes.rbegin(); it != processes.rend(); ++it) {
       Process& p = *it;
       if (p.child && p.child->running()) {
@@ -402,8 +441,9 @@ struct Supervisor::Impl {
 };
 
 Supervisor::Supervisor(LaunchPlan plan, const dds::Participant& participant,
-                       std::function<void(const std::string&)> say)
-    : impl_(std::make_unique<Impl>(std::move(plan), participant, std::move(say))) {}
+                       std::function<void(const std::string&)> say,
+                       const std::vector<const dds::Participant*>& districts)
+    : impl_(std::make_unique<Impl>(std::move(plan), participant, districts, std::move(say))) {}
 
 Supervisor::~Supervisor() {
   try {

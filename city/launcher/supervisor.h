@@ -69,9 +69,13 @@ class Supervisor {
   /// crash loop, stopped). `participant` must outlive it; it watches the SCM's and the device
   /// hosts' heartbeats, /clock and the traffic topic for readiness, and writes the process
   /// table on `/autodrive/scm/processes` on every change and every second (under DDS Security,
-  /// what the `launcher` role may read and write: docs/security.md).
+  /// what the `launcher` role may read and write: docs/security.md). In a city of districts,
+  /// `districts` holds a participant on each district's domain (which must outlive it too): the
+  /// districts' SCMs and light hosts are heard there, and the table is written there as well.
+  /// @throws LaunchError when a process is ready on a domain none of them is on.
   Supervisor(LaunchPlan plan, const dds::Participant& participant,
-             std::function<void(const std::string&)> say);
+             std::function<void(const std::string&)> say,
+             const std::vector<const dds::Participant*>& districts = {});
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
   /// Stops what still runs (`Down`).
