@@ -37,7 +37,7 @@ DistrictDomains::DistrictDomains(const dds::Participant& main,
 const dds::Participant& DistrictDomains::ForHead(const SignalHead& head) const {
   const District* d = districts_.Of(head.intersection);
   if (d == nullptr) return main_;
-  return *pointers_.at(static_cast<std::size_t>(d - districts_.all().data()));
+  return *pointers_.at(districts_.IndexOf(*d));
 }
 
 }  // namespace autodrive::maps

@@ -72,6 +72,10 @@ class Districts {
   /// The district of the intersection whose centre is nearest `point` (map frame), or null
   /// when there are no districts: where a car at `point` is heard.
   [[nodiscard]] const District* At(const Eigen::Vector2d& point) const;
+  /// The index in `all()` of `district`, one of this object's.
+  [[nodiscard]] std::size_t IndexOf(const District& district) const {
+    return static_cast<std::size_t>(&district - districts_.data());
+  }
   /// "uptown, downtown", or "(none)".
   [[nodiscard]] std::string Names() const;
 

@@ -194,10 +194,8 @@ struct TrafficService::Impl {
     writer.Write(m);
     if (!district_writers.empty()) {
       for (auto& list : district_vehicles) list.clear();
-      const maps::District* first = city.districts.all().data();
       for (const TrafficVehicle& v : vehicles) {
-        district_vehicles[static_cast<std::size_t>(city.districts.At(v.centre) - first)].push_back(
-            v);
+        district_vehicles[city.districts.IndexOf(*city.districts.At(v.centre))].push_back(v);
       }
       for (std::size_t i = 0; i < district_writers.size(); ++i) {
         msg::TrafficObjects own{};

@@ -75,7 +75,7 @@ struct SimService::Impl {
     lamps = std::make_unique<internal::SignalLamps>(
         [&](const maps::SignalHead& head) -> const dds::Participant& {
           const maps::District* d = districts.Of(head.intersection);
-          return d == nullptr ? participant : *district_participants[DistrictIndex(d)];
+          return d == nullptr ? participant : *district_participants[districts.IndexOf(*d)];
         },
         map);
     std::vector<std::string> names;
@@ -115,15 +115,11 @@ struct SimService::Impl {
 
   Time Stamp(Duration t) const { return origin + t; }
 
-  std::size_t DistrictIndex(const maps::District* d) const {
-    return static_cast<std::size_t>(d - districts.all().data());
-  }
-
   // Which district's `ips` writer of a car gets its position besides its own: 1 + the district's
   // index (0: none, without districts).
   std::size_t IpsTo(const SensorReadings& r) const {
     if (districts.empty() || !r.ips) return 0;
-    return 1 + DistrictIndex(districts.At(r.ips->position_m.head<2>()));
+    return 1 + districts.IndexOf(*districts.At(r.ips->position_m.head<2>()));
   }
 
   void TakeCommands() {
