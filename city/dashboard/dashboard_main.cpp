@@ -7,9 +7,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <mutex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -24,6 +26,7 @@
 #include "common/logging.h"
 #include "common/shutdown.h"
 #include "eye/eye_config.h"
+#include "maps/district_domains.h"
 #include "maps/render.h"
 #include "scm/core/city.h"
 #include "vehicle_sim/sim_config.h"
@@ -168,6 +171,15 @@ int Run(const Options& o) {
                                 ? "/autodrive/viewer/dashboard"
                                 : "/autodrive/operator/" + server.operator_name);
   dds::Participant participant(dds_options.Participant());
+  // A city of districts: each district's SCM and lights are on its own domain
+  // (docs/districts.md); the dashboard joins each, and reads SUMO's traffic and the Eye on its
+  // own (refused when that is a district's).
+  const maps::DistrictDomains district_domains(participant, dds_options.Participant(),
+                                               city.districts);
+  for (std::size_t i = 0; i < city.districts.all().size(); ++i) {
+    server.districts.push_back({city.districts.all()[i].name, district_domains.participants()[i]});
+  }
+  server.intersection_districts = IntersectionDistricts(city.map, city.districts);
 
   json cameras = json::array();
   for (const CameraSource& c : server.cameras)
@@ -176,16 +188,35 @@ int Run(const Options& o) {
   hub_options.batch_interval = std::chrono::milliseconds(20);
   Hub hub(MapJson(city, render.pixels_per_tile, render.margin_px, size.x(), size.y()),
           std::move(cameras), true, hub_options);
-  Feed feed(participant, city.map, hub);
+  std::vector<std::unique_ptr<Feed>> feeds;
+  feeds.push_back(std::make_unique<Feed>(participant, CityFeed(city.map, city.districts), hub));
+  for (std::size_t i = 0; i < city.districts.all().size(); ++i) {
+    feeds.push_back(std::make_unique<Feed>(*district_domains.participants()[i],
+                                           DistrictFeed(city.map, city.districts.all()[i]), hub));
+  }
+  const auto counts = [&feeds] {
+    FeedCounts sum;
+    for (const auto& f : feeds) {
+      const FeedCounts c = f->counts();
+      sum.lamps += c.lamps;
+      sum.spat += c.spat;
+      sum.fleet += c.fleet;
+      sum.traffic += c.traffic;
+      sum.eye += c.eye;
+      sum.events += c.events;
+      sum.devices += c.devices;
+    }
+    return sum;
+  };
 
   // Rates over the last second or more, for the page's stats. A poll that comes sooner (right
   // after an action) repeats the last figures: counts over a fraction of a second are noise
   // (one SPaT in 0.18 s is not 5.4 Hz).
-  FeedCounts last = feed.counts();
+  FeedCounts last = counts();
   auto last_time = std::chrono::steady_clock::now();
   json last_rates = json::object();
   auto rates = [&]() -> json {
-    const FeedCounts now = feed.counts();
+    const FeedCounts now = counts();
     const auto t = std::chrono::steady_clock::now();
     if (t - last_time < std::chrono::milliseconds(900)) return last_rates;
     const double dt = std::chrono::duration<double>(t - last_time).count();
@@ -209,8 +240,10 @@ int Run(const Options& o) {
   const std::string host = o.listen.substr(0, colon);
   const std::string url =
       fmt::format("http://{}:{}/", host == "0.0.0.0" ? "localhost" : host, http.port());
-  spdlog::info("dashboard of {} at {} ({} heads, {} intersections; actions {}{})", city.config.name,
-               url, city.map.signal_heads.size(), city.map.intersections.size(),
+  spdlog::info("dashboard of {} at {} ({} heads, {} intersections{}; actions {}{})",
+               city.config.name, url, city.map.signal_heads.size(), city.map.intersections.size(),
+               city.districts.empty() ? std::string()
+                                      : fmt::format(", districts {}", city.districts.Names()),
                token_count > 0 ? fmt::format("for {} token(s) as operator ", token_count)
                                : "off (no --token-file)",
                token_count > 0 ? operator_name : "");

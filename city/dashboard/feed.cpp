@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -256,12 +257,14 @@ json MapJson(const scm::City& city, double px_per_tile, int margin_px, int width
         groups.push_back({{"id", g.id.value()}, {"name", g.name}, {"heads", std::move(gh)}});
       }
     }
-    intersections.push_back({{"id", x.id.value()},
-                             {"name", x.name},
-                             {"x", Mm(x.centre.x())},
-                             {"y", Mm(x.centre.y())},
-                             {"control", ControlName(x.control)},
-                             {"groups", std::move(groups)}});
+    json out = {{"id", x.id.value()},
+                {"name", x.name},
+                {"x", Mm(x.centre.x())},
+                {"y", Mm(x.centre.y())},
+                {"control", ControlName(x.control)},
+                {"groups", std::move(groups)}};
+    if (const maps::District* d = city.districts.Of(x.id)) out["district"] = d->name;
+    intersections.push_back(std::move(out));
   }
   json signs = json::array();
   for (const maps::Sign& s : map.signs) {
@@ -272,25 +275,62 @@ json MapJson(const scm::City& city, double px_per_tile, int margin_px, int width
                      {"yaw", Mm(s.X_MS.yaw())},
                      {"value", s.value}});
   }
-  return {{"city", city.config.name},
-          {"name", map.name},
-          {"svg", "/map.svg"},
-          {"width_px", width_px},
-          {"height_px", height_px},
-          {"transform",
-           {{"margin_px", margin_px},
-            {"px_per_m", px_per_tile / map.tile_size_m},
-            {"height_m", map.rows * map.tile_size_m}}},
-          {"heads", std::move(heads)},
-          {"intersections", std::move(intersections)},
-          {"signs", std::move(signs)}};
+  json out = {{"city", city.config.name},
+              {"name", map.name},
+              {"svg", "/map.svg"},
+              {"width_px", width_px},
+              {"height_px", height_px},
+              {"transform",
+               {{"margin_px", margin_px},
+                {"px_per_m", px_per_tile / map.tile_size_m},
+                {"height_m", map.rows * map.tile_size_m}}},
+              {"heads", std::move(heads)},
+              {"intersections", std::move(intersections)},
+              {"signs", std::move(signs)}};
+  if (!city.districts.empty()) {
+    json districts = json::array();
+    for (const maps::District& d : city.districts.all()) {
+      districts.push_back({{"name", d.name}, {"domain", d.domain}});
+    }
+    out["districts"] = std::move(districts);
+  }
+  return out;
 }
 
-Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) : hub_(hub) {
-  heads_.reserve(map.signal_heads.size());
+FeedOptions CityFeed(const maps::Map& map, const maps::Districts& districts) {
+  FeedOptions o;
+  if (!districts.empty()) {
+    o.scm_streams = false;
+    return o;
+  }
+  o.heads.reserve(map.signal_heads.size());
+  for (const maps::SignalHead& h : map.signal_heads) o.heads.push_back(h.id);
+  return o;
+}
+
+FeedOptions DistrictFeed(const maps::Map& map, const maps::District& district) {
+  FeedOptions o;
+  o.district = district.name;
+  o.city_streams = false;
   for (const maps::SignalHead& h : map.signal_heads) {
-    const std::uint32_t id = h.id.value();
-    heads_.push_back(Listen(participant, dds::topics::SignalState(h.id),
+    if (std::ranges::find(district.intersections, h.intersection) != district.intersections.end()) {
+      o.heads.push_back(h.id);
+    }
+  }
+  return o;
+}
+
+json Feed::InDistrict(json object) const {
+  if (!district_.empty()) object["district"] = district_;
+  return object;
+}
+
+Feed::Feed(const dds::Participant& participant, FeedOptions options, Hub& hub)
+    : hub_(hub), district_(std::move(options.district)) {
+  heads_.reserve(options.heads.size());
+  for (const SignalHeadId head : options.heads) {
+    const std::uint32_t id = head.value();
+    heads_.push_back(Listen(participant, dds::topics::SignalState(head),
                             [this, id](const msg::Int32& m, const dds::SampleInfo& info) {
                               lamps_.fetch_add(1);
                               hub_.SetLamp(id, m.data, SourceMs(info));
@@ -300,12 +340,6 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
   // note that a sample waits, and the converter thread takes the latest (history 1) and
   // converts it. Cyclone's receive thread stays free to drain its socket, and a converter
   // that falls behind skips samples (the next replaces the last) instead of queueing them.
-  spat_reader_ =
-      std::make_unique<dds::Reader<msg::Spat>>(participant, Repeating(dds::topics::Spat()));
-  fleet_reader_ =
-      std::make_unique<dds::Reader<msg::FleetState>>(participant, Repeating(dds::topics::Fleet()));
-  traffic_reader_ = std::make_unique<dds::Reader<msg::TrafficObjects>>(
-      participant, Repeating(dds::topics::Traffic()));
   const auto note = [this](bool Feed::*waiting) {
     {
       std::lock_guard lock(convert_mutex_);
@@ -313,59 +347,74 @@ Feed::Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub) 
     }
     convert_cv_.notify_one();
   };
-  spat_reader_->OnDataAvailable([note](dds::Reader<msg::Spat>&) { note(&Feed::spat_waiting_); });
-  fleet_reader_->OnDataAvailable(
-      [note](dds::Reader<msg::FleetState>&) { note(&Feed::fleet_waiting_); });
-  traffic_reader_->OnDataAvailable(
-      [note](dds::Reader<msg::TrafficObjects>&) { note(&Feed::traffic_waiting_); });
-  events_reader_ = Listen(participant, dds::topics::Events(),
-                          [this](const msg::Event& m, const dds::SampleInfo& info) {
-                            events_.fetch_add(1);
-                            hub_.AddEvent(EventJson(m), SourceMs(info));
-                          });
-  // The SCM's table of the city's devices (about once a second, and soon after a change),
-  // rather than each light's own status every status period: one sample instead of thousands.
-  devices_reader_ =
-      Listen(participant, dds::topics::DeviceTable(),
-             [this](const msg::DeviceTable& m, const dds::SampleInfo& info) {
-               devices_.fetch_add(1);
-               const double source_ms = SourceMs(info);
-               for (const auto& d : dds::Elements(m.devices)) {
-                 // Nearly every row is as it was: JSON only when what the page shows of it changed
-                 // (compared in place: no allocation).
-                 {
-                   std::lock_guard lock(devices_mutex_);
-                   const std::string_view id = dds::View(d.device_id);
-                   auto it = devices_shown_.find(id);
-                   if (it == devices_shown_.end()) {
-                     it = devices_shown_.emplace(std::string(id), DeviceShown{}).first;
-                   } else if (it->second.kind == d.kind && it->second.backend == d.backend &&
-                              it->second.health == d.health && it->second.mode == d.mode &&
-                              it->second.reported == d.reported && it->second.lost == d.lost &&
-                              it->second.host == dds::View(d.host) &&
-                              it->second.detail == dds::View(d.detail)) {
-                     continue;
-                   }
-                   DeviceShown& shown = it->second;
-                   shown.kind = d.kind;
-                   shown.backend = d.backend;
-                   shown.health = d.health;
-                   shown.mode = d.mode;
-                   shown.reported = d.reported;
-                   shown.lost = d.lost;
-                   shown.host = dds::View(d.host);
-                   shown.detail = dds::View(d.detail);
-                 }
-                 hub_.SetDevice(DeviceJson(d), source_ms);
-               }
-             });
-  requests_reader_ = Listen(participant, dds::topics::SignalRequestStatus(),
-                            [this](const msg::SignalRequestStatus& m, const dds::SampleInfo& info) {
-                              hub_.SetRequest(RequestJson(m), SourceMs(info));
+  if (options.scm_streams) {
+    spat_reader_ =
+        std::make_unique<dds::Reader<msg::Spat>>(participant, Repeating(dds::topics::Spat()));
+    fleet_reader_ = std::make_unique<dds::Reader<msg::FleetState>>(participant,
+                                                                   Repeating(dds::topics::Fleet()));
+    spat_reader_->OnDataAvailable([note](dds::Reader<msg::Spat>&) { note(&Feed::spat_waiting_); });
+    fleet_reader_->OnDataAvailable(
+        [note](dds::Reader<msg::FleetState>&) { note(&Feed::fleet_waiting_); });
+  }
+  if (options.city_streams) {
+    traffic_reader_ = std::make_unique<dds::Reader<msg::TrafficObjects>>(
+        participant, Repeating(dds::topics::Traffic()));
+    traffic_reader_->OnDataAvailable(
+        [note](dds::Reader<msg::TrafficObjects>&) { note(&Feed::traffic_waiting_); });
+  }
+  if (options.scm_streams) {
+    events_reader_ = Listen(participant, dds::topics::Events(),
+                            [this](const msg::Event& m, const dds::SampleInfo& info) {
+                              events_.fetch_add(1);
+                              hub_.AddEvent(InDistrict(EventJson(m)), SourceMs(info));
                             });
-  eye_reader_ =
-      Listen(participant, Repeating(dds::topics::EyeFleet()),
-             [this](const msg::FleetState&, const dds::SampleInfo&) { eye_.fetch_add(1); });
+    // The SCM's table of the city's devices (about once a second, and soon after a change),
+    // rather than each light's own status every status period: one sample instead of thousands.
+    devices_reader_ =
+        Listen(participant, dds::topics::DeviceTable(),
+               [this](const msg::DeviceTable& m, const dds::SampleInfo& info) {
+                 devices_.fetch_add(1);
+                 const double source_ms = SourceMs(info);
+                 for (const auto& d : dds::Elements(m.devices)) {
+                   // Nearly every row is as it was: JSON only when what the page shows of it
+                   // changed (compared in place: no allocation).
+                   {
+                     std::lock_guard lock(devices_mutex_);
+                     const std::string_view id = dds::View(d.device_id);
+                     auto it = devices_shown_.find(id);
+                     if (it == devices_shown_.end()) {
+                       it = devices_shown_.emplace(std::string(id), DeviceShown{}).first;
+                     } else if (it->second.kind == d.kind && it->second.backend == d.backend &&
+                                it->second.health == d.health && it->second.mode == d.mode &&
+                                it->second.reported == d.reported && it->second.lost == d.lost &&
+                                it->second.host == dds::View(d.host) &&
+                                it->second.detail == dds::View(d.detail)) {
+                       continue;
+                     }
+                     DeviceShown& shown = it->second;
+                     shown.kind = d.kind;
+                     shown.backend = d.backend;
+                     shown.health = d.health;
+                     shown.mode = d.mode;
+                     shown.reported = d.reported;
+                     shown.lost = d.lost;
+                     shown.host = dds::View(d.host);
+                     shown.detail = dds::View(d.detail);
+                   }
+                   hub_.SetDevice(InDistrict(DeviceJson(d)), source_ms);
+                 }
+               });
+    requests_reader_ =
+        Listen(participant, dds::topics::SignalRequestStatus(),
+               [this](const msg::SignalRequestStatus& m, const dds::SampleInfo& info) {
+                 hub_.SetRequest(InDistrict(RequestJson(m)), SourceMs(info));
+               });
+  }
+  if (options.city_streams) {
+    eye_reader_ =
+        Listen(participant, Repeating(dds::topics::EyeFleet()),
+               [this](const msg::FleetState&, const dds::SampleInfo&) { eye_.fetch_add(1); });
+  }
   // Last: should a reader above fail, no thread is left running (and joinable) behind it.
   converter_ = std::thread([this] { Convert(); });
 }
@@ -406,7 +455,7 @@ void Feed::Convert() {
 
 void Feed::ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic) {
   dds::SampleInfo info;
-  if (do_spat) {
+  if (do_spat && spat_reader_) {
     while (spat_reader_->TakeOne(spat_sample_, &info)) {
       spat_.fetch_add(1);
       // JSON only for the intersections whose revision changed: a big city's SPaT is mostly
@@ -421,15 +470,17 @@ void Feed::ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic) {
       hub_.SetSpat(Seconds(spat_sample_->header.stamp), std::move(xs), SourceMs(info));
     }
   }
-  if (do_fleet) {
+  if (do_fleet && fleet_reader_) {
     while (fleet_reader_->TakeOne(fleet_sample_, &info)) {
       fleet_.fetch_add(1);
       json vs = json::array();
-      for (const auto& v : dds::Elements(fleet_sample_->vehicles)) vs.push_back(VehicleJson(v));
-      hub_.SetFleet(Seconds(fleet_sample_->header.stamp), std::move(vs), SourceMs(info));
+      for (const auto& v : dds::Elements(fleet_sample_->vehicles)) {
+        vs.push_back(InDistrict(VehicleJson(v)));
+      }
+      hub_.SetFleet(district_, Seconds(fleet_sample_->header.stamp), std::move(vs), SourceMs(info));
     }
   }
-  if (do_traffic) {
+  if (do_traffic && traffic_reader_) {
     while (traffic_reader_->TakeOne(traffic_sample_, &info)) {
       traffic_.fetch_add(1);
       json os = json::array();

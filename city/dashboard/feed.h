@@ -4,6 +4,11 @@
 /// on Cyclone's threads, and a converter thread they wake for SPaT, the fleet and traffic): each
 /// head's `signal_<i>/state`, SPaT, the SCM's fleet, SUMO's traffic, events, device status, V2I
 /// request status, and the Eye's fleet (for its rate). JSON shapes in docs/dashboard.md.
+///
+/// One `Feed` reads one participant. A city of districts (docs/districts.md) is read by one on
+/// the dashboard's own domain (SUMO's traffic, the Eye) and one on each district's domain (its
+/// SCM's streams and the lamps of its intersections' heads): `CityFeed` and `DistrictFeed` say
+/// which streams each takes.
 
 #include <atomic>
 #include <chrono>
@@ -25,6 +30,7 @@
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
 #include "common/dds/reader.h"
+#include "maps/districts.h"
 #include "maps/map.h"
 #include "scm/core/city.h"
 
@@ -41,11 +47,36 @@ struct FeedCounts {
   std::uint64_t devices = 0;
 };
 
+/// Which streams a `Feed` reads on its participant.
+struct FeedOptions {
+  /// The district whose domain the participant is on: the page's objects of its SCM's streams
+  /// (vehicles, events, devices, requests) carry it as "district", and its fleet is its own
+  /// source in the hub. Empty for a city without districts (no "district" fields).
+  std::string district;
+  /// The heads whose lamps (`signal_<i>/state`) it reads.
+  std::vector<SignalHeadId> heads;
+  /// The SCM's streams: SPaT, its fleet, events, the device table and V2I request status.
+  bool scm_streams = true;
+  /// The whole city's streams: SUMO's traffic and the Eye's fleet.
+  bool city_streams = true;
+};
+
+/// What the dashboard reads on its own domain: for a city without districts (`districts` empty)
+/// every stream and every head of `map`; with districts only SUMO's traffic (it publishes every
+/// vehicle there) and the Eye's fleet, as each district's SCM and lamps are on its domain.
+[[nodiscard]] FeedOptions CityFeed(const maps::Map& map, const maps::Districts& districts);
+/// What the dashboard reads on district `district`'s domain: its SCM's streams and the lamps of
+/// the heads of its intersections.
+[[nodiscard]] FeedOptions DistrictFeed(const maps::Map& map, const maps::District& district);
+
 class Feed {
  public:
-  /// Subscribes on `participant` (which, like `map` and `hub`, must outlive it) to the heads
-  /// of `map` and the city's streams.
-  Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub);
+  /// Subscribes on `participant` (which, like `hub`, must outlive it) to the streams `options`
+  /// names.
+  Feed(const dds::Participant& participant, FeedOptions options, Hub& hub);
+  /// Subscribes to the heads of `map` and every stream (a city without districts).
+  Feed(const dds::Participant& participant, const maps::Map& map, Hub& hub)
+      : Feed(participant, CityFeed(map, maps::Districts{}), hub) {}
   Feed(const Feed&) = delete;
   Feed& operator=(const Feed&) = delete;
   ~Feed();
@@ -61,7 +92,11 @@ class Feed {
   void Convert();
   void ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic);
 
+  /// The page's object of this feed's SCM's stream: `object` with "district" when there is one.
+  [[nodiscard]] nlohmann::json InDistrict(nlohmann::json object) const;
+
   Hub& hub_;
+  const std::string district_;
   std::mutex convert_mutex_;  ///< guards the flags below
   std::condition_variable convert_cv_;
   bool spat_waiting_ = true, fleet_waiting_ = true, traffic_waiting_ = true, stop_ = false;
@@ -111,8 +146,9 @@ class Feed {
 [[nodiscard]] nlohmann::json RequestJson(const msg::SignalRequestStatus& r);
 /// The names of the IntersectionState status bits set in `status` ("failure_flash", ...).
 [[nodiscard]] nlohmann::json StatusFlags(std::uint16_t status);
-/// The static map object M of docs/dashboard.md, with the city's signal groups; `px_per_tile`,
-/// `margin_px` and the size as the map's SVG was drawn.
+/// The static map object M of docs/dashboard.md, with the city's signal groups (and, in a city
+/// of districts, its districts and each intersection's); `px_per_tile`, `margin_px` and the size
+/// as the map's SVG was drawn.
 [[nodiscard]] nlohmann::json MapJson(const scm::City& city, double px_per_tile, int margin_px,
                                      int width_px, int height_px);
 

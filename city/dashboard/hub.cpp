@@ -9,6 +9,39 @@ namespace autodrive::dashboard {
 
 using nlohmann::json;
 
+namespace {
+
+/// When a vehicle (V object) was observed (s), 0 when it does not say.
+double Observed(const json& vehicle) {
+  const auto it = vehicle.find("observed");
+  return it != vehicle.end() && it->is_number() ? it->get<double>() : 0.0;
+}
+
+/// The union of each source's fleet, a vehicle once (by id): the report observed last, in the
+/// order the sources first list them (one source: its list as it is).
+json FleetUnion(const std::map<std::string, json>& fleets) {
+  json out = json::array();
+  std::map<std::string, std::size_t> index;  // a vehicle's id (JSON text) -> its place in out
+  for (const auto& [source, vehicles] : fleets) {
+    for (const json& v : vehicles) {
+      const auto id = v.find("id");
+      if (id == v.end()) {
+        out.push_back(v);
+        continue;
+      }
+      const auto [it, added] = index.try_emplace(id->dump(), out.size());
+      if (added) {
+        out.push_back(v);
+      } else if (Observed(v) > Observed(out[it->second])) {
+        out[it->second] = v;
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 bool Subscriber::Wait(std::vector<std::shared_ptr<const std::string>>& out,
                       std::chrono::steady_clock::duration timeout) {
   out.clear();
@@ -215,10 +248,12 @@ void Hub::SetSpat(double now, std::vector<json> intersections, double rx_ms) {
   PublishLocked("spat", {{"rx", rx_ms}, {"now", now}, {"intersections", std::move(changed)}});
 }
 
-void Hub::SetFleet(double now, json vehicles, double rx_ms) {
+void Hub::SetFleet(const std::string& source, double now, json vehicles, double rx_ms) {
   std::lock_guard lock(mutex_);
-  vehicles_ = vehicles;
-  PublishLocked("fleet", {{"rx", rx_ms}, {"now", now}, {"vehicles", std::move(vehicles)}});
+  if (!vehicles.is_array()) vehicles = json::array();
+  fleets_[source] = std::move(vehicles);
+  vehicles_ = FleetUnion(fleets_);
+  PublishLocked("fleet", {{"rx", rx_ms}, {"now", now}, {"vehicles", vehicles_}});
 }
 
 bool Hub::SetTraffic(json objects, double rx_ms) {
@@ -294,12 +329,16 @@ void Hub::SetProcesses(json processes, double rx_ms) {
 void Hub::AddEvent(json event, double rx_ms) {
   std::lock_guard lock(mutex_);
   const std::uint64_t id = event.value("id", std::uint64_t{0});
-  if (id != 0 && !event_seen_.emplace(event.value("source", ""), id).second) return;
+  if (id != 0 &&
+      !event_seen_.emplace(event.value("district", ""), event.value("source", ""), id).second) {
+    return;
+  }
   if (!event.contains("acked_by")) event["acked_by"] = nullptr;
   events_.push_back(event);
   while (events_.size() > options_.max_events) {
-    event_seen_.erase(std::make_pair(events_.front().value("source", ""),
-                                     events_.front().value("id", std::uint64_t{0})));
+    const json& oldest = events_.front();
+    event_seen_.erase(std::make_tuple(oldest.value("district", ""), oldest.value("source", ""),
+                                      oldest.value("id", std::uint64_t{0})));
     events_.pop_front();
   }
   if (options_.batch_interval.count() == 0) {
@@ -314,19 +353,21 @@ void Hub::AddEvent(json event, double rx_ms) {
   pending_events_.push_back(std::move(event));
 }
 
-bool Hub::Ack(std::uint64_t id, const std::string& by, double at_s) {
+bool Hub::Ack(std::uint64_t id, const std::string& by, double at_s, const std::string& district) {
   std::lock_guard lock(mutex_);
   const auto it = std::ranges::find_if(events_, [&](const json& e) {
     return e.value("id", std::uint64_t{0}) == id && e.value("active", false) &&
-           e.value("severity", 0) >= 2;
+           e.value("severity", 0) >= 2 && (district.empty() || e.value("district", "") == district);
   });
   if (it == events_.end()) return false;
   (*it)["acked_by"] = by;
-  PublishLocked("ack", {{"rx", at_s * 1000.0},
-                        {"id", id},
-                        {"source", it->value("source", "")},
-                        {"by", by},
-                        {"at", at_s}});
+  json ack = {{"rx", at_s * 1000.0},
+              {"id", id},
+              {"source", it->value("source", "")},
+              {"by", by},
+              {"at", at_s}};
+  if (it->contains("district")) ack["district"] = (*it)["district"];
+  PublishLocked("ack", ack);
   return true;
 }
 

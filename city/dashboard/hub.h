@@ -20,6 +20,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -97,8 +98,17 @@ class Hub {
   /// One SPaT message: `now` its stamp (s); `intersections` X objects, each with "id" and
   /// "revision": only those whose revision changed go out.
   void SetSpat(double now, std::vector<nlohmann::json> intersections, double rx_ms);
-  /// The lab cars (V objects), all of them.
-  void SetFleet(double now, nlohmann::json vehicles, double rx_ms);
+  /// The lab cars (V objects) one SCM lists, all of them: `source` names that SCM (its
+  /// district; "" for the SCM of a city without districts), whose last list this replaces. The
+  /// page gets the union over the sources, a vehicle once (by "id"): of two sources that list it
+  /// (a car that crossed into the next district is in both SCMs' fleets for up to
+  /// `fleet.staleness_s`), the report observed last ("observed", s; a tie: the source first
+  /// by name). A source's empty list removes only its own cars.
+  void SetFleet(const std::string& source, double now, nlohmann::json vehicles, double rx_ms);
+  /// The only SCM's lab cars (a city without districts).
+  void SetFleet(double now, nlohmann::json vehicles, double rx_ms) {
+    SetFleet("", now, std::move(vehicles), rx_ms);
+  }
   /// SUMO's cars (arrays as in the `traffic` message); sent at most every traffic_interval.
   /// Returns whether it was sent.
   bool SetTraffic(nlohmann::json objects, double rx_ms);
@@ -110,13 +120,15 @@ class Hub {
   void SetDevice(nlohmann::json device, double rx_ms);
   /// The launcher's processes (P objects), sent when changed.
   void SetProcesses(nlohmann::json processes, double rx_ms);
-  /// An event (E object with "id" and "source"); a repeat of a known id of the same source (the
-  /// latched history on reconnection) is ignored. With a batch interval, events within it go
-  /// out as one `events` message (oldest first).
+  /// An event (E object with "id" and "source", and "district" in a city of districts); a repeat
+  /// of a known id of the same source of the same district (the latched history on
+  /// reconnection) is ignored. With a batch interval, events within it go out as one `events`
+  /// message (oldest first).
   void AddEvent(nlohmann::json event, double rx_ms);
-  /// An operator acknowledged the active alarm `id` (the first such of any source). False if
-  /// there is no active alarm with that id.
-  bool Ack(std::uint64_t id, const std::string& by, double at_s);
+  /// An operator acknowledged the active alarm `id` (the first such of any source; of district
+  /// `district` when one is given: each district's SCM numbers its own events). False if there
+  /// is no active alarm with that id.
+  bool Ack(std::uint64_t id, const std::string& by, double at_s, const std::string& district = "");
   /// A V2I request's status (R object with "vehicle" and "request").
   void SetRequest(nlohmann::json request, double rx_ms);
   /// The once-a-second rates.
@@ -142,6 +154,8 @@ class Hub {
   std::map<std::uint32_t, int> lamps_;
   std::map<std::uint64_t, nlohmann::json> spat_;  ///< by intersection id
   std::optional<double> spat_now_;
+  /// Each source's last fleet (SetFleet), by source; vehicles_ is their union.
+  std::map<std::string, nlohmann::json> fleets_;
   nlohmann::json vehicles_ = nlohmann::json::array();
   nlohmann::json objects_ = nlohmann::json::array();
   /// When traffic last went out (none yet: the steady clock's zero is the host's boot, which
@@ -151,9 +165,10 @@ class Hub {
   std::map<std::string, nlohmann::json> devices_;        ///< by id
   nlohmann::json processes_ = nlohmann::json::array();
   std::deque<nlohmann::json> events_;
-  /// (source, id) of events_: ids are their source's (the SCM's event log, a light host's
-  /// session), so two sources may use the same id.
-  std::set<std::pair<std::string, std::uint64_t>> event_seen_;
+  /// (district, source, id) of events_: ids are their source's (the SCM's event log, a light
+  /// host's session) in their district, so two sources, or the SCMs of two districts, may use
+  /// the same id.
+  std::set<std::tuple<std::string, std::string, std::uint64_t>> event_seen_;
   std::map<std::string, nlohmann::json> requests_;  ///< by "vehicle/request"
   // Batching (Options::batch_interval).
   nlohmann::json pending_lamps_ = nlohmann::json::object();

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "city/dashboard/server.h"
@@ -175,6 +177,126 @@ TEST(DashboardHub, EventsOfTwoSourcesWithOneIdAreBothShownAndTheAlarmIsTheOneAck
   EXPECT_EQ(got[0].data["source"], "scm");
   EXPECT_TRUE(hub.State()["events"][0]["acked_by"].is_null());
   EXPECT_EQ(hub.State()["events"][1]["acked_by"], "alice");
+}
+
+/// A lab car (V object) as a district's SCM lists it, observed at `observed` (s).
+json Car(const std::string& id, double x, double observed, const std::string& district) {
+  return {{"id", id}, {"x", x}, {"observed", observed}, {"district", district}};
+}
+
+/// The vehicles of `state` (or of a fleet message) by id: each one's "x" and how many times the
+/// id is listed.
+std::map<std::string, std::pair<double, int>> ById(const json& vehicles) {
+  std::map<std::string, std::pair<double, int>> out;
+  for (const json& v : vehicles) {
+    auto& [x, n] = out[v.at("id").get<std::string>()];
+    x = v.at("x").get<double>();
+    ++n;
+  }
+  return out;
+}
+
+TEST(DashboardHub, TheFleetIsTheUnionOfTheDistrictsFleetsACarInTwoOnceByItsNewestReport) {
+  Hub hub = MakeHub();
+  auto browser = hub.Subscribe();
+  (void)Drain(*browser);
+  hub.SetFleet("uptown", 10.0, json::array({Car("nigel_1", 1.0, 10.0, "uptown")}), 1.0);
+  hub.SetFleet("downtown", 10.0, json::array({Car("nigel_2", 2.0, 10.0, "downtown")}), 2.0);
+  // Each message carries every car of both districts, not only its district's.
+  auto got = Drain(*browser);
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[1].event, "fleet");
+  EXPECT_EQ(ById(got[1].data["vehicles"]), (std::map<std::string, std::pair<double, int>>{
+                                               {"nigel_1", {1.0, 1}}, {"nigel_2", {2.0, 1}}}));
+
+  // nigel_1 crosses into downtown: downtown lists it where it is now, and uptown still lists
+  // it where it was last heard there until that is fleet.staleness_s old. Whichever district's
+  // message comes last, the car is shown once, at its newest position.
+  hub.SetFleet(
+      "downtown", 10.5,
+      json::array({Car("nigel_2", 2.5, 10.5, "downtown"), Car("nigel_1", 1.5, 10.5, "downtown")}),
+      3.0);
+  hub.SetFleet("uptown", 10.6, json::array({Car("nigel_1", 1.0, 10.0, "uptown")}), 4.0);
+  got = Drain(*browser);
+  ASSERT_EQ(got.size(), 2u);
+  for (const Sse& m : got) {
+    EXPECT_EQ(ById(m.data["vehicles"]), (std::map<std::string, std::pair<double, int>>{
+                                            {"nigel_1", {1.5, 1}}, {"nigel_2", {2.5, 1}}}));
+  }
+  json state = hub.State()["vehicles"];
+  ASSERT_EQ(state.size(), 2u);
+  for (const json& v : state) {
+    EXPECT_EQ(v["district"], "downtown") << v.dump();  // the report shown is downtown's
+  }
+
+  // Uptown drops it (stale there): uptown's empty fleet removes only uptown's cars.
+  hub.SetFleet("uptown", 11.1, json::array(), 5.0);
+  EXPECT_EQ(ById(hub.State()["vehicles"]), (std::map<std::string, std::pair<double, int>>{
+                                               {"nigel_1", {1.5, 1}}, {"nigel_2", {2.5, 1}}}));
+  // Downtown's empty fleet empties the page's: no district lists a car any more.
+  hub.SetFleet("downtown", 11.2, json::array(), 6.0);
+  EXPECT_TRUE(hub.State()["vehicles"].empty());
+  // Back in uptown only, as uptown reports it.
+  hub.SetFleet("uptown", 12.0, json::array({Car("nigel_1", 0.5, 12.0, "uptown")}), 7.0);
+  EXPECT_EQ(ById(hub.State()["vehicles"]),
+            (std::map<std::string, std::pair<double, int>>{{"nigel_1", {0.5, 1}}}));
+}
+
+TEST(DashboardHub, ACityWithoutDistrictsShowsItsScmsFleetAsItIs) {
+  Hub hub = MakeHub();
+  const json fleet = json::array({{{"id", "b"}, {"x", 1.0}}, {{"id", "a"}, {"x", 2.0}}});
+  hub.SetFleet(5.0, fleet, 1.0);
+  EXPECT_EQ(hub.State()["vehicles"], fleet);
+  hub.SetFleet(5.1, json::array(), 2.0);
+  EXPECT_TRUE(hub.State()["vehicles"].empty());
+}
+
+TEST(DashboardHub, TheDistrictsSpatLampsDevicesAndIntersectionsMergeByTheirIds) {
+  // Each district's SCM publishes its own intersections, lamps and devices: the page shows all.
+  Hub hub = MakeHub();
+  hub.SetSpat(50.0, {SpatX(1, 3, "stop_and_remain")}, 1.0);   // uptown's
+  hub.SetSpat(50.05, {SpatX(2, 9, "stop_and_remain")}, 1.0);  // downtown's
+  hub.SetSpat(50.1, {SpatX(1, 4, "protected_movement_allowed")}, 1.0);
+  hub.SetLamp(1, 3, 1.0);
+  hub.SetLamp(4, 1, 1.0);
+  hub.SetDevice({{"id", "signal_1"}, {"health", "ok"}, {"district", "uptown"}}, 1.0);
+  hub.SetDevice({{"id", "signal_4"}, {"health", "ok"}, {"district", "downtown"}}, 1.0);
+  hub.SetIntersections({{{"name", "north_t"}, {"district", "uptown"}}}, 1.0);
+  hub.SetIntersections({{{"name", "centre"}, {"district", "downtown"}}}, 1.0);
+  const json state = hub.State();
+  ASSERT_EQ(state["spat"].size(), 2u);
+  EXPECT_EQ(state["spat"][0]["revision"], 4);
+  EXPECT_EQ(state["spat"][1]["revision"], 9);
+  EXPECT_EQ(state["heads"], (json{{"1", 3}, {"4", 1}}));
+  EXPECT_EQ(state["devices"].size(), 2u);
+  EXPECT_EQ(state["intersections"].size(), 2u);
+}
+
+TEST(DashboardHub, EventsOfTwoDistrictsWithOneIdAreBothShownAndEachAcknowledgedInItsDistrict) {
+  // Each district's SCM numbers its events by its own event log: their ids meet.
+  Hub hub = MakeHub();
+  auto browser = hub.Subscribe();
+  (void)Drain(*browser);
+  const auto alarm = [](const std::string& district) {
+    return json{
+        {"id", 5}, {"source", "scm"}, {"district", district}, {"severity", 2}, {"active", true}};
+  };
+  hub.AddEvent(alarm("uptown"), 1.0);
+  hub.AddEvent(alarm("downtown"), 1.0);
+  hub.AddEvent(alarm("downtown"), 1.0);  // latched repeat
+  auto got = Drain(*browser);
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[1].data["event"]["district"], "downtown");
+  EXPECT_FALSE(hub.Ack(5, "alice", 10.0, "midtown"));
+  EXPECT_TRUE(hub.Ack(5, "alice", 10.0, "downtown"));
+  got = Drain(*browser);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].event, "ack");
+  EXPECT_EQ(got[0].data["district"], "downtown");
+  EXPECT_TRUE(hub.State()["events"][0]["acked_by"].is_null());
+  EXPECT_EQ(hub.State()["events"][1]["acked_by"], "alice");
+  EXPECT_TRUE(hub.Ack(5, "bob", 11.0, "uptown"));
+  EXPECT_EQ(hub.State()["events"][0]["acked_by"], "bob");
 }
 
 TEST(DashboardHub, TrafficIsThinnedToItsIntervalAndAlwaysCurrentInTheState) {

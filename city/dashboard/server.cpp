@@ -227,18 +227,17 @@ std::shared_ptr<Server::Camera> Server::CameraNamed(const std::string& name) {
 
 // --- Server -------------------------------------------------------------------------------------
 
-Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
+Server::Server(const dds::Participant& participant, Hub& hub, ServerOptions options,
                std::function<json()> rates)
     : participant_(participant),
       hub_(hub),
       options_(std::move(options)),
       rates_(std::move(rates)),
       http_(std::make_unique<httplib::Server>()) {
-  const std::string client = scm::UniqueClientId("dashboard");
-  reader_ = std::make_unique<scm::OperatorClient>(participant_, client + "/poll");
-  if (!options_.operator_name.empty()) {
-    actor_ = std::make_unique<scm::OperatorClient>(participant_, client, options_.operator_name);
-  }
+  std::vector<ScmSite> sites = options_.districts;
+  if (sites.empty()) sites.push_back({"", &participant_});
+  scms_ = std::make_unique<ScmClients>(std::move(sites), options_.intersection_districts,
+                                       scm::UniqueClientId("dashboard"), options_.operator_name);
   for (const CameraSource& c : options_.cameras) {
     auto camera = std::make_shared<Camera>();
     camera->source = c;
@@ -326,7 +325,7 @@ Server::Server(dds::Participant& participant, Hub& hub, ServerOptions options,
       }
       limit = n;
     }
-    const json history = History(limit);
+    const json history = scms_->History(limit);
     Reply(res, history.contains("error") ? 502 : 200, history);
   });
   http.Post("/api/action", [this](const httplib::Request& req, httplib::Response& res) {
@@ -470,12 +469,17 @@ json Server::Act(const json& body, const std::string& who, const std::string& re
     const std::string& text = args["id"];
     const std::uint64_t id = std::strtoull(text.c_str(), &end, 10);
     if (text.empty() || *end != '\0') return invalid("ack needs the event's id");
-    const bool ok = hub_.Ack(id, who, NowMs() / 1000.0);
-    spdlog::info("{} ({}) acknowledged event {}{}", who, remote, id,
+    // In a city of districts each district's SCM numbers its own events: the page names the
+    // event's district.
+    const std::string district = args.contains("district") ? args["district"] : std::string();
+    const std::string which =
+        district.empty() ? std::to_string(id) : fmt::format("{} of district {}", id, district);
+    const bool ok = hub_.Ack(id, who, NowMs() / 1000.0, district);
+    spdlog::info("{} ({}) acknowledged event {}{}", who, remote, which,
                  ok ? "" : ": not an active alarm here");
     return {{"result", ok ? "ok" : "rejected"},
-            {"message", ok ? fmt::format("event {} acknowledged by {}", id, who)
-                           : fmt::format("event {} is not an active alarm", id)},
+            {"message", ok ? fmt::format("event {} acknowledged by {}", which, who)
+                           : fmt::format("event {} is not an active alarm", which)},
             {"values", json::object()}};
   }
   static const std::set<std::string> kAllowed{"mode", "plan", "advance", "reset", "config_apply"};
@@ -490,73 +494,22 @@ json Server::Act(const json& body, const std::string& who, const std::string& re
     args["yaml_bytes"] = std::to_string(yaml.size());
     args["yaml_hash"] = scm::ContentHash(yaml);
   }
-  if (!actor_) {
+  if (!scms_->can_act()) {
     return {{"result", "unavailable"},
             {"message", "the dashboard has no operator name (--operator) to act as"},
             {"values", json::object()}};
   }
-  std::optional<scm::OperatorAnswer> answer;
-  {
-    std::lock_guard lock(actor_mutex_);
-    actor_->set_client_id(fmt::format("dashboard/{}@{}", who, remote));
-    try {
-      answer = actor_->Call(command, args, command == "config_apply" ? 120s : 10s);
-    } catch (const std::exception& e) {
-      return invalid(e.what());
-    }
-  }
+  json answer = scms_->Act(command, args, fmt::format("dashboard/{}@{}", who, remote));
   spdlog::info("{} ({}) {} {}: {}", who, remote, command,
                args.contains("intersection") ? args["intersection"] : std::string(),
-               answer ? answer->message : std::string("no answer from the SCM"));
+               answer.value("message", ""));
   poll_now_.store(true);
   stop_cv_.notify_all();
-  if (!answer) {
-    return {{"result", "unavailable"},
-            {"message", "no answer from the SCM (is it running?)"},
-            {"values", json::object()}};
-  }
-  return scm::ToJson(*answer);
-}
-
-json Server::History(std::size_t limit) {
-  std::optional<scm::OperatorAnswer> answer;
-  {
-    std::lock_guard lock(reader_mutex_);
-    answer = reader_->Call("events", {{"limit", std::to_string(limit)}}, 5s);
-  }
-  if (!answer) return {{"error", "no answer from the SCM"}};
-  if (answer->code != scm::ReplyCode::kOk) return {{"error", answer->message}};
-  json events = json::array();
-  for (const auto& [id, event] : answer->values) {
-    json typed = event.Parse();
-    if (typed.is_object()) events.push_back(HistoryEventJson(typed));
-  }
-  std::sort(events.begin(), events.end(), [](const json& a, const json& b) {
-    return a.value("stamp", 0.0) < b.value("stamp", 0.0);
-  });
-  return {{"events", std::move(events)}};
+  return answer;
 }
 
 void Server::PollIntersections() {
-  std::optional<scm::OperatorAnswer> answer;
-  {
-    std::lock_guard lock(reader_mutex_);
-    answer = reader_->Call("intersections", {}, 2s);
-  }
-  if (!answer || answer->code != scm::ReplyCode::kOk) return;
-  std::vector<json> xs;
-  for (const auto& [name, x] : answer->values) {
-    auto it = intersections_shown_.find(name);
-    if (it == intersections_shown_.end()) {
-      it = intersections_shown_.emplace(name, std::string()).first;
-    } else if (it->second == x.json_text()) {
-      continue;
-    }
-    json typed = x.Parse();
-    if (!typed.is_object()) continue;
-    it->second = x.json_text();
-    xs.push_back(IntersectionJson(name, std::move(typed)));
-  }
+  std::vector<json> xs = scms_->ChangedIntersections();
   if (!xs.empty()) hub_.SetIntersections(xs, NowMs());
 }
 

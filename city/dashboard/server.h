@@ -3,7 +3,8 @@
 /// The dashboard's HTTP side (cpp-httplib): the page, the map's SVG, the state, the
 /// server-sent-event stream, the event history, operator actions and camera streams
 /// (docs/dashboard.md). Operator actions go to the SCM through `scm::OperatorClient`, as
-/// `scmctl`'s do, after the caller's token was checked.
+/// `scmctl`'s do, after the caller's token was checked; in a city of districts to each district's
+/// SCM (`ScmClients`).
 
 #include <atomic>
 #include <chrono>
@@ -22,15 +23,12 @@
 #include <nlohmann/json.hpp>
 
 #include "city/dashboard/hub.h"
+#include "city/dashboard/scm_clients.h"
 
 #include "common/dds/participant.h"
 
 namespace httplib {
 class Server;
-}
-
-namespace autodrive::scm {
-class OperatorClient;
 }
 
 namespace autodrive::dashboard {
@@ -71,6 +69,12 @@ struct ServerOptions {
   std::vector<CameraSource> cameras;
   /// The launcher's status.json, read once a second when set.
   std::filesystem::path status_file;
+  /// In a city of districts, each district's SCM (`ScmSite`s with a district; their
+  /// participants must outlive the server) and `intersection_districts` (IntersectionDistricts)
+  /// to send an action on an intersection to its district's SCM. Empty: the city's one SCM, on
+  /// the server's participant.
+  std::vector<ScmSite> districts;
+  ScmClients::DistrictOf intersection_districts;
   double camera_fps = 5.0;
   int jpeg_quality = 80;
 };
@@ -80,7 +84,7 @@ class Server {
  public:
   /// `participant`, `hub` must outlive it; `counts` gives the feed's message counts (for the
   /// once-a-second rates).
-  Server(dds::Participant& participant, Hub& hub, ServerOptions options,
+  Server(const dds::Participant& participant, Hub& hub, ServerOptions options,
          std::function<nlohmann::json()> rates);
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
@@ -101,10 +105,9 @@ class Server {
   void Poll();
   void PollIntersections();
   void PollProcesses();
-  nlohmann::json History(std::size_t limit);
   std::shared_ptr<Camera> CameraNamed(const std::string& name);
 
-  dds::Participant& participant_;
+  const dds::Participant& participant_;
   Hub& hub_;
   ServerOptions options_;
   std::function<nlohmann::json()> rates_;
@@ -116,15 +119,8 @@ class Server {
   std::condition_variable stop_cv_;
   int port_ = 0;
 
-  std::mutex reader_mutex_;  ///< guards reader_ (read-only commands)
-  std::unique_ptr<scm::OperatorClient> reader_;
-  std::mutex actor_mutex_;  ///< guards actor_ (state-changing commands)
-  std::unique_ptr<scm::OperatorClient> actor_;
+  std::unique_ptr<ScmClients> scms_;  ///< the SCM, or each district's
   std::atomic<bool> poll_now_{false};
-  /// The poll thread's: each intersection's value (JSON text) in the SCM's last `intersections`
-  /// answer, so that only those that changed are read and sent to the page (a 32x32 city
-  /// answers 1,024 a second).
-  std::map<std::string, std::string, std::less<>> intersections_shown_;
 
   std::mutex cameras_mutex_;
   std::map<std::string, std::shared_ptr<Camera>> cameras_;

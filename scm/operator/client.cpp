@@ -20,7 +20,7 @@
 
 namespace autodrive::scm {
 
-OperatorClient::OperatorClient(dds::Participant& participant, std::string client_id,
+OperatorClient::OperatorClient(const dds::Participant& participant, std::string client_id,
                                std::optional<std::string> operator_name)
     : participant_(participant),
       client_id_(std::move(client_id)),

@@ -44,7 +44,7 @@ class OperatorClient {
   /// operator's topic; without, only read-only commands can be sent. Request ids start at a
   /// random number, so that a client that gets the id of one gone before it (a dashboard
   /// restarted, a recycled pid) does not reuse that one's request ids either.
-  OperatorClient(dds::Participant& participant, std::string client_id,
+  OperatorClient(const dds::Participant& participant, std::string client_id,
                  std::optional<std::string> operator_name = std::nullopt);
   OperatorClient(const OperatorClient&) = delete;
   OperatorClient& operator=(const OperatorClient&) = delete;
@@ -69,7 +69,7 @@ class OperatorClient {
   void set_client_id(std::string client_id) { client_id_ = std::move(client_id); }
 
  private:
-  dds::Participant& participant_;
+  const dds::Participant& participant_;
   std::string client_id_;
   std::optional<std::string> operator_name_;
   std::uint64_t next_id_ = 1;  // random start (constructor)

@@ -1264,8 +1264,11 @@
       if (b.hasAttribute('data-ack')) {
         const row = b.closest('.ev');
         const ev = row && row._e;
-        // the id as text: as the brief's examples have it, and safe for 64-bit ids
-        sendAction('ack', { id: str(ev && ev.id !== undefined && ev.id !== null ? ev.id : b.getAttribute('data-ack')) });
+        // the id as text: as the brief's examples have it, and safe for 64-bit ids; and in a city
+        // of districts the event's district (each district's SCM numbers its own events)
+        const args = { id: str(ev && ev.id !== undefined && ev.id !== null ? ev.id : b.getAttribute('data-ack')) };
+        if (ev && isRef(ev.district)) args.district = str(ev.district);
+        sendAction('ack', args);
         return;
       }
       const action = b.getAttribute('data-action');
@@ -1332,14 +1335,16 @@
   const evEl = $('events');
   const evRows = new Map(); // key -> row
   let evSeq = 0;
-  // An id is its source's (the SCM's event log, a light host's session): two sources may use one.
+  // An id is its source's (the SCM's event log, a light host's session) in its district (each
+  // district's SCM has a log of its own): two sources, or two districts, may use one.
   function evKey(e) {
-    return e.id !== undefined && e.id !== null ? str(e.source) + '#' + String(e.id) : 'local-' + ++evSeq;
+    if (e.id === undefined || e.id === null) return 'local-' + ++evSeq;
+    return (isRef(e.district) ? str(e.district) + '/' : '') + str(e.source) + '#' + String(e.id);
   }
   function evHtml(e) {
     const sev = Math.max(0, Math.min(3, Math.round(num(e.severity, 0))));
     const xi = isRef(e.intersection) ? xNameOf(e.intersection) || 'intersection ' + e.intersection : '';
-    const where = [e.source, xi, e.device].filter((v) => isRef(v)).join(' · ');
+    const where = [e.district, e.source, xi, e.device].filter((v) => isRef(v)).join(' · ');
     let st = e.active ? 'active' : sev > 0 ? 'cleared' : '';
     if (e.acked_by) st += (st ? ' · ' : '') + 'acked by ' + str(e.acked_by);
     const ackable = sev >= 2 && e.active && !e.acked_by;
@@ -1418,7 +1423,7 @@
     ac.textContent = alarms + (alarms === 1 ? ' alarm' : ' alarms');
   }
   function ackEvent(m) {
-    const row = evRows.get(evKey({ id: m.id, source: m.source }));
+    const row = evRows.get(evKey({ id: m.id, source: m.source, district: m.district }));
     if (!row) return;
     row._e = Object.assign({}, row._e, { acked_by: m.by || 'someone', acked_at: m.at });
     row.className = evClass(row._e);
