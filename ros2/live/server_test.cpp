@@ -5,6 +5,8 @@
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -15,6 +17,8 @@
 #include <boost/asio/read_until.hpp>
 #include <boost/asio/streambuf.hpp>
 #include <boost/asio/write.hpp>
+#include <boost/beast/core/flat_buffer.hpp>
+#include <boost/beast/websocket.hpp>
 
 #include "common/error.h"
 
@@ -23,6 +27,8 @@ namespace {
 
 using namespace std::chrono_literals;
 namespace net = boost::asio;
+namespace beast = boost::beast;
+namespace websocket = beast::websocket;
 using tcp = net::ip::tcp;
 
 TEST(SetListenAddress, ReadsHostAndPort) {
@@ -166,6 +172,73 @@ TEST(WebSocketServer, SendToAClientThatStopsReadingNeverBlocksAndDropsBeyondTheB
   EXPECT_LE(stats.queued_bytes, options.client_queue_bytes);
   server.Stop();
   EXPECT_TRUE(handler.WaitClosed(1)) << "Stop closes every connection";
+}
+
+// Frames sent faster than one write each (the write chain gathers the small ones under the
+// WebSocket and sends them together, ros2/live/server.cpp): every message arrives whole, in
+// order, as its own WebSocket message, the small and the large (written alone), text among
+// them, while the client's pings are answered in between.
+TEST(WebSocketServer, FramesSentInABurstArriveWholeInOrderEachAsItsOwnMessage) {
+  Recorder handler;
+  ServerOptions options{"127.0.0.1", 0};
+  options.client_queue_bytes = std::size_t{64} << 20;  // room for all: nothing is dropped
+  WebSocketServer server(options, handler);
+  server.Start();
+  net::io_context io;
+  websocket::stream<tcp::socket> client(io);
+  client.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), server.port()));
+  client.set_option(websocket::stream_base::decorator([](websocket::request_type& request) {
+    request.set(beast::http::field::sec_websocket_protocol, "foxglove.websocket.v1");
+  }));
+  client.handshake("127.0.0.1", "/");
+  const auto connection = handler.WaitOpen();
+  ASSERT_NE(connection, nullptr);
+  // Sizes from 1 byte to 100 KB (past the 64 KB that are gathered), every tenth a text frame.
+  constexpr std::uint32_t kFrames = 3000;
+  const auto size_of = [](std::uint32_t i) { return std::size_t{1} + (i * 7919U) % 100000U; };
+  std::thread sender([&] {
+    for (std::uint32_t i = 0; i < kFrames; ++i) {
+      if (i % 10 == 0) {
+        connection->Send(OutFrame::Text("text " + std::to_string(i)));
+        continue;
+      }
+      auto payload = std::make_shared<std::vector<std::byte>>(size_of(i));
+      for (std::size_t b = 0; b < payload->size(); ++b) {
+        (*payload)[b] = static_cast<std::byte>((i + b) % 251U);
+      }
+      connection->Send(OutFrame::Data(EncodeMessageDataHeader(i, i), std::move(payload)));
+    }
+  });
+  std::uint32_t wrong = 0;
+  for (std::uint32_t i = 0; i < kFrames; ++i) {
+    if (i % 500 == 250) client.ping({});  // its pong comes among the frames
+    beast::flat_buffer message;
+    client.read(message);
+    const auto* data = static_cast<const std::byte*>(message.data().data());
+    const std::span<const std::byte> bytes(data, message.size());
+    if (i % 10 == 0) {
+      const std::string text(reinterpret_cast<const char*>(data), message.size());
+      if (!client.got_text() || text != "text " + std::to_string(i)) {
+        ADD_FAILURE() << "message " << i << ": " << text.substr(0, 40);
+        if (++wrong > 5) break;
+      }
+      continue;
+    }
+    const std::optional<MessageData> m = DecodeMessageData(bytes);
+    bool whole =
+        client.got_binary() && m && m->subscription_id == i && m->payload.size() == size_of(i);
+    for (std::size_t b = 0; whole && b < m->payload.size(); ++b) {
+      whole = m->payload[b] == static_cast<std::byte>((i + b) % 251U);
+    }
+    if (!whole) {
+      ADD_FAILURE() << "message " << i << " is not frame " << i << " whole ("
+                    << (m ? m->subscription_id : 0) << ", " << message.size() << " bytes)";
+      if (++wrong > 5) break;
+    }
+  }
+  sender.join();
+  EXPECT_EQ(connection->stats().dropped_frames, 0U);
+  server.Stop();
 }
 
 }  // namespace
