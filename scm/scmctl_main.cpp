@@ -284,6 +284,7 @@ struct CommandLine {
   double duration_s = 0.0;
   bool json = false;
   bool validate_on_scm = false;
+  bool intergreen = false;  ///< show --intergreen
   CLI::App* status = nullptr;
   CLI::App* intersections = nullptr;
   CLI::App* show = nullptr;
@@ -302,6 +303,9 @@ void AddCommands(CLI::App& app, CommandLine& c) {
   c.intersections = app.add_subcommand("intersections", "every signalised intersection");
   c.show = app.add_subcommand("show", "one intersection: mode, plan, groups and lights");
   c.show->add_option("intersection", c.intersection, "name or id")->required();
+  c.show->add_flag("--intergreen", c.intergreen,
+                   "also the intergreen matrix computed from the map and safety's vehicles, "
+                   "with its inputs (docs/scm.md, \"Intergreens\")");
   c.mode_cmd = app.add_subcommand("mode", "set the mode of an intersection (operator)");
   c.mode_cmd->add_option("intersection", c.intersection, "name or id")->required();
   c.mode_cmd->add_option("mode", c.mode, "auto|fixed|actuated|manual|flash|dark")->required();
@@ -338,6 +342,7 @@ bool ToRequest(const CommandLine& c, std::string& command,
   if (c.status->parsed()) command = "status";
   if (c.intersections->parsed()) command = "intersections";
   if (c.show->parsed()) command = "show";
+  if (c.intergreen) args["intergreen"] = "true";
   if (c.mode_cmd->parsed()) command = "mode", args["mode"] = c.mode;
   if (c.plan_cmd->parsed()) command = "plan", args["plan"] = c.plan;
   if (c.advance->parsed()) command = "advance";

@@ -242,6 +242,12 @@ struct SafetyConfig {
   /// The slowest, longest vehicles that cross the city's intersections: every group's red
   /// clearance covers each of them (docs/scm.md, "Clearances"). Default: a Nigel at 0.2 m/s.
   std::vector<ClearingVehicleConfig> clearing_vehicles{{"nigel", 0.318, 0.2}};
+  /// The intergreen matrix's entering speed: the fastest a vehicle crosses its stop line as its
+  /// green starts (m/s). Default: a Nigel's top speed.
+  double entering_speed_mps = 0.26;
+  /// The intergreen matrix's t_cross: how long after its green ends a vehicle may still cross
+  /// its stop line (lab seconds). Default 0: the lab's cars stop once their green ends.
+  double crossing_time_s = 0.0;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -250,6 +256,8 @@ struct SafetyConfig {
     a.Optional("min_red_clearance_s", min_red_clearance_s, range);
     a.Optional("min_green_s", min_green_s, range);
     a.Optional("clearing_vehicles", clearing_vehicles);
+    a.Optional("entering_speed_mps", entering_speed_mps, config::Range<double>{0.01, 50.0});
+    a.Optional("crossing_time_s", crossing_time_s, config::Range<double>{0.0, 60.0});
   }
   bool operator==(const SafetyConfig&) const = default;
 };

@@ -18,6 +18,7 @@ namespace {
 
 constexpr std::array<std::string_view, 0> kNone{};
 constexpr std::array<std::string_view, 1> kX{"intersection"};
+constexpr std::array<std::string_view, 2> kShow{"intersection", "intergreen"};
 constexpr std::array<std::string_view, 2> kMode{"intersection", "mode"};
 constexpr std::array<std::string_view, 2> kPlan{"intersection", "plan"};
 constexpr std::array<std::string_view, 2> kEvents{"since", "limit"};
@@ -26,7 +27,7 @@ constexpr std::array<std::string_view, 4> kConfig{"yaml", "path", "yaml_bytes", 
 constexpr std::array<CommandSpec, 10> kCommands = {{
     {"status", false, false, kNone},
     {"intersections", false, false, kNone},
-    {"show", true, false, kX},
+    {"show", true, false, kShow},
     {"events", false, false, kEvents},
     {"config_validate", false, false, kConfig},
     {"mode", true, true, kMode},

@@ -1,14 +1,17 @@
 #include "scm/operator/operator_commands.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <iterator>
+#include <ranges>
 
 #include "common/error.h"
+#include "scm/core/intergreen.h"
 #include "scm/io/map_data.h"
 
 namespace autodrive::scm {
@@ -151,6 +154,68 @@ std::optional<Reply> Intersections(const OperatorCommand&, const ClockReading&, 
   return r;
 }
 
+/// `show X --intergreen`: the intersection's intergreen matrix with its inputs
+/// (scm/core/intergreen.h), a value per pair of conflicting groups.
+void AddIntergreens(const City& city, const IntersectionModel& x, Reply& r) {
+  const SafetyConfig& safety = city.config.safety;
+  IntergreenInputs inputs;
+  inputs.clearing_vehicles = safety.clearing_vehicles;
+  inputs.entering_speed_mps = safety.entering_speed_mps;
+  inputs.crossing_time_s = safety.crossing_time_s;
+  nlohmann::json vehicles = nlohmann::json::array();
+  for (const ClearingVehicleConfig& v : inputs.clearing_vehicles) {
+    vehicles.push_back({{"name", v.name}, {"length_m", v.length_m}, {"speed_mps", v.speed_mps}});
+  }
+  const double reach = city.map.lane_width_m / 2.0;
+  r.values.emplace_back(
+      "intergreen inputs",
+      nlohmann::json{
+          {"clearing_vehicles", vehicles},
+          {"entering_speed_mps", inputs.entering_speed_mps},
+          {"crossing_time_s", inputs.crossing_time_s},
+          {"conflict_reach_m", reach},
+          {"text", fmt::format("t = t_cross {:.1f} s + (s_clear + L) / v_clear - s_enter / {:.2f} "
+                               "m/s; paths conflict within {:.2f} m (half a lane); clearing: {}",
+                               inputs.crossing_time_s, inputs.entering_speed_mps, reach,
+                               fmt::join(safety.clearing_vehicles |
+                                             std::views::transform([](const auto& v) {
+                                               return fmt::format("{} {:.3f} m at {:.2f} m/s",
+                                                                  v.name, v.length_m, v.speed_mps);
+                                             }),
+                                         ", "))}});
+  const auto matrix = ComputeIntergreens(city.map, x, inputs);
+  for (const auto& row : matrix) {
+    for (const auto& e : row) {
+      if (!e) continue;
+      const SignalGroup& a = x.groups[e->clearing];
+      const SignalGroup& b = x.groups[e->entering];
+      const std::string& ma = city.map.movement(e->clearing_movement).name;
+      const std::string& mb = city.map.movement(e->entering_movement).name;
+      r.values.emplace_back(
+          fmt::format("intergreen {} > {}", a.id.value(), b.id.value()),
+          nlohmann::json{
+              {"clearing_group", a.id.value()},
+              {"entering_group", b.id.value()},
+              {"intergreen_s", e->intergreen_s},
+              {"ite_s", e->ite_s},
+              {"clearing_movement", ma},
+              {"entering_movement", mb},
+              {"vehicle", e->vehicle},
+              {"clearing_path_m", e->clearing_path_m},
+              {"entering_path_m", e->entering_path_m},
+              {"clearing_time_s", e->clearing_time_s},
+              {"entering_time_s", e->entering_time_s},
+              {"text", fmt::format("{} ({}) > {} ({}): {:.1f} s = {:.1f} + ({:.2f} + {:.3f}) / "
+                                   "{:.2f} - {:.2f} / {:.2f} ({} clearing {}, {} entering); ITE "
+                                   "(W + L) / V {:.1f} s",
+                                   a.id.value(), a.name, b.id.value(), b.name, e->intergreen_s,
+                                   e->crossing_time_s, e->clearing_path_m, e->vehicle_length_m,
+                                   e->clearing_speed_mps, e->entering_path_m,
+                                   inputs.entering_speed_mps, e->vehicle, ma, mb, e->ite_s)}});
+    }
+  }
+}
+
 std::optional<Reply> Show(const OperatorCommand& cmd, const ClockReading& now, CommandContext& ctx,
                           Responder&) {
   Reply error;
@@ -180,6 +245,7 @@ std::optional<Reply> Show(const OperatorCommand& cmd, const ClockReading& now, C
     r.values.emplace_back("infrastructure monitor",
                           ctx.supervisor.monitor_latched(*xi) ? "latched" : "watching");
   }
+  if (cmd.Arg("intergreen") == "true") AddIntergreens(ctx.runtime.city(), *x.model, r);
   return r;
 }
 

@@ -282,6 +282,33 @@ TEST_F(OperatorCommandsTest, StatusAndShowCountTheBackgroundTrafficPerApproach) 
             approach("east", 0, 0));
 }
 
+// `show X --intergreen`: the inputs, and an entry per pair of conflicting groups with its
+// figures (scm/core/intergreen.h); none without the flag.
+TEST_F(OperatorCommandsTest, ShowWithIntergreenGivesTheMatrixAndItsInputs) {
+  EXPECT_TRUE(Run("show", {{"intersection", "north_t"}}).Value("intergreen inputs").is_null());
+  const Reply show = Run("show", {{"intersection", "north_t"}, {"intergreen", "true"}});
+  ASSERT_EQ(show.code, ReplyCode::kOk);
+  const nlohmann::json inputs = show.Value("intergreen inputs");
+  EXPECT_EQ(inputs.value("entering_speed_mps", 0.0), 0.26);
+  EXPECT_EQ(inputs.value("conflict_reach_m", 0.0), 0.15);
+  const IntersectionModel& x = bundle_->city().intersections[*bundle_->runtime->Find("north_t")];
+  std::size_t entries = 0;
+  for (std::size_t a = 0; a < x.groups.size(); ++a) {
+    for (std::size_t b = 0; b < x.groups.size(); ++b) {
+      const nlohmann::json e = show.Value(
+          fmt::format("intergreen {} > {}", x.groups[a].id.value(), x.groups[b].id.value()));
+      EXPECT_EQ(e.is_null(), a == b || !x.conflicts[a][b]) << a << " " << b;
+      if (e.is_null()) continue;
+      ++entries;
+      EXPECT_GT(e.value("intergreen_s", 0.0), 0.0);
+      EXPECT_GE(e.value("ite_s", 0.0), e.value("intergreen_s", 0.0)) << e.dump();
+      EXPECT_EQ(e.value("vehicle", ""), "nigel");
+      EXPECT_NE(ValueText(e).find(" s = 0.0 + ("), std::string::npos) << e.dump();
+    }
+  }
+  EXPECT_GT(entries, 0u);
+}
+
 TEST_F(OperatorCommandsTest, AResetClearsTheLatchAndAsksOnlyThatIntersectionsMonitorToReset) {
   RunFor(seconds(8));
   const std::size_t centre = *bundle_->runtime->Find("centre");
