@@ -76,12 +76,15 @@ class GatherStream {
       next_.async_write_some(buffers, std::forward<Handler>(handler));
       return;
     }
-    net::async_write(next_, beast::buffers_cat(kept_.data(), buffers),
-                     [this, handler = std::forward<Handler>(handler)](beast::error_code ec,
+    // The kept bytes move to the write (it may outlive this stream: a pending write completes,
+    // aborted, after the WebSocket that owned the stream is gone).
+    auto kept = std::make_shared<beast::flat_buffer>(std::move(kept_));
+    kept_ = beast::flat_buffer();
+    net::async_write(next_, beast::buffers_cat(kept->data(), buffers),
+                     [kept, handler = std::forward<Handler>(handler)](beast::error_code ec,
                                                                       std::size_t written) mutable {
-                       const std::size_t kept = kept_.size();
-                       kept_.consume(kept);
-                       std::move(handler)(ec, written > kept ? written - kept : 0);
+                       const std::size_t before = kept->size();
+                       std::move(handler)(ec, written > before ? written - before : 0);
                      });
   }
 
@@ -141,8 +144,8 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
     // thread per window, not one per sample (10 clients on every topic: ~20,000 frames/s).
     net::post(executor_, [self = shared_from_this()] {
       if (!self->ws_) return;  // shut down meanwhile
-      self->batch_timer_.expires_after(kBatchWindow);
-      self->batch_timer_.async_wait([self](beast::error_code) { self->WriteNext(); });
+      self->batch_timer_->expires_after(kBatchWindow);
+      self->batch_timer_->async_wait([self](beast::error_code) { self->WriteNext(); });
     });
   }
 
@@ -157,7 +160,7 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
   /// When the server stops (I/O thread): closes the socket, tells the handler, and deletes the
   /// stream.
   void Shutdown() {
-    batch_timer_.cancel();
+    batch_timer_.reset();  // of the server's I/O context, as the stream (below)
     beast::error_code ec;
     beast::get_lowest_layer(*ws_).socket().shutdown(tcp::socket::shutdown_both, ec);
     beast::get_lowest_layer(*ws_).close();
@@ -337,9 +340,10 @@ class Session final : public Connection, public std::enable_shared_from_this<Ses
   http::request<http::string_body> request_;
   beast::flat_buffer read_buffer_;
   std::size_t max_message_ = 0;
-  bool opened_ = false;                       // I/O thread only
-  OutFrame current_;                          // the frame being written; I/O thread only
-  net::steady_timer batch_timer_{executor_};  // delays a write chain of message data
+  bool opened_ = false;  // I/O thread only
+  OutFrame current_;     // the frame being written; I/O thread only
+  // Delays a write chain of message data; deleted by Shutdown with the stream.
+  std::unique_ptr<net::steady_timer> batch_timer_ = std::make_unique<net::steady_timer>(executor_);
 
   mutable std::mutex mutex_;  // guards the members below
   SendQueue queue_;
