@@ -1,11 +1,13 @@
 #include "city/dashboard/feed.h"
 
 #include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "common/dds/conversions.h"
 #include "common/dds/topics.h"
@@ -20,11 +22,12 @@ using nlohmann::json;
 
 namespace {
 
-double Seconds(const msg::Time& t) { return ToSeconds(dds::FromMsg(t)); }
+using internal::InDistrict;
+using internal::Repeating;
+using internal::Seconds;
+using internal::SourceMs;
+
 std::string Text(const char* s) { return std::string(dds::View(s)); }
-double SourceMs(const dds::SampleInfo& info) {
-  return static_cast<double>(info.source_timestamp_ns) / 1e6;
-}
 /// Map metres to the millimetre, radians to the milliradian: the page needs no more, and the
 /// traffic message of 1,000 cars stays small.
 double Mm(double v) { return std::round(v * 1000.0) / 1000.0; }
@@ -98,20 +101,6 @@ std::unique_ptr<dds::Reader<T>> Listen(const dds::Participant& participant,
   reader->OnDataAvailable(drain);
   drain(*reader);
   return reader;
-}
-
-/// The same topic read best-effort and volatile: for the streams that repeat their whole state
-/// (SPaT at 10 Hz, SUMO's traffic at 20 Hz, the fleets, each light's periodic status), where
-/// the next sample makes up for a lost one (none is lost on one host). Writers send such a
-/// reader no heartbeats and wait for no acknowledgement from it. Acknowledging the lights'
-/// statuses (5,120 a second in a 32x32 city) was 18% of the dashboard's CPU (Cyclone's
-/// timed-event thread, 16x16 grid: 1% after). The lamps (`signal_<i>/state`, sent only on a
-/// change) stay reliable.
-template <typename T>
-dds::TopicSpec<T> Repeating(dds::TopicSpec<T> spec) {
-  spec.qos.reliability = dds::Qos::Reliability::kBestEffort;
-  spec.qos.durability = dds::Qos::Durability::kVolatile;
-  return spec;
 }
 
 }  // namespace
@@ -320,199 +309,79 @@ FeedOptions DistrictFeed(const maps::Map& map, const maps::District& district) {
   return o;
 }
 
-json Feed::InDistrict(json object) const {
-  if (!district_.empty()) object["district"] = district_;
-  return object;
+std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> Feed::ListenToLamps(
+    const dds::Participant& participant, const std::vector<SignalHeadId>& heads) {
+  std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> readers;
+  readers.reserve(heads.size());
+  for (const SignalHeadId head : heads) {
+    const std::uint32_t id = head.value();
+    readers.push_back(Listen(participant, dds::topics::SignalState(head),
+                             [this, id](const msg::Int32& m, const dds::SampleInfo& info) {
+                               counters_.lamps.fetch_add(1);
+                               hub_.SetLamp(id, m.data, SourceMs(info));
+                             }));
+  }
+  return readers;
 }
 
+// The lamps first, then SPaT, the fleet and the traffic (the converter's readers; their
+// listeners only note that a sample waits), then the listeners' streams, and the converter's
+// thread last.
 Feed::Feed(const dds::Participant& participant, FeedOptions options, Hub& hub)
-    : hub_(hub), district_(std::move(options.district)) {
-  heads_.reserve(options.heads.size());
-  for (const SignalHeadId head : options.heads) {
-    const std::uint32_t id = head.value();
-    heads_.push_back(Listen(participant, dds::topics::SignalState(head),
-                            [this, id](const msg::Int32& m, const dds::SampleInfo& info) {
-                              lamps_.fetch_add(1);
-                              hub_.SetLamp(id, m.data, SourceMs(info));
-                            }));
-  }
-  // SPaT, the fleet and SUMO's traffic each repeat their whole state: their listeners only
-  // note that a sample waits, and the converter thread takes the latest (history 1) and
-  // converts it. Cyclone's receive thread stays free to drain its socket, and a converter
-  // that falls behind skips samples (the next replaces the last) instead of queueing them.
-  const auto note = [this](bool Feed::*waiting) {
-    {
-      std::lock_guard lock(convert_mutex_);
-      this->*waiting = true;
-    }
-    convert_cv_.notify_one();
-  };
-  if (options.scm_streams) {
-    spat_reader_ =
-        std::make_unique<dds::Reader<msg::Spat>>(participant, Repeating(dds::topics::Spat()));
-    fleet_reader_ = std::make_unique<dds::Reader<msg::FleetState>>(participant,
-                                                                   Repeating(dds::topics::Fleet()));
-    spat_reader_->OnDataAvailable([note](dds::Reader<msg::Spat>&) { note(&Feed::spat_waiting_); });
-    fleet_reader_->OnDataAvailable(
-        [note](dds::Reader<msg::FleetState>&) { note(&Feed::fleet_waiting_); });
-  }
-  if (options.city_streams) {
-    traffic_reader_ = std::make_unique<dds::Reader<msg::TrafficObjects>>(
-        participant, Repeating(dds::topics::Traffic()));
-    traffic_reader_->OnDataAvailable(
-        [note](dds::Reader<msg::TrafficObjects>&) { note(&Feed::traffic_waiting_); });
-  }
+    : hub_(hub),
+      district_(std::move(options.district)),
+      heads_(ListenToLamps(participant, options.heads)),
+      converter_(participant, options.scm_streams, options.city_streams, district_, hub,
+                 counters_) {
   if (options.scm_streams) {
     events_reader_ = Listen(participant, dds::topics::Events(),
                             [this](const msg::Event& m, const dds::SampleInfo& info) {
-                              events_.fetch_add(1);
-                              hub_.AddEvent(InDistrict(EventJson(m)), SourceMs(info));
+                              counters_.events.fetch_add(1);
+                              hub_.AddEvent(InDistrict(district_, EventJson(m)), SourceMs(info));
                             });
     // The SCM's table of the city's devices (about once a second, and soon after a change),
     // rather than each light's own status every status period: one sample instead of thousands.
-    devices_reader_ =
-        Listen(participant, dds::topics::DeviceTable(),
-               [this](const msg::DeviceTable& m, const dds::SampleInfo& info) {
-                 devices_.fetch_add(1);
-                 const double source_ms = SourceMs(info);
-                 for (const auto& d : dds::Elements(m.devices)) {
-                   // Nearly every row is as it was: JSON only when what the page shows of it
-                   // changed (compared in place: no allocation).
-                   {
-                     std::lock_guard lock(devices_mutex_);
-                     const std::string_view id = dds::View(d.device_id);
-                     auto it = devices_shown_.find(id);
-                     if (it == devices_shown_.end()) {
-                       it = devices_shown_.emplace(std::string(id), DeviceShown{}).first;
-                     } else if (it->second.kind == d.kind && it->second.backend == d.backend &&
-                                it->second.health == d.health && it->second.mode == d.mode &&
-                                it->second.reported == d.reported && it->second.lost == d.lost &&
-                                it->second.host == dds::View(d.host) &&
-                                it->second.detail == dds::View(d.detail)) {
-                       continue;
-                     }
-                     DeviceShown& shown = it->second;
-                     shown.kind = d.kind;
-                     shown.backend = d.backend;
-                     shown.health = d.health;
-                     shown.mode = d.mode;
-                     shown.reported = d.reported;
-                     shown.lost = d.lost;
-                     shown.host = dds::View(d.host);
-                     shown.detail = dds::View(d.detail);
-                   }
-                   hub_.SetDevice(InDistrict(DeviceJson(d)), source_ms);
-                 }
-               });
+    devices_reader_ = Listen(participant, dds::topics::DeviceTable(),
+                             [this](const msg::DeviceTable& m, const dds::SampleInfo& info) {
+                               counters_.devices.fetch_add(1);
+                               const double source_ms = SourceMs(info);
+                               for (const auto& d : dds::Elements(m.devices)) {
+                                 // Nearly every row is as it was: JSON only when what the page
+                                 // shows of it changed.
+                                 if (!devices_shown_.Changed(d)) continue;
+                                 hub_.SetDevice(InDistrict(district_, DeviceJson(d)), source_ms);
+                               }
+                             });
     requests_reader_ =
         Listen(participant, dds::topics::SignalRequestStatus(),
                [this](const msg::SignalRequestStatus& m, const dds::SampleInfo& info) {
-                 hub_.SetRequest(InDistrict(RequestJson(m)), SourceMs(info));
+                 hub_.SetRequest(InDistrict(district_, RequestJson(m)), SourceMs(info));
                });
   }
   if (options.city_streams) {
-    eye_reader_ =
-        Listen(participant, Repeating(dds::topics::EyeFleet()),
-               [this](const msg::FleetState&, const dds::SampleInfo&) { eye_.fetch_add(1); });
+    eye_reader_ = Listen(
+        participant, Repeating(dds::topics::EyeFleet()),
+        [this](const msg::FleetState&, const dds::SampleInfo&) { counters_.eye.fetch_add(1); });
   }
   // Last: should a reader above fail, no thread is left running (and joinable) behind it.
-  converter_ = std::thread([this] { Convert(); });
-}
-
-void Feed::Convert() {
-  std::unique_lock lock(convert_mutex_);
-  while (!stop_) {
-    // SUMO's traffic comes at 20 Hz and the page draws at most 10: a sample that comes sooner
-    // is left in the reader, where the next replaces it, never converted from CDR at all (and
-    // the one converted is always converted as it comes, fresh).
-    const auto now = std::chrono::steady_clock::now();
-    const bool traffic_due = traffic_waiting_ && now - traffic_converted_ >= kTrafficInterval;
-    if (!traffic_due) traffic_waiting_ = false;
-    if (!spat_waiting_ && !fleet_waiting_ && !traffic_due) {
-      convert_cv_.wait(lock);
-      continue;
-    }
-    const bool do_spat = std::exchange(spat_waiting_, false);
-    const bool do_fleet = std::exchange(fleet_waiting_, false);
-    if (traffic_due) {
-      traffic_waiting_ = false;
-      traffic_converted_ = now;
-    }
-    lock.unlock();
-    try {
-      ConvertWaiting(do_spat, do_fleet, traffic_due);
-    } catch (const std::exception& e) {
-      // As a listener's would be: logged and counted, never fatal (bad text from the network
-      // makes JSON throw). The next sample is converted as usual.
-      const std::uint64_t n = ++convert_errors_;
-      if (n <= 5 || n % 100 == 0) {
-        spdlog::error("dashboard: converting a sample failed ({} so far): {}", n, e.what());
-      }
-    }
-    lock.lock();
-  }
-}
-
-void Feed::ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic) {
-  dds::SampleInfo info;
-  if (do_spat && spat_reader_) {
-    while (spat_reader_->TakeOne(spat_sample_, &info)) {
-      spat_.fetch_add(1);
-      // JSON only for the intersections whose revision changed: a big city's SPaT is mostly
-      // the same from one message to the next.
-      std::vector<json> xs;
-      for (const auto& x : dds::Elements(spat_sample_->intersections)) {
-        const auto [it, added] = spat_revisions_.try_emplace(x.intersection_id, x.revision);
-        if (!added && it->second == x.revision) continue;
-        it->second = x.revision;
-        xs.push_back(SpatIntersectionJson(x));
-      }
-      hub_.SetSpat(Seconds(spat_sample_->header.stamp), std::move(xs), SourceMs(info));
-    }
-  }
-  if (do_fleet && fleet_reader_) {
-    while (fleet_reader_->TakeOne(fleet_sample_, &info)) {
-      fleet_.fetch_add(1);
-      json vs = json::array();
-      for (const auto& v : dds::Elements(fleet_sample_->vehicles)) {
-        vs.push_back(InDistrict(VehicleJson(v)));
-      }
-      hub_.SetFleet(district_, Seconds(fleet_sample_->header.stamp), std::move(vs), SourceMs(info));
-    }
-  }
-  if (do_traffic && traffic_reader_) {
-    while (traffic_reader_->TakeOne(traffic_sample_, &info)) {
-      traffic_.fetch_add(1);
-      json os = json::array();
-      for (const auto& o : dds::Elements(traffic_sample_->objects))
-        os.push_back(TrafficObjectJson(o));
-      hub_.SetTraffic(std::move(os), SourceMs(info));
-    }
-  }
+  converter_.Start();
 }
 
 Feed::~Feed() {
-  // The converter first (it takes from the readers), then the readers: their listeners use
-  // this object.
-  {
-    std::lock_guard lock(convert_mutex_);
-    stop_ = true;
-  }
-  convert_cv_.notify_one();
-  if (converter_.joinable()) converter_.join();
+  // The converter's thread first (it takes from its readers), then the readers: their
+  // listeners use this object. The converter's readers (traffic, fleet, SPaT) and the lamps'
+  // go after these, as members, in that order.
+  converter_.Stop();
   eye_reader_.reset();
   requests_reader_.reset();
   devices_reader_.reset();
   events_reader_.reset();
-  traffic_reader_.reset();
-  fleet_reader_.reset();
-  spat_reader_.reset();
-  heads_.clear();
 }
 
 FeedCounts Feed::counts() const {
-  return {lamps_.load(), spat_.load(),   fleet_.load(),  traffic_.load(),
-          eye_.load(),   events_.load(), devices_.load()};
+  return {counters_.lamps.load(),   counters_.spat.load(), counters_.fleet.load(),
+          counters_.traffic.load(), counters_.eye.load(),  counters_.events.load(),
+          counters_.devices.load()};
 }
 
 }  // namespace autodrive::dashboard

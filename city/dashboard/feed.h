@@ -10,22 +10,17 @@
 /// SCM's streams and the lamps of its intersections' heads): `CityFeed` and `DistrictFeed` say
 /// which streams each takes.
 
-#include <atomic>
-#include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <functional>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <string_view>
-#include <thread>
-#include <unordered_map>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "city/dashboard/hub.h"
+#include "city/dashboard/internal/feed_converter.h"
+#include "city/dashboard/internal/feed_streams.h"
+#include "city/dashboard/internal/shown_devices.h"
 
 #include "common/dds/messages.h"
 #include "common/dds/participant.h"
@@ -69,6 +64,10 @@ struct FeedOptions {
 /// the heads of its intersections.
 [[nodiscard]] FeedOptions DistrictFeed(const maps::Map& map, const maps::District& district);
 
+/// One participant's streams, read and handed to the hub as they arrive: the lamps, events,
+/// the device table, V2I request status and the Eye's fleet by listeners on Cyclone's threads;
+/// SPaT, the fleet and the traffic by its converter thread (internal::FeedConverter). Not
+/// copyable or movable (the listeners hold `this`).
 class Feed {
  public:
   /// Subscribes on `participant` (which, like `hub`, must outlive it) to the streams `options`
@@ -84,47 +83,18 @@ class Feed {
   [[nodiscard]] FeedCounts counts() const;
 
  private:
-  /// SUMO's traffic is converted at most this often (Hub::Options::traffic_interval).
-  static constexpr std::chrono::milliseconds kTrafficInterval{95};
+  /// The lamps' readers: each counts its samples and hands them to the hub.
+  [[nodiscard]] std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> ListenToLamps(
+      const dds::Participant& participant, const std::vector<SignalHeadId>& heads);
 
-  /// The converter thread: takes and converts SPaT, the fleet and the traffic when their
-  /// listeners note a sample, the latest only.
-  void Convert();
-  void ConvertWaiting(bool do_spat, bool do_fleet, bool do_traffic);
-
-  /// The page's object of this feed's SCM's stream: `object` with "district" when there is one.
-  [[nodiscard]] nlohmann::json InDistrict(nlohmann::json object) const;
-
+  // Made in this order (the readers' listeners use what is above them) and taken down in the
+  // reverse, the converter's thread stopped first (~Feed).
   Hub& hub_;
   const std::string district_;
-  std::mutex convert_mutex_;  ///< guards the flags below
-  std::condition_variable convert_cv_;
-  bool spat_waiting_ = true, fleet_waiting_ = true, traffic_waiting_ = true, stop_ = false;
-  std::chrono::steady_clock::time_point traffic_converted_{};
-  std::unordered_map<std::uint32_t, std::uint32_t> spat_revisions_;  ///< the converter's
-  dds::Message<msg::Spat> spat_sample_;                              ///< the converter's, reused
-  dds::Message<msg::FleetState> fleet_sample_;
-  dds::Message<msg::TrafficObjects> traffic_sample_;
-  std::atomic<std::uint64_t> convert_errors_{0};
-  std::thread converter_;
-  std::mutex devices_mutex_;  ///< guards devices_shown_ (listeners may run on several threads)
-  /// What the page shows of a device, as last sent.
-  struct DeviceShown {
-    std::uint8_t kind = 0, backend = 0, health = 0, mode = 0;
-    bool reported = false, lost = false;
-    std::string host, detail;
-  };
-  struct TextHash {
-    using is_transparent = void;
-    std::size_t operator()(std::string_view s) const { return std::hash<std::string_view>{}(s); }
-  };
-  std::unordered_map<std::string, DeviceShown, TextHash, std::equal_to<>> devices_shown_;
-  std::atomic<std::uint64_t> lamps_{0}, spat_{0}, fleet_{0}, traffic_{0}, eye_{0}, events_{0},
-      devices_{0};
+  internal::FeedCounters counters_;
+  internal::ShownDevices devices_shown_;
   std::vector<std::unique_ptr<dds::Reader<msg::Int32>>> heads_;
-  std::unique_ptr<dds::Reader<msg::Spat>> spat_reader_;
-  std::unique_ptr<dds::Reader<msg::FleetState>> fleet_reader_;
-  std::unique_ptr<dds::Reader<msg::TrafficObjects>> traffic_reader_;
+  internal::FeedConverter converter_;  ///< SPaT, the fleet and the traffic (its own readers)
   std::unique_ptr<dds::Reader<msg::Event>> events_reader_;
   std::unique_ptr<dds::Reader<msg::DeviceTable>> devices_reader_;
   std::unique_ptr<dds::Reader<msg::SignalRequestStatus>> requests_reader_;
