@@ -216,13 +216,22 @@ void DeviceSupervisor::Check(MonoTime now, std::span<const SentCommand> sent, Ci
       }
       const bool fault =
           head.health == DeviceHealth::kFault || head.health == DeviceHealth::kOffline;
+      // A fault reported during the start-up flash (a serial board that answers after its
+      // light host's first report, a lamp out before the start) holds the start-up instead of
+      // latching: the intersection flashes either way, and starts once the light is healthy and
+      // follows the SCM.
+      const bool starting = c.stage() == Stage::kStartupFlash && !c.latched();
+      if (fault && starting) all_seen = false;
       if (fault && !head.faulty && !head.lost) {
         head.faulty = true;
-        recoveries_[xi].armed = false;
         events.Emit(Event{Severity::kAlarm, "device_fault",
-                          fmt::format("{} reports a fault: {}", slot.name, head.detail),
+                          fmt::format("{} reports a fault: {}{}", slot.name, head.detail,
+                                      starting ? "; the start-up flash waits for it" : ""),
                           x.model->id, slot.name, "scm", true});
-        runtime.FailSafe(xi, now, fmt::format("{} has a fault", slot.name), events);
+        if (!starting) {
+          recoveries_[xi].armed = false;
+          runtime.FailSafe(xi, now, fmt::format("{} has a fault", slot.name), events);
+        }
       } else if (!fault && head.faulty) {
         head.faulty = false;
       }

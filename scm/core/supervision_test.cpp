@@ -105,6 +105,42 @@ TEST_F(SupervisionTest, StartUpWaitsUntilEveryLightFollowsTheScmNotOnlyReports) 
   EXPECT_FALSE(centre.latched());
 }
 
+TEST_F(SupervisionTest, AFaultDuringTheStartUpHoldsItAndOnlyAFaultAfterItLatches) {
+  // A serial board that answers after its light host's first report: the light reports
+  // itself offline for a moment during the start-up flash. The intersection waits for it, as
+  // for a light not yet heard, instead of latching until an operator resets it.
+  const auto& centre = *runtime_.intersections()[Index("centre")].controller;
+  const auto report = [&](MonoTime at, DeviceHealth signal5) {
+    for (const auto& h : runtime_.heads()) {
+      DeviceReportView r = Light(h.id.value(), Aspect::kRed);
+      r.health = h.id.value() == 5 ? signal5 : DeviceHealth::kOk;
+      supervisor_.Report(r, at, runtime_, events_);
+    }
+    supervisor_.Check(at, sent_, runtime_, events_);
+    runtime_.Step(ClockReading{at, Time{}, 0}, DayClock::At(std::chrono::hours(12)), nullptr,
+                  events_);
+  };
+  report(t0_ + seconds(10), DeviceHealth::kOffline);
+  EXPECT_EQ(centre.stage(), Stage::kStartupFlash) << "the start-up waits for signal_5";
+  EXPECT_FALSE(centre.latched());
+  ASSERT_EQ(events_.WithCode("device_fault").size(), 1u);
+  EXPECT_THAT(events_.WithCode("device_fault")[0].message,
+              HasSubstr("signal_5 reports a fault: ; the start-up flash waits for it"));
+  EXPECT_EQ(runtime_.intersections()[Index("north_t")].controller->stage(), Stage::kAllRed)
+      << "the other intersection starts";
+  report(t0_ + seconds(11), DeviceHealth::kOffline);
+  EXPECT_EQ(centre.stage(), Stage::kStartupFlash);
+  EXPECT_EQ(events_.WithCode("device_fault").size(), 1u) << "raised once";
+  report(t0_ + seconds(12), DeviceHealth::kOk);
+  EXPECT_EQ(centre.stage(), Stage::kAllRed) << "healthy and following: the start-up goes on";
+  EXPECT_FALSE(centre.latched());
+  // After the start-up a fault latches, as before.
+  report(t0_ + seconds(13), DeviceHealth::kFault);
+  EXPECT_TRUE(centre.latched());
+  EXPECT_EQ(centre.latch_reason(), "signal_5 has a fault");
+  EXPECT_EQ(events_.WithCode("device_fault").size(), 2u);
+}
+
 TEST_F(SupervisionTest, ALightNotHeardForTheTimeOutIsLostAndLatchesItsIntersectionOnly) {
   ReportAll(t0_);
   // Everyone but signal_5 (centre) reports again.
