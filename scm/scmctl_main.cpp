@@ -23,6 +23,7 @@
 #include "common/shutdown.h"
 #include "scm/config_loader.h"
 #include "scm/core/city.h"
+#include "scm/core/ring_plan.h"
 #include "scm/operator/client.h"
 #include "scm/store/store.h"
 
@@ -117,6 +118,14 @@ int ValidateHere(const std::string& file) {
     }
     std::cout << "ok: " << file << " is valid: city " << city.config.name << ", "
               << city.intersections.size() << " signalised intersections\n";
+    // Each plan as the controller model has it: NTCIP phases in rings (docs/controller.md).
+    for (const IntersectionModel& x : city.intersections) {
+      for (const Plan& plan : x.plans) {
+        std::cout << "\n"
+                  << x.name << " plan " << plan.name << " (" << ToString(plan.type) << "):\n"
+                  << DescribeRingPlan(x, RingPlanOf(x, plan));
+      }
+    }
     return 0;
   } catch (const InputError& e) {
     std::cout << "invalid: " << e.what() << "\n";

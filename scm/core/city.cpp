@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "maps/map_io.h"
+#include "scm/core/intergreen.h"
 #include "scm/core/internal/intersection_build.h"
 
 namespace autodrive::scm {
@@ -122,10 +123,41 @@ using internal::Where;
 
 std::string Seconds(Duration d) { return fmt::format("{:g} s", ToSeconds(d)); }
 
+/// Computes `x`'s intergreen matrix (its groups and conflicts built) and checks that each
+/// group's clearance, its yellow and red clearance, reaches every entry of its row.
+void SetIntergreens(const SafetyConfig& safety, const maps::Map& map, IntergreenCache& cache,
+                    const Where& where, IntersectionModel& x) {
+  const IntergreenInputs inputs{safety.clearing_vehicles, safety.entering_speed_mps,
+                                safety.crossing_time_s};
+  const auto entries = ComputeIntergreens(map, x, inputs, &cache);
+  const std::size_t n = x.groups.size();
+  x.intergreens.assign(n, std::vector<Duration>(n, Duration{0}));
+  for (std::size_t a = 0; a < n; ++a) {
+    const GroupTiming& t = x.groups[a].timing;
+    for (std::size_t b = 0; b < n; ++b) {
+      if (!entries[a][b]) continue;
+      const IntergreenEntry& e = *entries[a][b];
+      x.intergreens[a][b] = FromSeconds(e.intergreen_s);
+      if (t.yellow + t.red_clearance >= x.intergreens[a][b]) continue;
+      where.Fail(fmt::format(
+          "groups {} > {}: the clearance of group {}, yellow {} + red clearance {} = {}, is "
+          "below the intergreen {} the map gives ({} clearing: ({:.2f} m + {:.3f} m) / {:g} m/s "
+          "= {:.2f} s, entering {:.2f} m / {:g} m/s = {:.2f} s, t_cross {:g} s; `scmctl show X "
+          "--intergreen`); rule: a clearance may exceed the intergreen matrix, never undercut it",
+          internal::GroupLabel(x.groups[a]), internal::GroupLabel(x.groups[b]),
+          x.groups[a].id.value(), Seconds(t.yellow), Seconds(t.red_clearance),
+          Seconds(t.yellow + t.red_clearance), Seconds(x.intergreens[a][b]), e.vehicle,
+          e.clearing_path_m, e.vehicle_length_m, e.clearing_speed_mps, e.clearing_time_s,
+          e.entering_path_m, inputs.entering_speed_mps, e.entering_time_s, e.crossing_time_s));
+    }
+  }
+}
+
 /// Builds one intersection; `map_x` is the map's intersection of that name.
 IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionConfig& cfg,
                                     const maps::Map& map, const maps::Intersection& map_x,
-                                    const internal::GroupFloors& floors, const Where& where) {
+                                    const internal::GroupFloors& floors, IntergreenCache& cache,
+                                    const Where& where) {
   IntersectionModel x;
   x.id = map_x.id;
   x.name = map_x.name;
@@ -156,6 +188,7 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
                              internal::GroupLabel(g)));
     }
   }
+  SetIntergreens(city.safety, map, cache, where, x);
   x.plans = internal::BuildPlans(cfg, x, site, scale, where);
   x.schedule = internal::BuildSchedule(cfg, x, where);
   return x;
@@ -195,6 +228,7 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
   city.device_timeout = config.devices.timeout_s;
   city.device_mismatch = config.devices.mismatch_s;
   city.fleet_staleness = config.fleet.staleness_s;
+  IntergreenCache intergreens;  // the map's intersections are mostly alike
   for (std::size_t i = 0; i < config.intersections.size(); ++i) {
     const auto& xc = config.intersections[i];
     const Where where = root.Then(fmt::format("intersections[{}] ({})", i, xc.name));
@@ -214,7 +248,7 @@ City BuildCity(const CityConfig& config, maps::Map map, const std::string& sourc
     }
     city.intersections.push_back(BuildIntersection(
         config, xc, map, *it, internal::GroupFloors{city.floors, config.safety.clearing_vehicles},
-        where));
+        intergreens, where));
   }
   for (const auto& x : map.intersections) {
     if (x.control == maps::Control::kSignal && city.Find(x.id) == nullptr) {

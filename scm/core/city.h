@@ -92,6 +92,11 @@ struct IntersectionModel {
   std::vector<SignalGroup> groups;
   /// conflicts[a][b]: groups a and b (indices) may never show green or yellow together.
   std::vector<std::vector<bool>> conflicts;
+  /// intergreens[a][b]: the least time from the end of conflicting group a's green to the start
+  /// of group b's, computed from the map (scm/core/intergreen.h); zero where a and b do not
+  /// conflict. Each group's yellow plus red clearance is at or above every entry of its row
+  /// (checked at load), and the conflict monitor holds every green to it.
+  std::vector<std::vector<Duration>> intergreens;
   std::vector<Plan> plans;
   std::vector<ScheduleEntry> schedule;  ///< sorted by minute; never empty
   PriorityParams priority;

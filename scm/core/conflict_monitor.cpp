@@ -17,7 +17,8 @@ ConflictMonitor::ConflictMonitor(const IntersectionModel& model, MonoTime now)
     : model_(&model),
       aspects_(model.groups.size()),
       since_(model.groups.size(), now),
-      red_since_(model.groups.size()) {
+      red_since_(model.groups.size()),
+      green_end_(model.groups.size()) {
   for (std::size_t g = 0; g < aspects_.size(); ++g) aspects_[g] = model.groups[g].flash_aspect;
 }
 
@@ -95,6 +96,14 @@ std::optional<Violation> ConflictMonitor::Check(MonoTime now,
                                   "clearance {}; rule: minimum all-red",
                                   Label(m, g), Label(m, h), red_for, Secs(clear)));
         }
+        const Duration intergreen = m.intergreens.empty() ? Duration{0} : m.intergreens[h][g];
+        if (green_end_[h] && now - *green_end_[h] < intergreen) {
+          return fail(
+              "short_intergreen",
+              fmt::format("{} turned green {} after conflicting {}'s green ended, under "
+                          "their intergreen {}; rule: intergreen matrix",
+                          Label(m, g), Secs(now - *green_end_[h]), Label(m, h), Secs(intergreen)));
+        }
       }
     }
   }
@@ -105,6 +114,8 @@ void ConflictMonitor::Record(MonoTime now, const std::vector<Aspect>& next) {
   AUTODRIVE_CHECK(next.size() == aspects_.size(), "monitor got the wrong number of aspects");
   for (std::size_t g = 0; g < next.size(); ++g) {
     if (aspects_[g] == next[g]) continue;
+    if (aspects_[g] == Aspect::kGreen && next[g] == Aspect::kYellow) green_end_[g] = now;
+    if (IsFlashing(next[g]) || next[g] == Aspect::kOff) green_end_[g].reset();
     aspects_[g] = next[g];
     since_[g] = now;
     red_since_[g] = next[g] == Aspect::kRed ? std::optional<MonoTime>(now) : std::nullopt;

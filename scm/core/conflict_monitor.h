@@ -8,8 +8,10 @@
 /// - a green that ends before its min green, or not into yellow (a green may go straight to
 ///   flash or dark: the intersection going to flash is allowed at any time);
 /// - a yellow shorter than its minimum, or a yellow followed by anything but red (or flash);
-/// - a green that starts from anything but steady red, or while a conflicting group has not
-///   been steady red for its red clearance.
+/// - a green that starts from anything but steady red, while a conflicting group has not
+///   been steady red for its red clearance, or before the intergreen from the end of a
+///   conflicting group's last green (through yellow) to this group's has passed
+///   (`IntersectionModel::intergreens`).
 /// The controller is told to latch flash on a violation; the monitor itself only judges.
 
 #include <optional>
@@ -49,6 +51,9 @@ class ConflictMonitor {
   std::vector<MonoTime> since_;
   /// When each group last became steady red (nothing while it is not red).
   std::vector<std::optional<MonoTime>> red_since_;
+  /// When each group's last green ended into yellow (nothing once it went to flash or dark,
+  /// which the start-up's all red follows).
+  std::vector<std::optional<MonoTime>> green_end_;
 };
 
 }  // namespace autodrive::scm

@@ -177,6 +177,19 @@ std::size_t IntersectionController::FirstPhase(std::size_t plan, MonoTime at) co
   return 0;
 }
 
+Duration IntersectionController::CycleClearanceLeft(std::size_t plan, MonoTime at) const {
+  const Plan& p = model_->plans[plan];
+  if (TargetMode(plan) != Mode::kFixed || p.cycle <= Duration{0}) return Duration{0};
+  Duration pos = (at - midnight_ - p.offset) % p.cycle;
+  if (pos < Duration{0}) pos += p.cycle;
+  for (std::size_t k = 0; k < p.phases.size(); ++k) {
+    const Duration green_end = p.phase_starts[k] + p.phases[k].green;
+    const Duration next_start = k + 1 < p.phases.size() ? p.phase_starts[k + 1] : p.cycle;
+    if (pos >= green_end && pos < next_start) return next_start - pos;
+  }
+  return Duration{0};
+}
+
 MonoTime IntersectionController::PlannedEnd(std::size_t phase, MonoTime now) const {
   const Plan& p = plan();
   Duration lo{0};
@@ -332,6 +345,8 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
           const Mode target = TargetMode(plan_);
           if (target == Mode::kFlash || target == Mode::kDark) {
             EnterFlash(now, target == Mode::kDark);
+          } else if (const Duration wait = CycleClearanceLeft(plan_, now); wait > Duration{0}) {
+            stage_end_ = now + wait;  // stay red to the cycle's next green, so as to keep to it
           } else {
             StartPhase(FirstPhase(plan_, now), now);
           }
@@ -488,6 +503,7 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
       const Mode target = TargetMode(plan_);
       if (target == Mode::kFlash || target == Mode::kDark) return std::nullopt;
       t = stage_end_;
+      t += CycleClearanceLeft(plan_, t);  // as Step leaves all red
       from = FirstPhase(plan_, t);
       if (Contains(p.phases[from].groups, g)) return t;
       t = green_end(from, t, false);

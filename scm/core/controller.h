@@ -181,6 +181,10 @@ class IntersectionController {
   [[nodiscard]] std::size_t ChooseNext(std::size_t plan, const std::vector<bool>& calls) const;
   [[nodiscard]] std::size_t FirstPhase(std::size_t plan, MonoTime at) const;
   [[nodiscard]] MonoTime PlannedEnd(std::size_t phase, MonoTime now) const;
+  /// For a fixed-time plan: when `at` falls in the cycle's clearance after a phase's green, how
+  /// long until the next phase's green is due (zero otherwise). Leaving all red then would start
+  /// that phase early and keep the whole cycle early, as its greens cannot grow to catch up.
+  [[nodiscard]] Duration CycleClearanceLeft(std::size_t plan, MonoTime at) const;
   /// The time group `g` turns green if the sequence runs with each phase's green ending at
   /// `green_end(phase, start)`.
   [[nodiscard]] std::optional<MonoTime> EarliestGreen(std::size_t g, MonoTime now) const;

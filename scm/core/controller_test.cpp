@@ -98,6 +98,28 @@ TEST(Controller, StartsWithFlashThenAllRedThenThePlan) {
   EXPECT_EQ(rig.controller.plan().name, "day");
 }
 
+TEST(Controller, AStartUpEndingInTheCyclesClearanceStaysRedToTheNextGreenAndKeepsToTheCycle) {
+  // Started 5 s into the cycle, the start-up (3 s flash, 2 s all red) ends at 10 s, inside
+  // phase 1's yellow and red clearance (8 to 13 s). Starting phase 2 then would put the whole
+  // cycle 3 s early for good: fixed-time greens can shorten, not grow.
+  const MonoTime c = CycleStart();
+  Rig rig(DrivingSchool().intersections[0], c + seconds(5));
+  rig.RunTo(c + seconds(10) + milliseconds(100));
+  EXPECT_EQ(rig.controller.stage(), Stage::kAllRed);
+  EXPECT_EQ(rig.controller.Signals(rig.now)[1].next_green, c + seconds(13))
+      << "SPaT says when the wait ends";
+  rig.RunTo(c + seconds(13) - milliseconds(100));
+  for (std::size_t g = 0; g < 4; ++g) EXPECT_EQ(rig.Of(g), Aspect::kRed);
+  rig.RunTo(c + seconds(13));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  rig.RunTo(c + seconds(21));
+  EXPECT_EQ(rig.Of(1), Aspect::kYellow) << "a whole green, on the cycle";
+  rig.RunTo(c + seconds(52 + 13) - milliseconds(100));
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
+  rig.RunTo(c + seconds(52 + 13));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen) << "the next cycle on time";
+}
+
 TEST(Controller, StartUpWaitsForTheDevices) {
   Rig rig(DrivingSchool().intersections[0]);
   rig.controller.SetDevicesReady(false);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <map>
 
 #include "maps/polyline.h"
 
@@ -52,28 +54,82 @@ std::optional<std::pair<double, double>> Zone(const maps::Polyline& path,
 
 }  // namespace
 
-IntergreenEntry MovementIntergreen(const maps::Map& map, MovementId clearing_id,
-                                   MovementId entering_id, const ClearingVehicleConfig& vehicle,
-                                   const IntergreenInputs& inputs) {
-  const maps::Movement& clearing = map.movement(clearing_id);
-  const maps::Movement& entering = map.movement(entering_id);
+/// Where two paths conflict: how far the clearing one runs to the far edge of the zone and the
+/// entering one to its near edge.
+struct IntergreenCache::Zones {
+  bool meet = false;
+  double clear_far = 0.0;
+  double enter_near = 0.0;
+};
+
+namespace {
+
+IntergreenCache::Zones ComputeZones(const maps::Map& map, const maps::Movement& clearing,
+                                    const maps::Movement& entering) {
   // Each vehicle kept in its lane: two paths conflict where their centrelines are less than
   // half a lane width apart.
   // Paths the map finds in conflict that never come that close (a merge at an angle) meet
   // within the map's vehicle clearance.
   const double step = std::max(map.options.sample_step_m / 2.0, 0.005);
-  bool meet = false;
-  double clear_far = 0.0, enter_near = 0.0;
   for (const double reach : {map.lane_width_m / 2.0, map.options.vehicle_clearance_m}) {
     const auto clear_zone = Zone(clearing.path, entering.path, reach, step);
     const auto enter_zone = Zone(entering.path, clearing.path, reach, step);
-    if (clear_zone && enter_zone) {
-      meet = true;
-      clear_far = clear_zone->second;
-      enter_near = enter_zone->first;
-      break;
+    if (clear_zone && enter_zone) return {true, clear_zone->second, enter_zone->first};
+  }
+  return {};
+}
+
+IntergreenEntry Entry(const maps::Movement& clearing, MovementId clearing_id,
+                      MovementId entering_id, const IntergreenCache::Zones& zones,
+                      const ClearingVehicleConfig& vehicle, const IntergreenInputs& inputs);
+
+}  // namespace
+
+/// The shape of a pair of paths: every point of both, relative to the clearing path's first
+/// point, in micrometres (so that equal shapes at other places of the map compare equal).
+struct IntergreenCache::Table {
+  std::map<std::vector<std::int64_t>, Zones> zones;
+};
+
+IntergreenCache::IntergreenCache() : table_(std::make_unique<Table>()) {}
+IntergreenCache::~IntergreenCache() = default;
+
+const IntergreenCache::Zones& IntergreenCache::Get(const maps::Map& map,
+                                                   const maps::Movement& clearing,
+                                                   const maps::Movement& entering) {
+  std::vector<std::int64_t> key;
+  key.reserve(2 * (clearing.path.size() + entering.path.size()) + 2);
+  const Eigen::Vector2d origin =
+      clearing.path.empty() ? Eigen::Vector2d::Zero() : clearing.path.front();
+  for (const auto* path : {&clearing.path, &entering.path}) {
+    key.push_back(static_cast<std::int64_t>(path->size()));
+    for (const auto& p : *path) {
+      key.push_back(std::llround((p.x() - origin.x()) * 1e6));
+      key.push_back(std::llround((p.y() - origin.y()) * 1e6));
     }
   }
+  auto it = table_->zones.find(key);
+  if (it == table_->zones.end()) {
+    it = table_->zones.emplace(std::move(key), ComputeZones(map, clearing, entering)).first;
+  }
+  return it->second;
+}
+
+IntergreenEntry MovementIntergreen(const maps::Map& map, MovementId clearing_id,
+                                   MovementId entering_id, const ClearingVehicleConfig& vehicle,
+                                   const IntergreenInputs& inputs) {
+  const maps::Movement& clearing = map.movement(clearing_id);
+  return Entry(clearing, clearing_id, entering_id,
+               ComputeZones(map, clearing, map.movement(entering_id)), vehicle, inputs);
+}
+
+namespace {
+
+IntergreenEntry Entry(const maps::Movement& clearing, MovementId clearing_id,
+                      MovementId entering_id, const IntergreenCache::Zones& zones,
+                      const ClearingVehicleConfig& vehicle, const IntergreenInputs& inputs) {
+  const bool meet = zones.meet;
+  const double clear_far = zones.clear_far, enter_near = zones.enter_near;
   IntergreenEntry e;
   e.clearing_movement = clearing_id;
   e.entering_movement = entering_id;
@@ -95,8 +151,11 @@ IntergreenEntry MovementIntergreen(const maps::Map& map, MovementId clearing_id,
   return e;
 }
 
+}  // namespace
+
 std::vector<std::vector<std::optional<IntergreenEntry>>> ComputeIntergreens(
-    const maps::Map& map, const IntersectionModel& x, const IntergreenInputs& inputs) {
+    const maps::Map& map, const IntersectionModel& x, const IntergreenInputs& inputs,
+    IntergreenCache* cache) {
   const std::size_t n = x.groups.size();
   std::vector<std::vector<std::optional<IntergreenEntry>>> out(
       n, std::vector<std::optional<IntergreenEntry>>(n));
@@ -115,8 +174,13 @@ std::vector<std::vector<std::optional<IntergreenEntry>>> ComputeIntergreens(
       for (const MovementId ma : x.groups[a].movements) {
         for (const MovementId mb : x.groups[b].movements) {
           if (!map.Conflict(ma, mb)) continue;
+          const maps::Movement& clearing = map.movement(ma);
+          const maps::Movement& entering = map.movement(mb);
+          const IntergreenCache::Zones zones = cache != nullptr
+                                                   ? cache->Get(map, clearing, entering)
+                                                   : ComputeZones(map, clearing, entering);
           for (const ClearingVehicleConfig& v : inputs.clearing_vehicles) {
-            keep(MovementIntergreen(map, ma, mb, v, inputs));
+            keep(Entry(clearing, ma, mb, zones, v, inputs));
           }
         }
       }

@@ -6,6 +6,7 @@
 /// zones, t = t_cross + (s_clear + L) / v_clear - s_enter / v_enter, with the ITE change figure
 /// (W + L) / V beside it as a second check. Pure: no I/O.
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -63,11 +64,34 @@ struct IntergreenEntry {
                                                  const ClearingVehicleConfig& vehicle,
                                                  const IntergreenInputs& inputs);
 
+/// Where two movements' paths conflict, remembered by the paths' shape relative to each other
+/// (a city's intersections are mostly alike: a grid of a thousand has a handful of shapes).
+/// Give one to `ComputeIntergreens` calls over one map to skip the geometry it has seen.
+/// Not thread-safe.
+class IntergreenCache {
+ public:
+  IntergreenCache();
+  ~IntergreenCache();
+  IntergreenCache(const IntergreenCache&) = delete;
+  IntergreenCache& operator=(const IntergreenCache&) = delete;
+
+  struct Zones;
+  /// The zones of `clearing` and `entering` on `map`, computed on the first call for their
+  /// shape.
+  [[nodiscard]] const Zones& Get(const maps::Map& map, const maps::Movement& clearing,
+                                 const maps::Movement& entering);
+
+ private:
+  struct Table;
+  std::unique_ptr<Table> table_;
+};
+
 /// `[clearing][entering]` for every pair of conflicting groups of `x` (nothing elsewhere): the
 /// worst over the pairs of their movements that conflict on the map and the clearing vehicles.
 /// Groups whose movements do not meet on the map (a conflict added by configuration) get the
 /// ITE figure of the clearing group's movements, with no entering movement and zero paths.
 [[nodiscard]] std::vector<std::vector<std::optional<IntergreenEntry>>> ComputeIntergreens(
-    const maps::Map& map, const IntersectionModel& x, const IntergreenInputs& inputs);
+    const maps::Map& map, const IntersectionModel& x, const IntergreenInputs& inputs,
+    IntergreenCache* cache = nullptr);
 
 }  // namespace autodrive::scm

@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include "common/config.h"
+#include "common/error.h"
 #include "common/test_support.h"
+#include "scm/core/conflict_monitor.h"
 
 namespace autodrive::scm {
 namespace {
@@ -87,6 +90,94 @@ TEST_F(Intergreen, TheMatrixHasAnEntryForEachConflictingPairTheWorstOfItsMovemen
       }
     }
   }
+}
+
+/// The Driving School's file with `from` replaced by `to` (once; it must be there).
+std::string EditedDrivingSchool(const std::string& from, const std::string& to) {
+  std::string text = config::ReadFile(test::SourceDir() / "config/cities/driving_school.yaml");
+  const auto at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) text.replace(at, from.size(), to);
+  return text;
+}
+
+TEST_F(Intergreen, TheModelCarriesTheMatrixInLabTime) {
+  const IntersectionModel& x = city_.intersections.front();
+  IntergreenInputs inputs;
+  inputs.clearing_vehicles = city_.config.safety.clearing_vehicles;
+  inputs.entering_speed_mps = city_.config.safety.entering_speed_mps;
+  inputs.crossing_time_s = city_.config.safety.crossing_time_s;
+  const auto matrix = ComputeIntergreens(city_.map, x, inputs);
+  ASSERT_EQ(x.intergreens.size(), x.groups.size());
+  for (std::size_t a = 0; a < x.groups.size(); ++a) {
+    for (std::size_t b = 0; b < x.groups.size(); ++b) {
+      EXPECT_EQ(x.intergreens[a][b],
+                matrix[a][b] ? FromSeconds(matrix[a][b]->intergreen_s) : Duration{0});
+      if (matrix[a][b]) {
+        EXPECT_GT(x.intergreens[a][b], Duration{0});
+      }
+    }
+  }
+}
+
+TEST_F(Intergreen, AClearanceBelowTheMatrixIsRefusedNamingThePairAndBothFigures) {
+  // A 5 s crossing time (vehicles may cross their stop line 5 s into the yellow) makes the
+  // crossing throughs' intergreen 5 + (0.80 + 0.318) / 0.2 - 0.20 / 0.26 = 9.8 s, beside the
+  // shipped clearance of 3 s yellow + 7 s red clearance = 10 s: allowed. 6 s makes it 10.8 s.
+  const auto dir = test::SourceDir() / "config/cities";
+  EXPECT_NO_THROW((void)LoadCityString(EditedDrivingSchool("min_yellow_s: 3.0",
+                                                           "crossing_time_s: 4.0\n  "
+                                                           "min_yellow_s: 3.0"),
+                                       "four.yaml", dir));
+  try {
+    (void)LoadCityString(
+        EditedDrivingSchool("min_yellow_s: 3.0", "crossing_time_s: 5.0\n  min_yellow_s: 3.0"),
+        "five.yaml", dir);
+    FAIL() << "a clearance under the intergreen matrix loaded";
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("five.yaml: intersections[0] (driving_school_crossing): groups 1 (east) "
+                        "> 2 (north): the clearance of group 1, yellow 3 s + red clearance 7 s = "
+                        "10 s, is below the intergreen 10.8 s the map gives"),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("rule: a clearance may exceed the intergreen matrix, never undercut it"),
+              std::string::npos)
+        << what;
+  }
+}
+
+TEST_F(Intergreen, TheConflictMonitorHoldsAGreenToTheIntergreenOfEachConflictingGroup) {
+  // A model whose matrix asks more than its groups' yellow + red clearance (no city file loads
+  // so; the monitor judges by the matrix it is given): 3 s + 7 s against 12 s from group 1
+  // (east) to group 2 (north).
+  IntersectionModel x = city_.intersections.front();
+  ASSERT_TRUE(x.conflicts[0][1]);
+  x.intergreens[0][1] = std::chrono::seconds(12);
+  const Aspect R = Aspect::kRed, Y = Aspect::kYellow, G = Aspect::kGreen;
+  MonoTime now{std::chrono::hours(1)};
+  ConflictMonitor monitor(x, now);
+  ASSERT_FALSE(monitor.CheckAndRecord(now, {R, R, R, R}));
+  now += std::chrono::seconds(8);
+  ASSERT_FALSE(monitor.CheckAndRecord(now, {G, R, R, R}));
+  now += std::chrono::seconds(8);
+  ASSERT_FALSE(monitor.CheckAndRecord(now, {Y, R, R, R}));  // group 1's green ends
+  now += std::chrono::seconds(3);
+  ASSERT_FALSE(monitor.CheckAndRecord(now, {R, R, R, R}));
+  now += std::chrono::seconds(8);  // 11 s after group 1's green: red clearance served
+  const auto v = monitor.CheckAndRecord(now, {R, G, R, R});
+  ASSERT_TRUE(v);
+  EXPECT_EQ(v->rule, "short_intergreen");
+  EXPECT_EQ(v->message,
+            "driving_school_crossing: group 2 (north) turned green 11.000 s after conflicting "
+            "group 1 (east)'s green ended, under their intergreen 12.000 s; rule: intergreen "
+            "matrix");
+  // Pairwise: group 3 (west), which conflicts with group 1 too, is held to its own entry.
+  ASSERT_TRUE(x.conflicts[0][2]);
+  ASSERT_LE(x.intergreens[0][2], std::chrono::seconds(11));
+  EXPECT_FALSE(monitor.Check(now, {R, R, G, R}));
+  now += std::chrono::seconds(1);
+  EXPECT_FALSE(monitor.CheckAndRecord(now, {R, G, R, R}));  // 12 s: fine
 }
 
 }  // namespace
