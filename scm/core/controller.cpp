@@ -213,6 +213,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   next_phase_.reset();
   green_start_ = now;
   last_call_ = now;
+  max_from_.reset();
   advance_ = false;
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
   planned_end_ = PlannedEnd(phase, now);
@@ -245,6 +246,17 @@ void IntersectionController::BeginClearance(std::optional<std::size_t> next, Mon
   stage_end_ = yellow_end_ + red;
 }
 
+bool IntersectionController::ConflictingCall(const std::vector<bool>& calls) const {
+  for (std::size_t g = 0; g < model_->groups.size(); ++g) {
+    if (!Contains(plan().phases[phase_].groups, g) && Call(calls, g)) return true;
+  }
+  return false;
+}
+
+MonoTime IntersectionController::MaxEnd(MonoTime now) const {
+  return max_from_.value_or(now) + PhaseMaxGreen(phase_);
+}
+
 bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
   if (now < PhaseMinEnd()) return false;
   const Mode mode = TargetMode(plan_);
@@ -262,12 +274,8 @@ bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<boo
     case Mode::kManual:
       return advance_;
     case Mode::kActuated: {
-      bool elsewhere = false;
-      for (std::size_t g = 0; g < model_->groups.size(); ++g) {
-        if (!Contains(plan().phases[phase_].groups, g) && Call(calls, g)) elsewhere = true;
-      }
-      if (!elsewhere) return false;  // rest in green
-      const bool max_out = now >= green_start_ + PhaseMaxGreen(phase_);
+      if (!ConflictingCall(calls)) return false;  // rest in green
+      const bool max_out = max_from_ && now >= *max_from_ + PhaseMaxGreen(phase_);
       const bool gap_out = now >= last_call_ + plan().extension;
       return max_out || gap_out;
     }
@@ -356,6 +364,13 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
         for (std::size_t g : plan().phases[phase_].groups) {
           if (Call(calls_, g) && !plan().detectors.empty()) last_call_ = now;
         }
+        // NTCIP phaseMaximum1: the max timer runs while a conflicting call is waiting, and is
+        // held reset while none is (a call on recall counts from the start of the green).
+        if (!ConflictingCall(calls_)) {
+          max_from_.reset();
+        } else if (!max_from_) {
+          max_from_ = now;
+        }
         const Mode target = TargetMode(wanted_plan);
         if (target == Mode::kFlash || target == Mode::kDark) {
           if (now >= PhaseMinEnd()) {
@@ -443,7 +458,7 @@ MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
     case Stage::kGreen: {
       consider(PhaseMinEnd());
       consider(planned_end_);
-      consider(green_start_ + PhaseMaxGreen(phase_));
+      if (max_from_) consider(*max_from_ + PhaseMaxGreen(phase_));
       consider(green_start_ + PhaseMaxGreen(phase_) + model_->priority.max_extension);
       consider(last_call_ + plan().extension);
       // A call on this phase keeps its gap timer running: step every pass while it lasts.
@@ -598,11 +613,12 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
           case Policy::kMin:
             return min_end;
           case Policy::kMax:
-            return std::max(min_end, start + PhaseMaxGreen(k) + extension_allowance);
+            return std::max(min_end,
+                            (mode == Mode::kActuated ? MaxEnd(now) : start + PhaseMaxGreen(k)) +
+                                extension_allowance);
           case Policy::kLikely:
             if (mode == Mode::kActuated) {
-              return std::clamp(last_call_ + p.extension, min_end,
-                                std::max(min_end, start + PhaseMaxGreen(k)));
+              return std::clamp(last_call_ + p.extension, min_end, std::max(min_end, MaxEnd(now)));
             }
             return std::max(min_end, planned_end_);
         }

@@ -177,6 +177,11 @@ class IntersectionController {
   [[nodiscard]] bool InPhase(std::size_t group) const;
   [[nodiscard]] MonoTime PhaseMinEnd() const;
   [[nodiscard]] Duration PhaseMaxGreen(std::size_t phase) const;
+  /// Whether a group outside the current phase is called (a detector, or recall).
+  [[nodiscard]] bool ConflictingCall(const std::vector<bool>& calls) const;
+  /// Where the current green maxes out: its max after the first conflicting call (NTCIP), or
+  /// after `now` while none has come.
+  [[nodiscard]] MonoTime MaxEnd(MonoTime now) const;
   [[nodiscard]] bool ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const;
   [[nodiscard]] std::size_t ChooseNext(std::size_t plan, const std::vector<bool>& calls) const;
   [[nodiscard]] std::size_t FirstPhase(std::size_t plan, MonoTime at) const;
@@ -217,6 +222,9 @@ class IntersectionController {
   MonoTime midnight_{};  ///< local midnight on the control timeline, from the last step's day
   MonoTime planned_end_{};
   MonoTime last_call_{};
+  /// When the current green's max timer started: the first step with a conflicting call
+  /// (NTCIP phaseMaximum1); none while no conflicting call waits.
+  std::optional<MonoTime> max_from_;
   MonoTime yellow_end_{};
   Duration red_clearance_{0};  ///< of the clearance under way
   bool advance_ = false;

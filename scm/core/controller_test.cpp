@@ -241,13 +241,44 @@ TEST(Controller, ActuatedRestsInGreenAndGapsOutToACall) {
   rig.RunFor(seconds(5), south, kEvening);
   EXPECT_EQ(rig.Of(3), Aspect::kGreen);  // phases 2 and 3 skipped
   EXPECT_EQ(rig.Of(1), Aspect::kRed);
-  // Calls on its own approach extend it up to max green (15 s) even with a call waiting.
+  // Calls on its own approach extend it up to max green (15 s) even with a call waiting: 15 s
+  // from the first conflicting call (NTCIP phaseMaximum1), the east call's first step.
   std::vector<bool> both(4, false);
   both[3] = both[0] = true;
-  rig.RunFor(seconds(14), both, kEvening);
+  rig.RunFor(milliseconds(100), both, kEvening);
+  const MonoTime conflicting = rig.now;
+  rig.RunTo(conflicting + seconds(15) - milliseconds(100), both, kEvening);
   EXPECT_EQ(rig.Of(3), Aspect::kGreen);
-  rig.RunFor(seconds(1), both, kEvening);
+  rig.RunTo(conflicting + seconds(15), both, kEvening);
   EXPECT_EQ(rig.Of(3), Aspect::kYellow);
+}
+
+TEST(Controller, TheMaxTimerRunsOnlyWhileAConflictingCallWaits) {
+  // NTCIP phaseMaximum1: "the maximum length of time this phase may be held Green in the
+  // presence of a serviceable conflicting call. In the absence of a serviceable conflicting call
+  // the Maximum Green timer shall be held reset".
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  std::vector<bool> own(4, false);
+  own[0] = true;
+  rig.RunFor(seconds(5), own, kEvening);
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunFor(seconds(30), own, kEvening);  // extended by its own calls, none elsewhere
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  std::vector<bool> both = own;
+  both[2] = true;
+  rig.RunFor(seconds(10), both, kEvening);  // a conflicting call for 10 s, then gone
+  rig.RunFor(seconds(10), own, kEvening);   // ... the timer held reset
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunFor(milliseconds(100), both, kEvening);  // back: 15 s from here, not 5
+  const MonoTime from = rig.now;
+  EXPECT_EQ(rig.controller.Signals(rig.now)[0].max_end,
+            from + seconds(15) + x.priority.max_extension)
+      << "SPaT's latest end counts from the conflicting call";
+  rig.RunTo(from + seconds(15) - milliseconds(100), both, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  rig.RunTo(from + seconds(15), both, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow) << "maxed out";
 }
 
 TEST(Controller, PlanChangesAtTheEndOfAGreen) {

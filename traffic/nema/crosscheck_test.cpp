@@ -130,6 +130,36 @@ TEST(NemaCrosscheck, ActuatedEveningPlanFollowsTheSameCallsAsSumo) {
   EXPECT_EQ(greens, 4);
 }
 
+TEST(NemaCrosscheck, AHeldCallMaxesOutMax1AfterTheConflictingCallAsInSumo) {
+  // Phase 1 called throughout, phase 2 from 30 s: phase 1 maxes out 15 s (its max 1) after the
+  // conflicting call (NTCIP phaseMaximum1), not after its green's start; then each maxes out
+  // in turn, every green 15 s.
+  const TempDir dir;
+  std::ofstream(dir.path() / "calls.txt") << "1 0 300\n2 30 300\n";
+  const Output r =
+      RunNema({"crosscheck", City(), "driving_school_crossing", "evening", "--cycles", "3",
+               "--calls", (dir.path() / "calls.txt").string(), "--out", dir.str()});
+  ASSERT_EQ(r.code, 0) << r.text;
+  const nlohmann::json j = Report(dir.path());
+  EXPECT_TRUE(j.at("match").get<bool>());
+  const nlohmann::json& phase1 = j.at("phases").at(0);
+  ASSERT_EQ(phase1.at("phase").get<int>(), 1);
+  const nlohmann::json& first = phase1.at("intervals").at(0);
+  ASSERT_EQ(first.at("kind").get<std::string>(), "yellow");
+  EXPECT_NEAR(first.at("ours").at("begin_s").get<double>(), 45.0, 1e-9);
+  EXPECT_NEAR(first.at("sumo").at("begin_s").get<double>(), 45.0, 0.1 + 1e-9);
+  int greens = 0;
+  for (const nlohmann::json& phase : j.at("phases")) {
+    for (const nlohmann::json& i : phase.at("intervals")) {
+      if (i.at("kind") != "green") continue;
+      ++greens;
+      EXPECT_NEAR(i.at("ours").at("end_s").get<double>() - i.at("ours").at("begin_s").get<double>(),
+                  15.0, 1e-9);
+    }
+  }
+  EXPECT_GE(greens, 10);
+}
+
 TEST(NemaCrosscheck, SeesSumoRunningALongerMaxGreen) {
   const TempDir dir;
   // Ours started 10 s early (its start-up done at SUMO's 0) so that the comparison starts with
