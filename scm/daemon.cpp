@@ -82,6 +82,8 @@ struct Scm::Impl final : EventSink, ConfigService {
   void NewSession(const ClockReading& now);
   /// Gives supervision the reports the receiving thread took since the last pass.
   void TakeDeviceStatuses();
+  /// Hands the controllers' high-resolution events to the writer thread.
+  void TakeHires(CityBundle& c, const ClockReading& now);
   /// Gives the process watch the launchers' tables that came since the last pass.
   void TakeProcessTables(const ClockReading& now);
   /// Notices a pass that starts late (a stall of the loop or the process): logs it and tells
@@ -117,7 +119,8 @@ struct Scm::Impl final : EventSink, ConfigService {
   dds::Participant& participant;
   std::uint64_t clock_session = 0;
   std::atomic<bool> stop{false};
-  ClockReading current;  // the reading of the pass under way (event times)
+  ClockReading current;                  // the reading of the pass under way (event times)
+  std::vector<HiresRecord> hires_batch;  // reused by TakeHires
 
   dds::LoopWaitSet waitset;
   std::unique_ptr<Persistence> persistence;
@@ -568,6 +571,7 @@ void Scm::Impl::Pass() {
   counters.monitor_violations += report.monitor_violations;
   figures.monitor_violations = counters.monitor_violations;
   v2i.PublishUpdates(c, *publishers, now);
+  TakeHires(c, now);
   c.lights->Sync(*c.runtime, *c.supervisor, now.mono);
   if (schedule.SpatDue(now.mono) && PublishSpatUnlessAsked(c, now)) {
     c.fleet->DropStale(now.wire);
@@ -582,6 +586,19 @@ void Scm::Impl::Pass() {
   schedule.EndPass(now.mono, Deadlines());
   figures.loop.Note(std::chrono::duration_cast<Duration>(std::chrono::steady_clock::now() - began),
                     late);
+}
+
+void Scm::Impl::TakeHires(CityBundle& c, const ClockReading& now) {
+  hires_batch.clear();
+  for (auto& x : c.runtime->intersections()) {
+    IntersectionController& controller = *x.controller;
+    if (!controller.has_hires_events()) continue;
+    for (const HiresEvent& e : controller.hires_events()) {
+      hires_batch.push_back({x.model->id, now.ToWire(e.at), e.code, e.param});
+    }
+    controller.ClearHiresEvents();
+  }
+  if (!hires_batch.empty()) persistence->AppendHires(hires_batch);
 }
 
 OtherDeadlines Scm::Impl::Deadlines() const {

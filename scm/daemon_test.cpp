@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <new>
 #include <set>
 
@@ -544,6 +545,54 @@ TEST_F(DaemonTest, AnEventsIdIsItsRowInTheLogAndTheCountGoesOnAfterARestart) {
     if (e.code == "scm_started") logged.push_back(static_cast<std::uint64_t>(e.id));
   }
   EXPECT_EQ(logged, started) << "the same ids live and in the log";
+}
+
+TEST_F(DaemonTest, TheControllersHighResolutionEventsReachTheLogOnTheWallClock) {
+  TestTime time;
+  WallClock clock(time.Sources());
+  const std::filesystem::path city = DrivingSchoolWithoutLights();
+  const Time start = clock.Read().wire;
+  {
+    Scm scm(Options(city), clock, *participant_);
+    const MonoTime end = time.mono() + seconds(90);  // the start-up and a whole 72 s cycle
+    while (time.mono() < end) {
+      time.AdvanceTo(std::min(scm.next_deadline(), time.mono() + milliseconds(100)));
+      scm.Pass();
+    }
+    scm.FlushPersistence();
+  }
+  const Store store(Options(city).db_path);
+  const IntersectionId id = LoadCity(city).intersections.front().id;
+  HiresQuery q;
+  q.intersection = id;
+  q.since = start;
+  q.until = start + seconds(90);
+  const std::vector<HiresRecord> log = store.Hires(q);
+  ASSERT_FALSE(log.empty());
+  EXPECT_EQ(log.front(),
+            (HiresRecord{id, start, hires::kUnitFlashStatusChange, hires::kFlashStartup}))
+      << "the start-up flash, when the SCM started";
+  // Each phase served in full: green, force off (fixed time), yellow, red clearance, in that
+  // order, 8 s green, 3 s yellow and 7 s red clearance apart on the wall clock.
+  int full = 0;
+  for (std::size_t i = 0; i < log.size(); ++i) {
+    if (log[i].code != hires::kPhaseBeginGreen) continue;
+    std::vector<std::uint16_t> codes;
+    std::map<std::uint16_t, Time> at;
+    for (std::size_t j = i; j < log.size(); ++j) {
+      if (log[j].param != log[i].param || log[j].code > hires::kPhaseInactive) continue;
+      if (j > i && log[j].code == hires::kPhaseBeginGreen) break;
+      codes.push_back(log[j].code);
+      at.emplace(log[j].code, log[j].time);
+    }
+    if (!at.contains(hires::kPhaseInactive) || at[hires::kPhaseBeginYellow] - at[1] != seconds(8))
+      continue;  // the first, shortened by the start-up, or cut by the end of the run
+    ++full;
+    EXPECT_EQ(codes, (std::vector<std::uint16_t>{1, 2, 3, 6, 7, 8, 9, 10, 11, 12}));
+    EXPECT_EQ(at[hires::kPhaseEndYellow] - at[hires::kPhaseBeginYellow], seconds(3));
+    EXPECT_EQ(at[hires::kPhaseEndRedClearance] - at[hires::kPhaseBeginRedClearance], seconds(7));
+  }
+  EXPECT_GE(full, 3);
 }
 
 // A launcher's table as `autodrive-city` writes it: the lights running, the SCM (pid 900)

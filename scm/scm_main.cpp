@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   int tick_ms = 20;
   double keep_days = 90;
   std::int64_t keep_events = 1'000'000;
+  std::int64_t keep_hires = scm::RetentionPolicy{}.max_hires;
   std::size_t keep_configs = 100;
   app.add_option("--config", config_path,
                  "the city file (YAML), e.g. config/cities/small_town.yaml")
@@ -80,6 +81,10 @@ int main(int argc, char** argv) {
   app.add_option("--keep-events", keep_events, "event log retention: events at most")
       ->check(CLI::Range(std::int64_t{1000}, std::int64_t{100'000'000}))
       ->capture_default_str();
+  app.add_option("--keep-hires", keep_hires,
+                 "high-resolution log retention: records at most (and the events' days)")
+      ->check(CLI::Range(std::int64_t{10'000}, std::int64_t{1'000'000'000}))
+      ->capture_default_str();
   app.add_option("--keep-configs", keep_configs, "applied configurations kept")
       ->check(CLI::Range(std::size_t{1}, std::size_t{100'000}))
       ->capture_default_str();
@@ -94,6 +99,7 @@ int main(int argc, char** argv) {
     options.tick = std::chrono::milliseconds(tick_ms);
     options.retention.max_event_age = FromSeconds(keep_days * 86400.0);
     options.retention.max_events = keep_events;
+    options.retention.max_hires = keep_hires;
     options.retention.max_configs = keep_configs;
     const bool lockstep = !lockstep_name.empty();
     if (lockstep && app.count("--clock") > 0 && clock_kind == "wall") {

@@ -2,8 +2,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <charconv>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <functional>
 #include <iostream>
 #include <memory>
@@ -285,9 +287,125 @@ int Watch(const dds::ParticipantOptions& dds_options, const std::string& watch_w
   return 0;
 }
 
+/// A time on scmctl's command line: seconds since the epoch, or a local date and time
+/// "YYYY-MM-DD HH:MM[:SS[.fff]]" (the host's TZ). Throws InputError naming the text otherwise.
+Time ParseTimeArgument(const std::string& text, const char* what) {
+  double seconds = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), seconds);
+  if (ec == std::errc() && end == text.data() + text.size()) return TimeFromSeconds(seconds);
+  std::tm tm{};
+  tm.tm_isdst = -1;
+  const char* rest = strptime(text.c_str(), "%Y-%m-%d %H:%M", &tm);
+  double fraction = 0.0;
+  if (rest != nullptr && *rest == ':') {
+    char* after = nullptr;
+    const double s = std::strtod(rest + 1, &after);
+    if (after != rest + 1 && s >= 0 && s < 61) {
+      tm.tm_sec = static_cast<int>(s);
+      fraction = s - tm.tm_sec;
+      rest = after;
+    }
+  }
+  if (rest == nullptr || *rest != '\0') {
+    throw InputError(fmt::format(
+        "{} must be seconds since the epoch or a local time YYYY-MM-DD HH:MM[:SS.s], got \"{}\"",
+        what, text));
+  }
+  const std::time_t t = std::mktime(&tm);
+  return TimeFromSeconds(static_cast<double>(t) + fraction);
+}
+
+/// A high-resolution record's time as UDOT's ATSPM files write it: local, to the tenth.
+std::string AtspmTime(std::int64_t ms) {
+  const std::time_t t = static_cast<std::time_t>(ms / 1000);
+  std::tm tm{};
+  localtime_r(&t, &tm);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S", &tm);
+  return fmt::format("{}.{}", text, (ms % 1000) / 100);
+}
+
+/// `hires X --since T [--until T] [--csv]`: the intersection's high-resolution log, asked for in
+/// pages of `page` records; `--csv` in UDOT ATSPM's `SignalIdentifier,Timestamp,EventCode,
+/// EventParam` form, else one line per record. The exit status.
+int Hires(const dds::ParticipantOptions& dds_options, const std::string& intersection,
+          const std::string& since_text, const std::string& until_text, bool csv, bool json,
+          double timeout_s, std::size_t page) {
+  Time since{};
+  std::string until;  // the SCM's argument, seconds since the epoch; empty: up to now
+  try {
+    since = ParseTimeArgument(since_text, "--since");
+    if (!until_text.empty()) {
+      until = fmt::format("{:.3f}",
+                          ToSeconds(ParseTimeArgument(until_text, "--until").time_since_epoch()));
+    }
+  } catch (const InputError& e) {
+    std::cout << "invalid: " << e.what() << "\n";
+    return kInvalid;
+  }
+  const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(timeout_s));
+  dds::Participant participant(dds_options);
+  OperatorClient client(participant, UniqueClientId("scmctl"), std::nullopt);
+  if (!client.WaitForScm(timeout)) {
+    std::cerr << "scmctl: no SCM answered within " << timeout_s << " s\n";
+    return kNoAnswer;
+  }
+  if (csv) std::cout << "SignalIdentifier,Timestamp,EventCode,EventParam\n";
+  std::size_t skip = 0;  // records at `since`'s millisecond already printed
+  std::size_t ask = page;
+  for (;;) {
+    std::map<std::string, std::string> args{
+        {"intersection", intersection},
+        {"since", fmt::format("{:.3f}", ToSeconds(since.time_since_epoch()))},
+        {"limit", std::to_string(ask)}};
+    if (!until.empty()) args["until"] = until;
+    const auto answer = client.Call("hires", args, timeout);
+    if (!answer) {
+      std::cerr << "scmctl: the SCM did not answer hires within " << timeout_s << " s\n";
+      return kNoAnswer;
+    }
+    if (answer->code != ReplyCode::kOk || json) return Print(*answer, json);
+    nlohmann::json rows;
+    for (const auto& [key, value] : answer->values) {
+      if (key == "records") rows = value.Parse();
+    }
+    if (!rows.is_array()) {
+      std::cerr << "scmctl: the SCM's hires answer has no records\n";
+      return kRefused;
+    }
+    for (std::size_t i = skip; i < rows.size(); ++i) {
+      const std::int64_t ms = rows[i][0].get<std::int64_t>();
+      const int code = rows[i][1].get<int>(), param = rows[i][2].get<int>();
+      if (csv) {
+        std::cout << intersection << "," << AtspmTime(ms) << "," << code << "," << param << "\n";
+      } else {
+        std::cout << AtspmTime(ms) << "  " << code << "  " << param << "\n";
+      }
+    }
+    if (rows.size() < ask) break;
+    // The next page starts at the last record's millisecond, skipping those of it printed.
+    const std::int64_t last_ms = rows.back()[0].get<std::int64_t>();
+    std::size_t at_last = 0;
+    for (const nlohmann::json& row : rows) at_last += row[0].get<std::int64_t>() == last_ms;
+    if (at_last == rows.size()) {
+      // More records of one millisecond than a page: ask again for more of them.
+      skip = rows.size();
+      ask *= 2;
+    } else {
+      skip = at_last;
+      ask = page;
+      since = Time(std::chrono::milliseconds(last_ms));
+    }
+  }
+  return 0;
+}
+
 /// What the command line asks for, as CLI11 fills it.
 struct CommandLine {
-  std::string intersection, mode, plan, file, watch_what, since;
+  std::string intersection, mode, plan, file, watch_what, since, until;
+  bool csv = false;
+  std::size_t page = 100000;  ///< hires: records asked for at a time
   int limit = 100;
   int count = 0;
   double duration_s = 0.0;
@@ -302,6 +420,7 @@ struct CommandLine {
   CLI::App* advance = nullptr;
   CLI::App* reset = nullptr;
   CLI::App* events = nullptr;
+  CLI::App* hires = nullptr;
   CLI::App* watch = nullptr;
   CLI::App* validate = nullptr;
   CLI::App* apply = nullptr;
@@ -329,6 +448,19 @@ void AddCommands(CLI::App& app, CommandLine& c) {
   c.events = app.add_subcommand("events", "the event log");
   c.events->add_option("--since", c.since, "only events after this time (seconds since the epoch)");
   c.events->add_option("--limit", c.limit, "at most this many")->capture_default_str();
+  c.hires = app.add_subcommand(
+      "hires", "an intersection's high-resolution event log (Indiana codes, docs/controller.md)");
+  c.hires->add_option("intersection", c.intersection, "name or id")->required();
+  c.hires
+      ->add_option("--since", c.since,
+                   "from this time: seconds since the epoch, or local YYYY-MM-DD HH:MM[:SS]")
+      ->required();
+  c.hires->add_option("--until", c.until, "up to this time (default: now)");
+  c.hires->add_flag("--csv", c.csv,
+                    "UDOT ATSPM's SignalIdentifier,Timestamp,EventCode,EventParam form");
+  c.hires->add_option("--page", c.page, "records asked for at a time (tests)")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{100000}))
+      ->group("");
   c.watch = AddWatchCommand(app, c.watch_what, c.count, c.duration_s, c.json);
   auto* config = app.add_subcommand("config", "check or apply a city configuration");
   config->require_subcommand(1);
@@ -440,6 +572,9 @@ int main(int argc, char** argv) {
   try {
     if (c.validate->parsed() && !c.validate_on_scm) return ValidateHere(c.file);
     if (c.watch->parsed()) return Watch(dds_options, c.watch_what, c.count, c.duration_s, c.json);
+    if (c.hires->parsed()) {
+      return Hires(dds_options, c.intersection, c.since, c.until, c.csv, c.json, timeout_s, c.page);
+    }
 
     std::string command;
     std::map<std::string, std::string> args;

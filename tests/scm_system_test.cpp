@@ -346,6 +346,29 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.text, HasSubstr("operator_mode"));
   EXPECT_THAT(r.text, HasSubstr("(by lab (scmctl/"));
+  {
+    // The high-resolution log in UDOT ATSPM's CSV form: the start-up flash, out of flash, then
+    // the first phase's on, green and check (docs/controller.md). Asked for in pages of 2
+    // records, whose boundaries fall inside records of one millisecond, the same lines.
+    const std::string until = fmt::format(
+        "{:.3f}",
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count());
+    r = Scmctl({"hires", "driving_school_crossing", "--since", "0", "--until", until, "--csv"});
+    EXPECT_EQ(r.code, 0) << r.text;
+    EXPECT_THAT(r.text, ::testing::StartsWith("SignalIdentifier,Timestamp,EventCode,EventParam\n"));
+    EXPECT_THAT(r.text, ::testing::ContainsRegex(
+                            "\ndriving_school_crossing,20[0-9][0-9]-[0-9][0-9]-[0-9][0-9] "
+                            "[0-9][0-9]:[0-9][0-9]:[0-9][0-9]\\.[0-9],173,7\n"));
+    EXPECT_THAT(r.text, HasSubstr(",173,2\n"));
+    EXPECT_THAT(r.text, ::testing::ContainsRegex(",0,[1-4]\ndriving_school_crossing,[^,]*,1,"));
+    const auto paged = Scmctl({"hires", "driving_school_crossing", "--since", "0", "--until", until,
+                               "--csv", "--page", "2"});
+    EXPECT_EQ(paged.text, r.text);
+    EXPECT_GE(std::ranges::count(r.text, '\n'), 6);
+    r = Scmctl({"hires", "driving_school_crossing", "--since", "last tuesday"});
+    EXPECT_EQ(r.code, 2) << r.text;
+    EXPECT_THAT(r.text, HasSubstr("--since must be seconds since the epoch or a local time"));
+  }
   r = Scmctl({"--json", "status"});
   EXPECT_THAT(r.text, HasSubstr("{\"message\":\"city driving_school"));
   EXPECT_THAT(r.text, HasSubstr("\"result\":\"ok\""));

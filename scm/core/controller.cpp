@@ -98,6 +98,32 @@ IntersectionController::IntersectionController(const IntersectionModel& model, M
   stage_ = Stage::kStartupFlash;
   stage_end_ = now + model.startup_flash;
   next_wake_ = now;  // step at once
+  Log(now, hires::kUnitFlashStatusChange, flash_status_);
+}
+
+void IntersectionController::SetFlashStatus(MonoTime now, std::uint16_t status) {
+  if (status == flash_status_) return;
+  flash_status_ = status;
+  Log(now, hires::kUnitFlashStatusChange, status);
+}
+
+void IntersectionController::Log(MonoTime at, std::uint16_t code, std::uint16_t param) {
+  if (hires_.size() >= kMaxHiresEvents) {
+    ++hires_dropped_;
+    return;
+  }
+  hires_.push_back({at, code, param});
+}
+
+std::vector<HiresEvent> IntersectionController::TakeHiresEvents() {
+  std::vector<HiresEvent> out;
+  out.swap(hires_);
+  return out;
+}
+
+void IntersectionController::UsePlan(std::size_t plan, MonoTime now) {
+  if (plan != plan_) Log(now, hires::kCoordPatternChange, static_cast<std::uint16_t>(plan + 1));
+  plan_ = plan;
 }
 
 Mode IntersectionController::TargetMode(std::size_t plan) const {
@@ -151,6 +177,10 @@ void IntersectionController::Show(std::size_t g, Aspect aspect, MonoTime now) {
 }
 
 void IntersectionController::EnterFlash(MonoTime now, bool dark) {
+  if (stage_ == Stage::kGreen || stage_ == Stage::kYellow || stage_ == Stage::kRedClearance) {
+    LogPhase(now, hires::kPhaseInactive);  // cut short: a fail-safe
+  }
+  SetFlashStatus(now, latched_ ? hires::kFlashFaultMonitor : hires::kFlashAutomatic);
   stage_ = dark ? Stage::kDark : Stage::kFlash;
   for (std::size_t g = 0; g < aspects_.size(); ++g) {
     Show(g, dark ? Aspect::kOff : model_->groups[g].flash_aspect, now);
@@ -161,6 +191,7 @@ void IntersectionController::EnterFlash(MonoTime now, bool dark) {
 }
 
 void IntersectionController::EnterAllRed(MonoTime now, Duration d) {
+  SetFlashStatus(now, hires::kNotFlash);
   stage_ = Stage::kAllRed;
   stage_end_ = now + d;
   for (std::size_t g = 0; g < aspects_.size(); ++g) Show(g, Aspect::kRed, now);
@@ -214,6 +245,9 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   green_start_ = now;
   last_call_ = now;
   max_from_.reset();
+  min_logged_ = false;
+  LogPhase(now, hires::kPhaseOn);
+  LogPhase(now, hires::kPhaseBeginGreen);
   advance_ = false;
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
   planned_end_ = PlannedEnd(phase, now);
@@ -224,6 +258,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
 }
 
 void IntersectionController::BeginClearance(std::optional<std::size_t> next, MonoTime now) {
+  LogPhase(now, hires::kPhaseGreenTermination);
   next_phase_ = next;
   Duration yellow{0};
   Duration red{0};
@@ -237,9 +272,11 @@ void IntersectionController::BeginClearance(std::optional<std::size_t> next, Mon
     red = std::max(red, model_->groups[g].timing.red_clearance);
   }
   if (!any) {  // the next phase only adds groups: no clearance needed
+    LogPhase(now, hires::kPhaseInactive);
     StartPhase(*next, now);
     return;
   }
+  LogPhase(now, hires::kPhaseBeginYellow);
   stage_ = Stage::kYellow;
   yellow_end_ = now + yellow;
   red_clearance_ = red;
@@ -255,6 +292,16 @@ bool IntersectionController::ConflictingCall(const std::vector<bool>& calls) con
 
 MonoTime IntersectionController::MaxEnd(MonoTime now) const {
   return max_from_.value_or(now) + PhaseMaxGreen(phase_);
+}
+
+std::uint16_t IntersectionController::TerminationCode(MonoTime now) const {
+  if (active_ && !InPhase(active_->request.group)) {
+    return active_->request.preemption ? hires::kPreemptionForceOff : hires::kTspEarlyForceOff;
+  }
+  if (TargetMode(plan_) == Mode::kActuated) {
+    return now >= last_call_ + plan().extension ? hires::kPhaseGapOut : hires::kPhaseMaxOut;
+  }
+  return hires::kPhaseForceOff;  // fixed time keeps to its cycle; manual advance; a hold's end
 }
 
 bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
@@ -324,7 +371,7 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
     switch (stage_) {
       case Stage::kStartupFlash:
         if (now >= stage_end_ && devices_ready_ && !latched_) {
-          plan_ = wanted_plan;
+          UsePlan(wanted_plan, now);
           const Mode target = TargetMode(plan_);
           if (target == Mode::kFlash || target == Mode::kDark) {
             EnterFlash(now, target == Mode::kDark);
@@ -336,7 +383,7 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
       case Stage::kFlash:
       case Stage::kDark: {
         if (latched_) break;
-        plan_ = wanted_plan;
+        UsePlan(wanted_plan, now);
         const Mode target = TargetMode(plan_);
         if (target == Mode::kFlash || target == Mode::kDark) {
           if ((target == Mode::kDark) != (stage_ == Stage::kDark)) {
@@ -349,10 +396,12 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
       }
       case Stage::kAllRed:
         if (now >= stage_end_) {
-          plan_ = wanted_plan;
+          UsePlan(wanted_plan, now);
           const Mode target = TargetMode(plan_);
           if (target == Mode::kFlash || target == Mode::kDark) {
             EnterFlash(now, target == Mode::kDark);
+          } else if (active_) {
+            StartPhase(ChooseNext(plan_, calls_), now);  // a request first, cycle or not
           } else if (const Duration wait = CycleClearanceLeft(plan_, now); wait > Duration{0}) {
             stage_end_ = now + wait;  // stay red to the cycle's next green, so as to keep to it
           } else {
@@ -370,18 +419,26 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
           max_from_.reset();
         } else if (!max_from_) {
           max_from_ = now;
+          LogPhase(now, hires::kPhaseCheck);
+        }
+        if (!min_logged_ && now >= PhaseMinEnd()) {
+          min_logged_ = true;
+          LogPhase(PhaseMinEnd(), hires::kPhaseMinComplete);
         }
         const Mode target = TargetMode(wanted_plan);
         if (target == Mode::kFlash || target == Mode::kDark) {
           if (now >= PhaseMinEnd()) {
-            plan_ = wanted_plan;
+            LogPhase(now, hires::kPhaseForceOff);
+            UsePlan(wanted_plan, now);
             BeginClearance(std::nullopt, now);
           }
         } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_) {
           // A safe point: the new plan starts after this green's clearance.
-          plan_ = wanted_plan;
+          LogPhase(now, hires::kPhaseForceOff);
+          UsePlan(wanted_plan, now);
           BeginClearance(FirstPhase(plan_, now), now);
         } else if (ShouldTerminate(now, calls_)) {
+          LogPhase(now, TerminationCode(now));
           BeginClearance(ChooseNext(plan_, calls_), now);
         }
         break;
@@ -394,10 +451,14 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
           stage_ = Stage::kRedClearance;
           // Count the red clearance from when the reds actually showed (this tick may be late).
           stage_end_ = now + red_clearance_;
+          LogPhase(now, hires::kPhaseEndYellow);
+          LogPhase(now, hires::kPhaseBeginRedClearance);
         }
         break;
       case Stage::kRedClearance:
         if (now >= stage_end_) {
+          LogPhase(now, hires::kPhaseEndRedClearance);
+          LogPhase(now, hires::kPhaseInactive);
           const Mode target = TargetMode(wanted_plan);
           const bool to_flash = target == Mode::kFlash || target == Mode::kDark;
           const bool any_green = std::ranges::find(aspects_, Aspect::kGreen) != aspects_.end();
@@ -412,7 +473,7 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
                 if (const auto earliest = EarliestGreen(g, now)) hold = std::max(hold, *earliest);
               }
             }
-            plan_ = wanted_plan;
+            UsePlan(wanted_plan, now);
             if (hold > now) {
               EnterAllRed(now, hold - now);
             } else {
@@ -518,6 +579,7 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
       const Mode target = TargetMode(plan_);
       if (target == Mode::kFlash || target == Mode::kDark) return std::nullopt;
       t = stage_end_;
+      if (active_) return std::nullopt;   // a request is served first
       t += CycleClearanceLeft(plan_, t);  // as Step leaves all red
       from = FirstPhase(plan_, t);
       if (Contains(p.phases[from].groups, g)) return t;

@@ -95,6 +95,42 @@ struct RequestUpdate {
   std::string reason;
 };
 
+/// An event of an intersection's high-resolution log (docs/controller.md, "High-resolution event
+/// log"): a code of the Indiana enumerations (TPF-5(377) edition, as UDOT's ATSPM reads them)
+/// and its parameter, a phase number (the plan's phase, from 1), a flash status or a plan.
+struct HiresEvent {
+  MonoTime at{};
+  std::uint16_t code = 0;
+  std::uint16_t param = 0;
+  bool operator==(const HiresEvent&) const = default;
+};
+
+/// The Indiana codes the controller logs.
+namespace hires {
+inline constexpr std::uint16_t kPhaseOn = 0;
+inline constexpr std::uint16_t kPhaseBeginGreen = 1;
+inline constexpr std::uint16_t kPhaseCheck = 2;  ///< a conflicting call: max timing starts
+inline constexpr std::uint16_t kPhaseMinComplete = 3;
+inline constexpr std::uint16_t kPhaseGapOut = 4;
+inline constexpr std::uint16_t kPhaseMaxOut = 5;
+inline constexpr std::uint16_t kPhaseForceOff = 6;
+inline constexpr std::uint16_t kPhaseGreenTermination = 7;
+inline constexpr std::uint16_t kPhaseBeginYellow = 8;
+inline constexpr std::uint16_t kPhaseEndYellow = 9;
+inline constexpr std::uint16_t kPhaseBeginRedClearance = 10;
+inline constexpr std::uint16_t kPhaseEndRedClearance = 11;
+inline constexpr std::uint16_t kPhaseInactive = 12;
+inline constexpr std::uint16_t kTspEarlyForceOff = 19;
+inline constexpr std::uint16_t kPreemptionForceOff = 20;
+inline constexpr std::uint16_t kCoordPatternChange = 131;
+inline constexpr std::uint16_t kUnitFlashStatusChange = 173;
+/// unitFlashStatus values (NTCIP 1202 asc.3.6), the parameter of code 173.
+inline constexpr std::uint16_t kNotFlash = 2;
+inline constexpr std::uint16_t kFlashAutomatic = 3;     ///< a plan's or the operator's flash
+inline constexpr std::uint16_t kFlashFaultMonitor = 5;  ///< fail-safe
+inline constexpr std::uint16_t kFlashStartup = 7;
+}  // namespace hires
+
 /// The controller of one intersection. Borrows its model, which must outlive it. Copyable
 /// (the property tests copy it); not thread-safe: the daemon drives it from one thread.
 class IntersectionController {
@@ -135,6 +171,19 @@ class IntersectionController {
   std::vector<RequestUpdate> TakeRequestUpdates();
   /// True when `TakeRequestUpdates` has something (checking allocates nothing).
   [[nodiscard]] bool has_request_updates() const { return !updates_.empty(); }
+
+  /// The high-resolution events since the last call, oldest first. At most
+  /// `kMaxHiresEvents` wait between calls; later ones are dropped and counted.
+  std::vector<HiresEvent> TakeHiresEvents();
+  /// The events waiting, oldest first; `ClearHiresEvents` after reading them keeps the buffer
+  /// (the daemon's loop, which must not allocate for them every pass).
+  [[nodiscard]] const std::vector<HiresEvent>& hires_events() const { return hires_; }
+  void ClearHiresEvents() { hires_.clear(); }
+  /// True when `TakeHiresEvents` has something (checking allocates nothing).
+  [[nodiscard]] bool has_hires_events() const { return !hires_.empty(); }
+  /// Events dropped because no one took them.
+  [[nodiscard]] std::uint64_t hires_dropped() const { return hires_dropped_; }
+  static constexpr std::size_t kMaxHiresEvents = 4096;
 
   /// The earliest control instant at which `Step` may change anything when its inputs (calls,
   /// day clock, commands, requests, device readiness) stay as they were at the last step. A
@@ -206,6 +255,18 @@ class IntersectionController {
   void UpdateRequest(MonoTime now);
   void EndRequest(MonoTime now, RequestStatus status, std::string reason);
   [[nodiscard]] MonoTime ComputeNextWake(MonoTime now) const;
+  /// Logs `code` with `param` at `at`.
+  void Log(MonoTime at, std::uint16_t code, std::uint16_t param);
+  /// Logs `code` for the current phase (its number in the plan).
+  void LogPhase(MonoTime at, std::uint16_t code) {
+    Log(at, code, static_cast<std::uint16_t>(phase_ + 1));
+  }
+  /// Logs a unit flash status change (code 173) when `status` is not the last logged.
+  void SetFlashStatus(MonoTime now, std::uint16_t status);
+  /// Runs plan `plan` from now (logging a pattern change when it is another).
+  void UsePlan(std::size_t plan, MonoTime now);
+  /// The Indiana code of why the current green ends now (`ShouldTerminate` said it does).
+  [[nodiscard]] std::uint16_t TerminationCode(MonoTime now) const;
 
   const IntersectionModel* model_;
   std::vector<Aspect> aspects_;
@@ -225,6 +286,12 @@ class IntersectionController {
   /// When the current green's max timer started: the first step with a conflicting call
   /// (NTCIP phaseMaximum1); none while no conflicting call waits.
   std::optional<MonoTime> max_from_;
+  bool min_logged_ = false;
+  std::uint16_t flash_status_ =
+      hires::kFlashStartup;  ///< as last logged (code 173)  ///< the current green's min complete
+                             ///< (code 3) is logged
+  std::vector<HiresEvent> hires_;
+  std::uint64_t hires_dropped_ = 0;
   MonoTime yellow_end_{};
   Duration red_clearance_{0};  ///< of the clearance under way
   bool advance_ = false;

@@ -120,6 +120,93 @@ TEST(Controller, AStartUpEndingInTheCyclesClearanceStaysRedToTheNextGreenAndKeep
   EXPECT_EQ(rig.Of(1), Aspect::kGreen) << "the next cycle on time";
 }
 
+/// The codes of `events` for phase `phase` (flash and plan codes left out), in order.
+std::vector<std::uint16_t> PhaseCodes(const std::vector<HiresEvent>& events, std::uint16_t phase) {
+  std::vector<std::uint16_t> codes;
+  for (const HiresEvent& e : events) {
+    if (e.code <= hires::kPreemptionForceOff && e.param == phase) codes.push_back(e.code);
+  }
+  return codes;
+}
+
+/// The time of the first event with `code` for `phase` at or after `from`.
+MonoTime At(const std::vector<HiresEvent>& events, std::uint16_t code, std::uint16_t phase,
+            MonoTime from = MonoTime::min()) {
+  for (const HiresEvent& e : events) {
+    if (e.code == code && e.param == phase && e.at >= from) return e.at;
+  }
+  ADD_FAILURE() << "no code " << code << " for phase " << phase;
+  return MonoTime::min();
+}
+
+TEST(ControllerHires, AFixedCycleLogsEachPhasesIntervalsInTheIndianaOrderAtTheirTimes) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  rig.RunTo(CycleStart() + seconds(52 * 2));
+  const std::vector<HiresEvent> events = rig.controller.TakeHiresEvents();
+  EXPECT_FALSE(rig.controller.has_hires_events());
+  // The unit: start-up flash, then out of flash when the all red starts (at 3 s).
+  ASSERT_GE(events.size(), 2u);
+  EXPECT_EQ(events[0],
+            (HiresEvent{CycleStart(), hires::kUnitFlashStatusChange, hires::kFlashStartup}));
+  EXPECT_EQ(events[1], (HiresEvent{CycleStart() + seconds(3), hires::kUnitFlashStatusChange,
+                                   hires::kNotFlash}));
+  // Phase 2 (north), served twice in full: on, green, check (fixed time: every phase is on max
+  // recall, so a conflicting call waits from the start), min complete, force off (fixed time
+  // keeps to its cycle), green termination, yellow, end of yellow, red clearance, its end,
+  // inactive.
+  const std::vector<std::uint16_t> cycle{0, 1, 2, 3, 6, 7, 8, 9, 10, 11, 12};
+  std::vector<std::uint16_t> twice = cycle;
+  twice.insert(twice.end(), cycle.begin(), cycle.end());
+  EXPECT_EQ(PhaseCodes(events, 2), twice);
+  // Its times: green at 13 s of the cycle for 8 s, yellow 3 s, red clearance 2 s.
+  const MonoTime green = At(events, hires::kPhaseBeginGreen, 2, CycleStart() + seconds(52));
+  EXPECT_EQ(green, CycleStart() + seconds(52 + 13));
+  EXPECT_EQ(At(events, hires::kPhaseMinComplete, 2, green), green + seconds(5));
+  EXPECT_EQ(At(events, hires::kPhaseBeginYellow, 2, green), green + seconds(8));
+  EXPECT_EQ(At(events, hires::kPhaseEndYellow, 2, green), green + seconds(11));
+  EXPECT_EQ(At(events, hires::kPhaseBeginRedClearance, 2, green), green + seconds(11));
+  EXPECT_EQ(At(events, hires::kPhaseEndRedClearance, 2, green), green + seconds(13));
+  EXPECT_EQ(At(events, hires::kPhaseInactive, 2, green), green + seconds(13));
+}
+
+TEST(ControllerHires, ActuatedGreensLogTheirCheckAndGapOutOrMaxOutAndFlashItsCause) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  const std::vector<bool> none(4, false);
+  rig.RunFor(seconds(5), none, kEvening);
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  (void)rig.controller.TakeHiresEvents();
+  // A call on the south: phase 1 (east) has a conflicting call (check) and gaps out at its min
+  // green, having no call of its own; phase 4 (south) then runs on its own call until calls
+  // come everywhere, and maxes out 15 s after that (its max 1 from the check).
+  std::vector<bool> south(4, false);
+  south[3] = true;
+  rig.RunFor(seconds(18), south, kEvening);
+  ASSERT_EQ(rig.Of(3), Aspect::kGreen);
+  rig.RunFor(seconds(20), std::vector<bool>(4, true), kEvening);
+  const std::vector<HiresEvent> events = rig.controller.TakeHiresEvents();
+  const std::vector<std::uint16_t> phase1 = PhaseCodes(events, 1);
+  ASSERT_GE(phase1.size(), 5u);
+  EXPECT_EQ(std::vector<std::uint16_t>(phase1.begin(), phase1.begin() + 5),
+            (std::vector<std::uint16_t>{2, 3, 4, 7, 8}))
+      << "check, min complete, gap out, green termination, yellow";
+  const std::vector<std::uint16_t> phase4 = PhaseCodes(events, 4);
+  ASSERT_GE(phase4.size(), 6u);
+  EXPECT_EQ(std::vector<std::uint16_t>(phase4.begin(), phase4.begin() + 4),
+            (std::vector<std::uint16_t>{0, 1, 3, 2}))
+      << "on, green, min complete, then the check when the other calls come";
+  EXPECT_EQ(phase4[4], hires::kPhaseMaxOut);
+  EXPECT_EQ(At(events, hires::kPhaseMaxOut, 4), At(events, hires::kPhaseCheck, 4) + seconds(15));
+  // A fail-safe: the phase in service goes inactive and the unit logs its flash's cause.
+  rig.controller.FailSafe(rig.now, "test");
+  const std::vector<HiresEvent> flash = rig.controller.TakeHiresEvents();
+  ASSERT_EQ(flash.size(), 2u);
+  EXPECT_EQ(flash[0].code, hires::kPhaseInactive);
+  EXPECT_EQ(flash[1],
+            (HiresEvent{rig.now, hires::kUnitFlashStatusChange, hires::kFlashFaultMonitor}));
+}
+
 TEST(Controller, StartUpWaitsForTheDevices) {
   Rig rig(DrivingSchool().intersections[0]);
   rig.controller.SetDevicesReady(false);
@@ -331,6 +418,22 @@ TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
   ASSERT_EQ(updates.size(), 1u);
   EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
   EXPECT_EQ(updates[0].vehicle, "nigel_2");
+}
+
+TEST(Controller, APreemptionGrantedInTheStartUpsAllRedIsServedAsItEndsNotAfterTheCycle) {
+  // The all red (3 to 5 s after the start) ends at 10 s of the cycle, in phase 1's clearance;
+  // without a request it stays red to phase 2's green at 13 s. A pre-emption for west (phase 3)
+  // is served as soon as the all red ends instead.
+  const MonoTime c = CycleStart();
+  Rig rig(DrivingSchool().intersections[0], c + seconds(5));
+  rig.RunTo(c + seconds(9));
+  ASSERT_EQ(rig.controller.stage(), Stage::kAllRed);
+  const auto u =
+      rig.controller.Request(ServiceRequest{"nigel_2", 8, true, 2, rig.now + seconds(5)}, rig.now);
+  ASSERT_EQ(u.status, RequestStatus::kGranted) << u.reason;
+  rig.RunTo(c + seconds(10));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_EQ(rig.Of(1), Aspect::kRed);
 }
 
 TEST(Controller, ARequestServedAfterItsEndStillGetsItsDurationOfGreen) {

@@ -23,12 +23,14 @@ constexpr std::array<std::string_view, 2> kMode{"intersection", "mode"};
 constexpr std::array<std::string_view, 2> kPlan{"intersection", "plan"};
 constexpr std::array<std::string_view, 2> kEvents{"since", "limit"};
 constexpr std::array<std::string_view, 4> kConfig{"yaml", "path", "yaml_bytes", "yaml_hash"};
+constexpr std::array<std::string_view, 4> kHires{"intersection", "since", "until", "limit"};
 
-constexpr std::array<CommandSpec, 10> kCommands = {{
+constexpr std::array<CommandSpec, 11> kCommands = {{
     {"status", false, false, kNone},
     {"intersections", false, false, kNone},
     {"show", true, false, kShow},
     {"events", false, false, kEvents},
+    {"hires", true, false, kHires},
     {"config_validate", false, false, kConfig},
     {"mode", true, true, kMode},
     {"plan", true, true, kPlan},

@@ -108,6 +108,8 @@ std::optional<Reply> Status(const OperatorCommand&, const ClockReading& now, Com
   add("lights_lost", ctx.supervisor.lost());
   add("events", db.event_count);
   add("events_dropped", db.events_dropped);
+  add("hires_written", db.hires_written);
+  add("hires_dropped", db.hires_dropped);
   add("database_bytes", db.size_bytes);
   add("spat_published", ctx.publishers.counters().spat);
   add("write_failures", ctx.publishers.counters().write_failures + ctx.lights.counters().failures);
@@ -375,6 +377,64 @@ std::optional<Reply> Events(const OperatorCommand& cmd, const ClockReading&, Com
   return std::nullopt;
 }
 
+/// `hires`: intersection X's high-resolution log from `since` to `until` (seconds since the
+/// epoch; until absent: now), at most `limit` records (1..100000, default 100000), as one value
+/// "records": [[milliseconds since the epoch, code, param], ...] in time order.
+std::optional<Reply> Hires(const OperatorCommand& cmd, const ClockReading& now, CommandContext& ctx,
+                           Responder& respond) {
+  Reply refusal;
+  const auto xi = Intersection(cmd, ctx, refusal);
+  if (!xi) return refusal;
+  HiresQuery q;
+  q.intersection = ctx.runtime.intersections()[*xi].model->id;
+  q.until = now.wire + std::chrono::seconds(1);
+  for (const auto& [key, into] : {std::pair{"since", &q.since}, std::pair{"until", &q.until}}) {
+    const std::string& text = cmd.Arg(key);
+    if (text.empty()) {
+      if (std::string_view(key) == "since") {
+        return Reply::Invalid("hires needs since (seconds since the epoch)");
+      }
+      continue;
+    }
+    double seconds = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), seconds);
+    if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(seconds)) {
+      return Reply::Invalid(
+          fmt::format("{} must be seconds since the epoch, got \"{}\"", key, text));
+    }
+    // To the millisecond, as the records go out (a client pages by a record's millisecond).
+    *into = Time(std::chrono::milliseconds(std::llround(seconds * 1000.0)));
+  }
+  if (q.until < q.since) return Reply::Invalid("until is before since");
+  if (!cmd.Arg("limit").empty()) {
+    const std::string& text = cmd.Arg("limit");
+    std::size_t limit = 0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), limit);
+    if (ec != std::errc() || end != text.data() + text.size() || limit == 0 || limit > 100000) {
+      return Reply::Invalid(fmt::format("limit must be a number in 1..100000, got \"{}\"", text));
+    }
+    q.limit = limit;
+  }
+  const std::string name = ctx.runtime.intersections()[*xi].model->name;
+  ctx.persistence.QueryHires(
+      q, [respond = std::move(respond), name](std::vector<HiresRecord> records, std::string error) {
+        if (!error.empty()) {
+          respond(Reply::Failed("cannot read the high-resolution log: " + error));
+          return;
+        }
+        Reply r = Reply::Ok(fmt::format("{}: {} records", name, records.size()));
+        nlohmann::json rows = nlohmann::json::array();
+        for (const HiresRecord& h : records) {
+          const auto ms =
+              std::chrono::duration_cast<std::chrono::milliseconds>(h.time.time_since_epoch());
+          rows.push_back({ms.count(), h.code, h.param});
+        }
+        r.values.emplace_back("records", std::move(rows));
+        respond(std::move(r));
+      });
+  return std::nullopt;
+}
+
 /// The YAML of a configuration request, checked against what the client says it sent: its
 /// length and hash are required, because a string on the wire ends at its first NUL byte, so
 /// a file with one arrives cut short, and a text cut short can still be a valid city.
@@ -431,6 +491,7 @@ constexpr Entry kHandlers[] = {
     {"intersections", Intersections},
     {"show", Show},
     {"events", Events},
+    {"hires", Hires},
     {"config_validate", ConfigValidate},
     {"mode", SetMode},
     {"plan", SetPlan},

@@ -199,6 +199,20 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
        ReplyCode::kRejected,
        "centre is not in fail-safe flash; nothing to reset"},
       {"events", {{"limit", "0"}}, ReplyCode::kInvalid, "limit must be a number in 1..10000"},
+      {"hires", {{"intersection", "centre"}}, ReplyCode::kInvalid, "hires needs since"},
+      {"hires",
+       {{"intersection", "centre"}, {"since", "yesterday"}},
+       ReplyCode::kInvalid,
+       "since must be seconds since the epoch, got \"yesterday\""},
+      {"hires",
+       {{"intersection", "centre"}, {"since", "100"}, {"until", "50"}},
+       ReplyCode::kInvalid,
+       "until is before since"},
+      {"hires",
+       {{"intersection", "centre"}, {"since", "100"}, {"limit", "100001"}},
+       ReplyCode::kInvalid,
+       "limit must be a number in 1..100000"},
+      {"hires", {{"intersection", "nowhere"}, {"since", "100"}}, ReplyCode::kInvalid, "nowhere"},
       {"events", {{"limit", "5"}}, ReplyCode::kOk, "5 events"},
       {"config_validate", ConfigArgs("name: x\n"), ReplyCode::kRejected, "map"},
       {"config_validate", ConfigArgs("name: x\nmap: /etc/passwd\nintersections: []\n", "evil.yaml"),
@@ -395,6 +409,30 @@ TEST(IntersectionValue, IsWhatAJsonObjectOfTheSummaryIs) {
       EXPECT_EQ(ValueText(IntersectionValue(s)), written["text"]);
     }
   }
+}
+
+TEST_F(OperatorCommandsTest, HiresAnswersOneIntersectionsRecordsInTheWindowInTimeOrder) {
+  const Time t0 = TimeFromSeconds(1795240000.0);
+  const IntersectionId centre = bundle_->runtime->city().Find("centre")->id;
+  const IntersectionId north = bundle_->runtime->city().Find("north_t")->id;
+  persistence_->AppendHires({{centre, t0 + milliseconds(100), hires::kPhaseBeginGreen, 1},
+                             {north, t0 + milliseconds(150), hires::kPhaseBeginGreen, 1},
+                             {centre, t0 + seconds(8), hires::kPhaseBeginYellow, 1},
+                             {centre, t0 + seconds(8), hires::kPhaseGreenTermination, 1},
+                             {centre, t0 + seconds(20), hires::kPhaseInactive, 1}});
+  const Reply r = Run(
+      "hires", {{"intersection", "centre"}, {"since", "1795240000.1"}, {"until", "1795240020"}});
+  ASSERT_EQ(r.code, ReplyCode::kOk) << r.message;
+  EXPECT_EQ(r.message, "centre: 3 records");
+  const nlohmann::json rows = r.Value("records");
+  EXPECT_EQ(rows, nlohmann::json::parse(
+                      "[[1795240000100, 1, 1], [1795240008000, 8, 1], [1795240008000, 7, 1]]"))
+      << "centre's only, until excluded, in time then append order";
+  const Reply one = Run("hires", {{"intersection", "centre"},
+                                  {"since", "1795240000"},
+                                  {"until", "1795240100"},
+                                  {"limit", "1"}});
+  EXPECT_EQ(one.Value("records").size(), 1u);
 }
 
 TEST_F(OperatorCommandsTest, IntersectionsAndEventsAnswerTypedFields) {

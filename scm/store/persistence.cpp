@@ -14,6 +14,7 @@ constexpr std::size_t kBatch = 512;
 
 Persistence::Persistence(Store store, std::function<void()> wake)
     : store_(std::move(store)), wake_(std::move(wake)) {
+  hires_.reserve(kMaxQueuedHires);
   stats_.event_count = store_.EventCount();
   stats_.size_bytes = store_.SizeBytes();
   thread_ = std::jthread([this](std::stop_token stop) { Run(stop); });
@@ -37,6 +38,34 @@ bool Persistence::AppendEvent(EventRecord event) {
   }
   cv_.notify_one();
   return true;
+}
+
+void Persistence::AppendHires(const std::vector<HiresRecord>& records) {
+  if (records.empty()) return;
+  {
+    std::lock_guard lock(mutex_);
+    const std::size_t room = kMaxQueuedHires - std::min(kMaxQueuedHires, hires_.size());
+    const std::size_t taken = std::min(room, records.size());
+    hires_.insert(hires_.end(), records.begin(),
+                  records.begin() + static_cast<std::ptrdiff_t>(taken));
+    stats_.hires_dropped += records.size() - taken;
+  }
+  cv_.notify_one();
+}
+
+void Persistence::QueryHires(HiresQuery query,
+                             std::function<void(std::vector<HiresRecord>, std::string)> done) {
+  Post([this, query, done = std::move(done)]() mutable {
+    std::vector<HiresRecord> records;
+    std::string error;
+    try {
+      records = store_.Hires(query);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    Complete([done = std::move(done), records = std::move(records),
+              error = std::move(error)]() mutable { done(std::move(records), std::move(error)); });
+  });
 }
 
 void Persistence::SaveIntersectionState(IntersectionStateRecord state) {
@@ -104,11 +133,13 @@ void Persistence::Prune(Time now, const RetentionPolicy& policy) {
     try {
       const std::int64_t events = store_.PruneEvents(now - policy.max_event_age, policy.max_events);
       const std::int64_t configs = store_.PruneConfigs(policy.max_configs);
+      const std::int64_t hires = store_.PruneHires(now - policy.max_event_age, policy.max_hires);
       const std::int64_t count = store_.EventCount();
       const std::int64_t size = store_.SizeBytes();
       std::lock_guard lock(mutex_);
       stats_.events_pruned += static_cast<std::uint64_t>(events);
       stats_.configs_pruned += static_cast<std::uint64_t>(configs);
+      stats_.hires_pruned += static_cast<std::uint64_t>(hires);
       stats_.event_count = count;
       stats_.size_bytes = size;
     } catch (const std::exception& e) {
@@ -132,20 +163,23 @@ void Persistence::RunCompletions() {
 
 void Persistence::Flush() {
   std::unique_lock lock(mutex_);
-  idle_cv_.wait(lock,
-                [&] { return events_.empty() && states_.empty() && jobs_.empty() && !busy_; });
+  idle_cv_.wait(lock, [&] {
+    return events_.empty() && hires_.empty() && states_.empty() && jobs_.empty() && !busy_;
+  });
 }
 
 PersistenceStats Persistence::stats() const {
   std::lock_guard lock(mutex_);
   PersistenceStats s = stats_;
-  s.queued = events_.size() + states_.size() + jobs_.size();
+  s.queued = events_.size() + hires_.size() + states_.size() + jobs_.size();
   return s;
 }
 
 void Persistence::Run(const std::stop_token& stop) {
   std::vector<EventRecord> batch;
   batch.reserve(kBatch);
+  std::vector<HiresRecord> hires;
+  hires.reserve(kMaxQueuedHires);
   for (;;) {
     std::optional<IntersectionStateRecord> state;
     Job job;
@@ -153,18 +187,22 @@ void Persistence::Run(const std::stop_token& stop) {
       std::unique_lock lock(mutex_);
       busy_ = false;
       idle_cv_.notify_all();
-      cv_.wait(lock, stop, [&] { return !events_.empty() || !states_.empty() || !jobs_.empty(); });
-      if (events_.empty() && states_.empty() && jobs_.empty()) return;  // stop requested
+      const auto work = [&] {
+        return !events_.empty() || !hires_.empty() || !states_.empty() || !jobs_.empty();
+      };
+      cv_.wait(lock, stop, work);
+      if (!work()) return;  // stop requested
       busy_ = true;
       while (!events_.empty() && batch.size() < kBatch) {
         batch.push_back(std::move(events_.front()));
         events_.pop_front();
       }
-      if (batch.empty() && !states_.empty()) {
+      if (batch.empty() && !hires_.empty()) hires.swap(hires_);  // all of it, in one go
+      if (batch.empty() && hires.empty() && !states_.empty()) {
         state = std::move(states_.begin()->second);
         states_.erase(states_.begin());
       }
-      if (batch.empty() && !state && !jobs_.empty()) {
+      if (batch.empty() && hires.empty() && !state && !jobs_.empty()) {
         job = std::move(jobs_.front());
         jobs_.pop_front();
       }
@@ -182,6 +220,17 @@ void Persistence::Run(const std::stop_token& stop) {
         ++stats_.failures;
       }
       batch.clear();
+    } else if (!hires.empty()) {
+      try {
+        store_.AppendHires(hires);
+        std::lock_guard lock(mutex_);
+        stats_.hires_written += hires.size();
+      } catch (const std::exception& e) {
+        spdlog::error("high-resolution log: cannot store {} records: {}", hires.size(), e.what());
+        std::lock_guard lock(mutex_);
+        ++stats_.failures;
+      }
+      hires.clear();
     } else if (state) {
       try {
         store_.SaveIntersectionState(*state);

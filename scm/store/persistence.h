@@ -27,6 +27,9 @@ struct RetentionPolicy {
   Duration max_event_age = std::chrono::hours(24 * 90);  ///< events older than this go
   std::int64_t max_events = 1'000'000;                   ///< and all but the newest this many
   std::size_t max_configs = 100;  ///< applied configurations kept (plus the start-up record)
+  /// High-resolution records kept at most (older than `max_event_age` go too): about two months
+  /// of a lab's four intersections, an hour and a half of a 32 x 32 grid city.
+  std::int64_t max_hires = 5'000'000;
 };
 
 /// What the writer thread did so far.
@@ -36,6 +39,9 @@ struct PersistenceStats {
   std::uint64_t events_pruned = 0;
   std::uint64_t configs_pruned = 0;
   std::uint64_t states_written = 0;
+  std::uint64_t hires_written = 0;
+  std::uint64_t hires_dropped = 0;  ///< the queue was full
+  std::uint64_t hires_pruned = 0;
   std::uint64_t failures = 0;    ///< SQLite errors (logged)
   std::int64_t event_count = 0;  ///< events in the log
   std::int64_t size_bytes = 0;   ///< database size after the last prune
@@ -49,6 +55,8 @@ class Persistence {
  public:
   /// Events the queue holds at most; further events are dropped and counted.
   static constexpr std::size_t kMaxQueuedEvents = 8192;
+  /// High-resolution records the queue holds at most; further ones are dropped and counted.
+  static constexpr std::size_t kMaxQueuedHires = 65536;
 
   /// Takes the store. `wake` is called from the writer thread when a completion is ready for
   /// the loop (`RunCompletions`); it must be quick and thread-safe (a waitset's `Wake`).
@@ -60,6 +68,11 @@ class Persistence {
 
   /// Queues an event for the log. Returns false (and counts it) when the queue is full.
   bool AppendEvent(EventRecord event);
+  /// Queues high-resolution records for the log; those that do not fit are dropped and counted.
+  void AppendHires(const std::vector<HiresRecord>& records);
+  /// Runs `query` on the writer thread, then `done(records or error)` on the loop.
+  void QueryHires(HiresQuery query,
+                  std::function<void(std::vector<HiresRecord> records, std::string error)> done);
   /// Saves an intersection's operator state. Coalesced per intersection (the newest wins) and
   /// never dropped; durable once written (synchronous=FULL).
   void SaveIntersectionState(IntersectionStateRecord state);
@@ -96,6 +109,9 @@ class Persistence {
   std::condition_variable_any cv_;
   std::condition_variable idle_cv_;
   std::deque<EventRecord> events_;
+  /// Swapped whole with the writer's buffer (both keep their capacity: queueing allocates
+  /// nothing once warm).
+  std::vector<HiresRecord> hires_;
   std::map<std::uint32_t, IntersectionStateRecord> states_;
   std::deque<Job> jobs_;
   bool busy_ = false;

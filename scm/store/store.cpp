@@ -70,6 +70,21 @@ CREATE TABLE IF NOT EXISTS intersection_states (
 constexpr const char* kProcessEventsIndex =
     "CREATE INDEX IF NOT EXISTS events_of_processes ON events (code, device_id, time_ns) "
     "WHERE code IN ('process_exited', 'process_restarted')";
+// The high-resolution log (docs/controller.md): made on every open like the index above, so a
+// database of schema version 1 written before it gets it then, and an SCM that does not know it
+// leaves it alone. Rows are small and many (about one a second per intersection): no
+// AUTOINCREMENT, ids may be reused once pruned.
+constexpr const char* kHiresTable = R"sql(
+CREATE TABLE IF NOT EXISTS hires (
+  id INTEGER PRIMARY KEY,
+  intersection_id INTEGER NOT NULL CHECK (intersection_id BETWEEN 0 AND 4294967295),
+  time_ns INTEGER NOT NULL,
+  code INTEGER NOT NULL CHECK (code BETWEEN 0 AND 65535),
+  param INTEGER NOT NULL CHECK (param BETWEEN 0 AND 65535)
+) STRICT;
+CREATE INDEX IF NOT EXISTS hires_of_intersection ON hires (intersection_id, time_ns);
+CREATE INDEX IF NOT EXISTS hires_by_time ON hires (time_ns);
+)sql";
 constexpr const char* kLatestProcessEvents =
     "SELECT code, device_id, max(time_ns) FROM events "
     "WHERE code IN ('process_exited', 'process_restarted') GROUP BY code, device_id";
@@ -216,6 +231,9 @@ struct Store::Impl {
   Statement insert_config, latest_config, config_by_id, config_history;
   Statement prune_events_before, prune_events_keep, prune_configs, count_configs;
   Statement upsert_state, select_states;
+  struct HiresStatements {
+    Statement insert, select_one, select_all, prune_before, prune_keep, count;
+  } hires;
 
   explicit Impl(std::string p) : path(std::move(p)) {}
 
@@ -331,6 +349,7 @@ struct Store::Impl {
     }
     // Migrations from older versions go here when there are any (version < kSchemaVersion).
     Exec(kProcessEventsIndex);
+    Exec(kHiresTable);
 
     begin = Statement(db, "BEGIN IMMEDIATE");
     commit = Statement(db, "COMMIT");
@@ -372,6 +391,22 @@ struct Store::Impl {
                               "applied_configs ORDER BY id DESC LIMIT ?1) AND id IS NOT (SELECT "
                               "max(id) FROM applied_configs WHERE applied_by = 'scm')");
     count_configs = Statement(db, "SELECT count(*) FROM applied_configs");
+    hires.insert = Statement(db,
+                             "INSERT INTO hires (intersection_id, time_ns, code, param) "
+                             "VALUES (?1, ?2, ?3, ?4)");
+    hires.select_one = Statement(db,
+                                 "SELECT intersection_id, time_ns, code, param FROM hires WHERE "
+                                 "intersection_id = ?1 AND time_ns >= ?2 AND time_ns < ?3 "
+                                 "ORDER BY time_ns, id LIMIT ?4");
+    hires.select_all = Statement(db,
+                                 "SELECT intersection_id, time_ns, code, param FROM hires WHERE "
+                                 "?1 = 0 AND time_ns >= ?2 AND time_ns < ?3 "
+                                 "ORDER BY time_ns, id LIMIT ?4");
+    hires.prune_before = Statement(db, "DELETE FROM hires WHERE time_ns < ?1");
+    hires.prune_keep = Statement(db,
+                                 "DELETE FROM hires WHERE id <= (SELECT id FROM hires "
+                                 "ORDER BY id DESC LIMIT 1 OFFSET ?1)");
+    hires.count = Statement(db, "SELECT count(*) FROM hires");
     select_states = Statement(db,
                               "SELECT intersection_id, mode, plan, operator_chosen, "
                               "updated_at_ns FROM intersection_states ORDER BY intersection_id");
@@ -447,6 +482,64 @@ std::int64_t Store::AppendEvents(const std::vector<EventRecord>& events) {
     }
     return static_cast<std::int64_t>(sqlite3_last_insert_rowid(impl_->db));
   });
+}
+
+void Store::AppendHires(const std::vector<HiresRecord>& records) {
+  if (records.empty()) return;
+  std::lock_guard lock(impl_->mutex);
+  impl_->Write(false, [&] {
+    for (const HiresRecord& r : records) {
+      Use use(impl_->db, impl_->hires.insert);
+      use.Bind(1, std::int64_t{r.intersection.value()})
+          .Bind(2, ToNs(r.time))
+          .Bind(3, std::int64_t{r.code})
+          .Bind(4, std::int64_t{r.param})
+          .Run();
+    }
+    return 0;
+  });
+}
+
+std::vector<HiresRecord> Store::Hires(const HiresQuery& q) const {
+  AUTODRIVE_THROW_UNLESS(q.limit > 0 && q.limit <= kMaxQueryLimit,
+                         "a query's limit must be 1.." << kMaxQueryLimit << ", got " << q.limit);
+  AUTODRIVE_THROW_UNLESS(q.until >= q.since, "a query's until is before its since");
+  std::lock_guard lock(impl_->mutex);
+  Use use(impl_->db,
+          q.intersection.value() == 0 ? impl_->hires.select_all : impl_->hires.select_one);
+  use.Bind(1, std::int64_t{q.intersection.value()})
+      .Bind(2, ToNs(q.since))
+      .Bind(3, ToNs(q.until))
+      .Bind(4, static_cast<std::int64_t>(q.limit));
+  std::vector<HiresRecord> out;
+  while (use.Step()) {
+    out.push_back({IntersectionId(static_cast<std::uint32_t>(use.Int(0))), FromNs(use.Int(1)),
+                   static_cast<std::uint16_t>(use.Int(2)), static_cast<std::uint16_t>(use.Int(3))});
+  }
+  return out;
+}
+
+std::int64_t Store::PruneHires(std::optional<Time> before, std::int64_t keep_newest) {
+  AUTODRIVE_THROW_UNLESS(keep_newest >= 0, "keep_newest must be >= 0, got " << keep_newest);
+  std::lock_guard lock(impl_->mutex);
+  return impl_->Write(false, [&] {
+    std::int64_t deleted = 0;
+    if (before) {
+      Use use(impl_->db, impl_->hires.prune_before);
+      use.Bind(1, ToNs(*before)).Run();
+      deleted += sqlite3_changes64(impl_->db);
+    }
+    Use use(impl_->db, impl_->hires.prune_keep);
+    use.Bind(1, keep_newest).Run();
+    deleted += sqlite3_changes64(impl_->db);
+    return deleted;
+  });
+}
+
+std::int64_t Store::HiresCount() const {
+  std::lock_guard lock(impl_->mutex);
+  Use use(impl_->db, impl_->hires.count);
+  return use.Step() ? use.Int(0) : 0;
 }
 
 std::int64_t Store::PruneEvents(std::optional<Time> before, std::int64_t keep_newest) {

@@ -75,6 +75,25 @@ struct EventQuery {
   bool newest_first = false;
 };
 
+/// One event of an intersection's high-resolution log (docs/controller.md, "High-resolution
+/// event log"): an Indiana enumeration code and its parameter.
+struct HiresRecord {
+  IntersectionId intersection{0};
+  Time time{};
+  std::uint16_t code = 0;
+  std::uint16_t param = 0;
+  bool operator==(const HiresRecord&) const = default;
+};
+
+/// Which records `Store::Hires` returns: those of one intersection (or all, with id 0) with
+/// `since <= time < until`, in time order (and append order within a time).
+struct HiresQuery {
+  IntersectionId intersection{0};
+  Time since{};
+  Time until{};
+  std::size_t limit = 100000;
+};
+
 /// A city configuration as it was applied.
 struct AppliedConfig {
   std::int64_t id = 0;     ///< 1, 2, 3, ... in the order applied
@@ -178,6 +197,23 @@ class Store {
   /// watch has already logged when it starts. Read through an index of those events alone, not
   /// the whole log.
   [[nodiscard]] std::vector<LatestDeviceEvent> LatestProcessEvents() const;
+
+  // ---- High-resolution log ----------------------------------------------------------------
+
+  /// Appends `records` in one transaction. All or nothing.
+  /// @throws StoreError when the write fails; nothing is written then.
+  void AppendHires(const std::vector<HiresRecord>& records);
+
+  /// The records matching `query`.
+  /// @throws InputError when `query.limit` is 0 or above 1000000, or `until` is before `since`.
+  [[nodiscard]] std::vector<HiresRecord> Hires(const HiresQuery& query) const;
+
+  /// Deletes the records older than `before` (when given) and all but the newest
+  /// `keep_newest`. Returns how many were deleted. @throws StoreError when the write fails.
+  std::int64_t PruneHires(std::optional<Time> before, std::int64_t keep_newest);
+
+  /// The number of records in the log.
+  [[nodiscard]] std::int64_t HiresCount() const;
 
   // ---- Applied configuration --------------------------------------------------------------
 

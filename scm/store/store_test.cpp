@@ -175,6 +175,53 @@ TEST_F(StoreTest, TheNewestProcessEventOfEachDeviceIsFoundThroughItsOwnIndex) {
   EXPECT_NE(plan.find("USING COVERING INDEX events_of_processes"), std::string::npos) << plan;
 }
 
+TEST_F(StoreTest, TheHighResolutionLogIsQueriedByIntersectionAndWindowAndPruned) {
+  {
+    // A database of schema version 1 written before the log existed: the table comes on open.
+    Store store(DbPath());
+    RawExec(DbPath(), "DROP TABLE hires");
+  }
+  Store store(DbPath());
+  EXPECT_EQ(store.HiresCount(), 0);
+  const IntersectionId a(1), b(2);
+  const Time t0(seconds(1000));
+  std::vector<HiresRecord> records;
+  for (int i = 0; i < 100; ++i) {
+    records.push_back({i % 2 == 0 ? a : b, t0 + std::chrono::milliseconds(100 * i),
+                       static_cast<std::uint16_t>(i % 13), static_cast<std::uint16_t>(1 + i % 8)});
+  }
+  records.push_back({a, t0, 65535, 65535});  // the largest code and parameter, at t0 again
+  store.AppendHires(records);
+  EXPECT_EQ(store.HiresCount(), 101);
+  HiresQuery q;
+  q.intersection = a;
+  q.since = t0;
+  q.until = t0 + seconds(1);  // excluded
+  const std::vector<HiresRecord> got = store.Hires(q);
+  ASSERT_EQ(got.size(), 6u);
+  EXPECT_EQ(got[0], records[0]);
+  EXPECT_EQ(got[1], records[100]) << "same time: append order";
+  EXPECT_EQ(got[5], records[8]);
+  q.intersection = IntersectionId(0);  // every intersection
+  EXPECT_EQ(store.Hires(q).size(), 11u);
+  q.limit = 0;
+  EXPECT_THROW((void)store.Hires(q), InputError);
+  // Pruned by age, then by count (the newest kept).
+  EXPECT_EQ(store.PruneHires(t0 + seconds(5), 1000), 51);
+  EXPECT_EQ(store.PruneHires(std::nullopt, 10), 40);
+  q.limit = 1000;
+  q.until = t0 + seconds(100);
+  const std::vector<HiresRecord> left = store.Hires(q);
+  ASSERT_EQ(left.size(), 10u);
+  EXPECT_EQ(left.back(), records[99]);
+  // Read through its index, not the whole table.
+  const std::string plan = RawPlan(DbPath(),
+                                   "SELECT intersection_id, time_ns, code, param FROM hires WHERE "
+                                   "intersection_id = 1 AND time_ns >= 0 AND time_ns < 10 ORDER BY "
+                                   "time_ns, id LIMIT 5");
+  EXPECT_NE(plan.find("hires_of_intersection"), std::string::npos) << plan;
+}
+
 TEST_F(StoreTest, TextWithQuotesNulsAndNonAsciiRoundTrips) {
   Store store(":memory:");
   EventRecord e = MakeEvent(1);
