@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <fstream>
 #include <optional>
+#include <tuple>
 #include <utility>
 #include <vector>
 
 #include <pugixml.hpp>
 
+#include "traffic/nema/diagnosis.h"
 #include "traffic/nema/intervals.h"
 #include "traffic/nema/nema_program.h"
 #include "traffic/sumo_api.h"
@@ -215,6 +217,62 @@ void CheckSwitchTimes(const std::vector<Interval>& sumo, const std::vector<Switc
   }
 }
 
+bool OnMinRecall(const NemaProgram& program, std::uint32_t phase) {
+  return std::ranges::find(program.min_recall, phase) != program.min_recall.end();
+}
+
+bool OnRecall(const NemaProgram& program, std::uint32_t phase) {
+  return OnMinRecall(program, phase) ||
+         std::ranges::find(program.max_recall, phase) != program.max_recall.end();
+}
+
+// The random calls of `r` for the phases of `order` with a detector, for [calls_from, to), and a
+// line saying how they were drawn (`file`: where they are written).
+std::pair<CallScript, std::string> DrawCalls(const RandomCalls& r, const NemaProgram& program,
+                                             const std::vector<std::uint32_t>& order, Duration to,
+                                             Duration step, const fs::path& file) {
+  // Those on recall take no calls (min recall: refused from a script; max recall: SUMO holds
+  // them to their max whatever the calls).
+  std::vector<std::uint32_t> called;
+  std::string list;
+  for (std::uint32_t n : order) {
+    if (OnRecall(program, n)) continue;
+    called.push_back(n);
+    list += (list.empty() ? "" : ", ") + std::to_string(n);
+  }
+  const RandomCallParams& p = r.params;
+  CallScript calls = RandomCallScript(called, r.seed, to, step, p);
+  std::string note = fmt::format(
+      "random, seed {}: per phase with a detector ({}), gaps geometric on the {} s grid with mean "
+      "{} s, occupancies {:.0f}% {} - {} s (passing), {:.0f}% {} - {} s (queue), for [{}, {}) s; "
+      "{} calls in {}",
+      r.seed, list.empty() ? "none" : list, SumoSeconds(step), SumoSeconds(p.mean_gap),
+      100 * (1 - p.queue_share), SumoSeconds(p.pass_min), SumoSeconds(p.pass_max),
+      100 * p.queue_share, SumoSeconds(p.queue_min), SumoSeconds(p.queue_max),
+      SumoSeconds(p.calls_from), SumoSeconds(to), calls.calls.size(), file.string());
+  return {std::move(calls), std::move(note)};
+}
+
+// What the diagnosis needs of the run.
+DiagnosisInput DiagnosisInputOf(const NemaProgram& program, const ComparisonInput& in,
+                                const CallScript& calls, Duration step) {
+  DiagnosisInput d;
+  d.ring = in.phases;
+  for (std::size_t k = 0; k < program.rings[0].size(); ++k) {
+    if (program.rings[0][k] != 0) d.barrier_side[program.rings[0][k]] = static_cast<int>(k / 2);
+  }
+  for (const NemaPhase& p : program.phases) {
+    d.timing[p.number] = {p.min_green, p.max_green, p.passage,
+                          p.yellow,    p.red_clear, OnRecall(program, p.number)};
+  }
+  d.calls = calls;
+  d.ours = in.ours;
+  d.sumo = in.sumo;
+  d.step = step;
+  d.tolerance = in.tolerance;
+  return d;
+}
+
 }  // namespace
 
 std::string CheckWithSumo(const scm::City& city, const fs::path& additional, const fs::path& dir) {
@@ -252,8 +310,10 @@ std::string CheckWithSumo(const scm::City& city, const fs::path& additional, con
   return output;
 }
 
-CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& o) {
-  AUTODRIVE_THROW_UNLESS(o.cycles >= 1, "--cycles must be at least 1, got " << o.cycles);
+CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& options) {
+  CrosscheckOptions o = options;
+  AUTODRIVE_THROW_UNLESS(o.duration || o.cycles >= 1,
+                         "--cycles must be at least 1, got " << o.cycles);
   AUTODRIVE_THROW_UNLESS(o.step > Duration{0}, "the step must be > 0");
   AUTODRIVE_THROW_UNLESS(o.tolerance >= Duration{0}, "the tolerance must be >= 0");
   AUTODRIVE_THROW_UNLESS(!o.out_dir.empty(), "no output folder");
@@ -268,7 +328,8 @@ CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& o
   f.intersection = x.name;
   f.plan = plan.name;
   f.tls = program.tls;
-  f.cycles = o.cycles;
+  f.cycles = o.duration ? 0 : o.cycles;
+  f.duration = o.duration;
   f.step = o.step;
   f.tolerance = o.tolerance;
   f.cycle = cycle;
@@ -307,10 +368,18 @@ CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& o
   on_step(program.offset, "the offset");
   on_step(o.our_start, "--our-start");
   on_step(x.startup_flash + x.startup_all_red, "the start-up flash and all red");
+  if (o.duration) on_step(*o.duration, "--duration");
+  if (o.random_calls) Validate(o.random_calls->params, o.step);
   for (const PhaseCall& c : o.calls.calls) {
     AUTODRIVE_THROW_UNLESS(program.Find(c.phase) != nullptr, "the call script calls phase "
                                                                  << c.phase << ", which plan "
                                                                  << plan.name << " does not have");
+    // Its calls would extend SUMO's green through SUMO's detector; ours has no detector there.
+    AUTODRIVE_THROW_UNLESS(!OnMinRecall(program, c.phase),
+                           "the call script calls phase "
+                               << c.phase << ", which is on min recall in plan " << plan.name
+                               << " (its groups have no detector): SUMO's detector would take "
+                                  "the call, our controller has none to take it");
   }
 
   // The window. A fixed-time plan: from the first cycle start at which both run the plan: ours
@@ -327,7 +396,15 @@ CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& o
   } else {
     f.from = both + o.step;
   }
-  f.to = f.from + o.cycles * cycle;
+  if (o.duration) {
+    AUTODRIVE_THROW_UNLESS(*o.duration > f.from, "--duration " << ToSeconds(*o.duration)
+                                                               << " s ends before the compared "
+                                                                  "window starts, at "
+                                                               << ToSeconds(f.from) << " s");
+    f.to = *o.duration;
+  } else {
+    f.to = f.from + o.cycles * cycle;
+  }
   f.end = f.to + cycle;
   // Our day clock: local midnight is SUMO's time -base, a whole number of cycles before 0 (so
   // that cycle zero is SUMO's time 0 + offset) and before our start.
@@ -378,6 +455,23 @@ CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& o
         group_links[g].push_back(static_cast<std::size_t>(*net.movement(m).tls_link_index));
       }
     }
+  }
+
+  if (o.random_calls) {
+    std::tie(o.calls, f.calls_note) =
+        DrawCalls(*o.random_calls, program, order, f.to, o.step, out / "calls.txt");
+    const std::string header = fmt::format(
+        "autodrive-scm-nema crosscheck: {} plan {}, city {}\n{}\nreplay: crosscheck CITY {} {} "
+        "--calls calls.txt {} --our-start {} --tolerance {} --compare {}",
+        x.name, plan.name, city.config.name, f.calls_note, x.name, plan.name,
+        o.duration ? "--duration " + SumoSeconds(*o.duration)
+                   : fmt::format("--cycles {}", o.cycles),
+        SumoSeconds(o.our_start), SumoSeconds(o.tolerance), ToString(o.compare));
+    WriteFile(out / "calls.txt", CallScriptText(o.calls, header));
+  } else if (!o.calls.calls.empty()) {
+    f.calls_note = fmt::format("a script of {} calls", o.calls.calls.size());
+  } else {
+    f.calls_note = "none (recalls only)";
   }
 
   IntervalRecorder ours_record(order);
@@ -481,19 +575,23 @@ CrosscheckResult RunCrosscheck(const scm::City& city, const CrosscheckOptions& o
   in.cycle = cycle;
   f.files_note = fmt::format(
       "files in {}: network/ (SUMO's network), {} (the NEMA program), {} and {} (SUMO's "
-      "outputs), sumo.log, report.txt, report.json",
+      "outputs), sumo.log, {}report.txt, report.json",
       out.string(), additional.filename().string(), outputs.states.filename().string(),
-      outputs.switch_times.filename().string());
+      outputs.switch_times.filename().string(), o.random_calls ? "calls.txt (the calls), " : "");
 
   CrosscheckResult result;
-  result.comparison = Compare(in);
+  result.verdicts.mode = o.compare;
+  result.verdicts.pairs = Compare(in);
+  result.verdicts.sequence = CompareSequences(in);
+  result.verdicts.notes =
+      Diagnose(result.verdicts.sequence, DiagnosisInputOf(program, in, o.calls, o.step));
   result.facts = std::move(f);
-  result.passed = Passed(result.facts, result.comparison);
-  result.text = ReportText(result.facts, result.comparison);
+  result.passed = Passed(result.facts, result.verdicts);
+  result.text = ReportText(result.facts, result.verdicts);
   result.text_report = out / "report.txt";
   result.json_report = out / "report.json";
   WriteFile(result.text_report, result.text);
-  WriteFile(result.json_report, ReportJson(result.facts, result.comparison));
+  WriteFile(result.json_report, ReportJson(result.facts, result.verdicts));
   return result;
 }
 

@@ -14,7 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "common/process.h"
+#include "traffic/nema/nema_test_support.h"
+
 #include "common/test_support.h"
 #include "scm/core/city.h"
 
@@ -28,28 +29,10 @@ class TempDir : public test::TempDir {
   TempDir() : test::TempDir("traffic_nema_crosscheck_test") {}
 };
 
-std::string City() { return (test::SourceDir() / "config/cities/driving_school.yaml").string(); }
+using support::Output;
+using support::RunNema;
 
-struct Output {
-  int code = -1;
-  std::string text;  // stdout and stderr
-};
-
-// Runs autodrive-scm-nema with `args`.
-Output RunNema(const std::vector<std::string>& args) {
-  const char* bin = std::getenv("AUTODRIVE_BINARY_DIR");
-  std::vector<std::string> argv = {
-      "/bin/sh", "-c", "exec \"$0\" \"$@\" 2>&1",
-      std::string(bin != nullptr ? bin : ".") + "/bin/autodrive-scm-nema"};
-  argv.insert(argv.end(), args.begin(), args.end());
-  Output out;
-  ChildProcess child(argv);
-  child.CloseStdin();
-  while (auto line = child.ReadLine(std::chrono::minutes(4))) out.text += *line + "\n";
-  const std::optional<int> rc = child.Wait(std::chrono::seconds(30));
-  out.code = rc ? *rc : child.Stop();
-  return out;
-}
+std::string City() { return support::DrivingSchool(); }
 
 nlohmann::json Report(const fs::path& dir) {
   std::ifstream in(dir / "report.json");
