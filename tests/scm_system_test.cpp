@@ -105,18 +105,20 @@ TEST_F(ScmSystem, DrivingSchoolRunsSpatAtTenHertzAndTheLightsFollowThePlan) {
 TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
   StartInfra("small_town");
   StartScm("small_town");
-  const auto two_greens = [](const msg::Spat& s) {
-    int greens = 0;
+  // Both intersections run their plans: each shows a green in turn. (Not both at once: their
+  // fixed-time cycles, 52 and 72 s on the clock's time of day, can go 130 s without a green at
+  // both together.)
+  std::set<std::uint32_t> had_green;
+  const auto each_green = [&](const msg::Spat& s) {
     for (const auto& x : dds::Elements(s.intersections)) {
-      for (const auto& g : dds::Elements(x.signal_groups)) greens += test::IsGreen(g.event_state);
+      for (const auto& g : dds::Elements(x.signal_groups)) {
+        if (test::IsGreen(g.event_state)) had_green.insert(x.intersection_id);
+      }
     }
-    return greens == 2;  // one group green at each intersection
+    return s.intersections._length == 2 && had_green.size() == 2;
   };
-  const auto green = WaitSpat(two_greens, seconds(30));
-  ASSERT_TRUE(green);
-  EXPECT_EQ(green->get().intersections._length, 2u);
-  // Every head of the map reports, and the heads of exactly two groups show green while the
-  // SPaT says two groups are green.
+  ASSERT_TRUE(WaitSpat(each_green, seconds(120)));
+  // Every head of the map reports, and a head shows green.
   ASSERT_TRUE(WaitDevices(
       [&](const auto& seen) {
         int greens = 0, heads = 0;
@@ -126,9 +128,9 @@ TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
           ++heads;
           greens += it->second.displayed == 3;
         }
-        return heads == 7 && greens == 2;
+        return heads == 7 && greens >= 1;
       },
-      seconds(30)));
+      seconds(60)));
   // A malformed operator request is answered and counted; the daemon carries on.
   dds::Writer<msg::OperatorRequest> raw(*participant_, dds::topics::OperatorRequests());
   dds::Message<msg::OperatorRequest> bad;
@@ -137,7 +139,8 @@ TEST_F(ScmSystem, SmallTownRunsBothSignalisedIntersectionsWithItsLights) {
   ASSERT_TRUE(raw.WaitForReaders(1, seconds(10)));
   raw.Write(bad);
   EXPECT_TRUE(WaitStatus("malformed_requests: 1", seconds(20)));
-  EXPECT_TRUE(WaitSpat(two_greens, seconds(30)));
+  had_green.clear();
+  EXPECT_TRUE(WaitSpat(each_green, seconds(120))) << "both still run";
 }
 
 // Two districts of the small town on two DDS domains, an SCM each (docs/districts.md): a
