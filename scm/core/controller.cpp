@@ -90,7 +90,8 @@ IntersectionController::IntersectionController(const IntersectionModel& model, M
       aspects_(model.groups.size()),
       since_(model.groups.size(), now),
       mode_(mode),
-      operator_plan_(operator_plan) {
+      operator_plan_(operator_plan),
+      log_(now) {
   AUTODRIVE_CHECK(!model.plans.empty(), "intersection " << model.name << " has no plans");
   if (operator_plan_ && *operator_plan_ >= model.plans.size()) operator_plan_.reset();
   plan_ = operator_plan_.value_or(model.schedule.front().plan);
@@ -98,31 +99,11 @@ IntersectionController::IntersectionController(const IntersectionModel& model, M
   stage_ = Stage::kStartupFlash;
   stage_end_ = now + model.startup_flash;
   next_wake_ = now;  // step at once
-  Log(now, hires::kUnitFlashStatusChange, flash_status_);
-}
-
-void IntersectionController::SetFlashStatus(MonoTime now, std::uint16_t status) {
-  if (status == flash_status_) return;
-  flash_status_ = status;
-  Log(now, hires::kUnitFlashStatusChange, status);
-}
-
-void IntersectionController::Log(MonoTime at, std::uint16_t code, std::uint16_t param) {
-  if (hires_.size() >= kMaxHiresEvents) {
-    ++hires_dropped_;
-    return;
-  }
-  hires_.push_back({at, code, param});
-}
-
-std::vector<HiresEvent> IntersectionController::TakeHiresEvents() {
-  std::vector<HiresEvent> out;
-  out.swap(hires_);
-  return out;
 }
 
 void IntersectionController::UsePlan(std::size_t plan, MonoTime now) {
-  if (plan != plan_) Log(now, hires::kCoordPatternChange, static_cast<std::uint16_t>(plan + 1));
+  if (plan != plan_)
+    log_.Log(now, hires::kCoordPatternChange, static_cast<std::uint16_t>(plan + 1));
   plan_ = plan;
 }
 
@@ -158,7 +139,7 @@ bool IntersectionController::InPhase(std::size_t group) const {
 }
 
 MonoTime IntersectionController::PhaseMinEnd() const {
-  MonoTime end = green_start_;
+  MonoTime end = green_.start;
   for (std::size_t g : plan().phases[phase_].groups) {
     end = std::max(end, since_[g] + model_->groups[g].timing.min_green);
   }
@@ -180,7 +161,7 @@ void IntersectionController::EnterFlash(MonoTime now, bool dark) {
   if (stage_ == Stage::kGreen || stage_ == Stage::kYellow || stage_ == Stage::kRedClearance) {
     LogPhase(now, hires::kPhaseInactive);  // cut short: a fail-safe
   }
-  SetFlashStatus(now, latched_ ? hires::kFlashFaultMonitor : hires::kFlashAutomatic);
+  log_.SetFlashStatus(now, latched_ ? hires::kFlashFaultMonitor : hires::kFlashAutomatic);
   stage_ = dark ? Stage::kDark : Stage::kFlash;
   for (std::size_t g = 0; g < aspects_.size(); ++g) {
     Show(g, dark ? Aspect::kOff : model_->groups[g].flash_aspect, now);
@@ -191,7 +172,7 @@ void IntersectionController::EnterFlash(MonoTime now, bool dark) {
 }
 
 void IntersectionController::EnterAllRed(MonoTime now, Duration d) {
-  SetFlashStatus(now, hires::kNotFlash);
+  log_.SetFlashStatus(now, hires::kNotFlash);
   stage_ = Stage::kAllRed;
   stage_end_ = now + d;
   for (std::size_t g = 0; g < aspects_.size(); ++g) Show(g, Aspect::kRed, now);
@@ -242,15 +223,15 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   stage_ = Stage::kGreen;
   phase_ = phase;
   next_phase_.reset();
-  green_start_ = now;
-  last_call_ = now;
-  max_from_.reset();
-  min_logged_ = false;
+  green_.start = now;
+  green_.last_call = now;
+  green_.max_from.reset();
+  green_.min_logged = false;
   LogPhase(now, hires::kPhaseOn);
   LogPhase(now, hires::kPhaseBeginGreen);
   advance_ = false;
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
-  planned_end_ = PlannedEnd(phase, now);
+  green_.planned_end = PlannedEnd(phase, now);
   if (active_ && !active_->served && InPhase(active_->request.group)) {
     active_->served = true;
     active_->request.end = std::max(active_->request.end, now + active_->request.duration);
@@ -291,7 +272,7 @@ bool IntersectionController::ConflictingCall(const std::vector<bool>& calls) con
 }
 
 MonoTime IntersectionController::MaxEnd(MonoTime now) const {
-  return max_from_.value_or(now) + PhaseMaxGreen(phase_);
+  return green_.max_from.value_or(now) + PhaseMaxGreen(phase_);
 }
 
 std::uint16_t IntersectionController::TerminationCode(MonoTime now) const {
@@ -299,7 +280,7 @@ std::uint16_t IntersectionController::TerminationCode(MonoTime now) const {
     return active_->request.preemption ? hires::kPreemptionForceOff : hires::kTspEarlyForceOff;
   }
   if (TargetMode(plan_) == Mode::kActuated) {
-    return now >= last_call_ + plan().extension ? hires::kPhaseGapOut : hires::kPhaseMaxOut;
+    return now >= green_.last_call + plan().extension ? hires::kPhaseGapOut : hires::kPhaseMaxOut;
   }
   return hires::kPhaseForceOff;  // fixed time keeps to its cycle; manual advance; a hold's end
 }
@@ -312,7 +293,7 @@ bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<boo
     if (!InPhase(r.group)) return true;  // go and serve it
     const MonoTime hold = r.preemption
                               ? std::min(r.end, active_->accepted + model_->priority.max_preemption)
-                              : std::min(r.end, green_start_ + PhaseMaxGreen(phase_) +
+                              : std::min(r.end, green_.start + PhaseMaxGreen(phase_) +
                                                     model_->priority.max_extension);
     if (now < hold) return false;
     if (r.preemption) return true;
@@ -322,12 +303,12 @@ bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<boo
       return advance_;
     case Mode::kActuated: {
       if (!ConflictingCall(calls)) return false;  // rest in green
-      const bool max_out = max_from_ && now >= *max_from_ + PhaseMaxGreen(phase_);
-      const bool gap_out = now >= last_call_ + plan().extension;
+      const bool max_out = green_.max_from && now >= *green_.max_from + PhaseMaxGreen(phase_);
+      const bool gap_out = now >= green_.last_call + plan().extension;
       return max_out || gap_out;
     }
     default:
-      return now >= planned_end_;
+      return now >= green_.planned_end;
   }
 }
 
@@ -351,6 +332,40 @@ std::size_t IntersectionController::ChooseNext(std::size_t plan,
     }
   }
   return (from + 1) % n;
+}
+
+void IntersectionController::StepGreen(MonoTime now, std::size_t wanted_plan) {
+  for (std::size_t g : plan().phases[phase_].groups) {
+    if (Call(calls_, g) && !plan().detectors.empty()) green_.last_call = now;
+  }
+  // NTCIP phaseMaximum1: the max timer runs while a conflicting call is waiting, and is
+  // held reset while none is (a call on recall counts from the start of the green).
+  if (!ConflictingCall(calls_)) {
+    green_.max_from.reset();
+  } else if (!green_.max_from) {
+    green_.max_from = now;
+    LogPhase(now, hires::kPhaseCheck);
+  }
+  if (!green_.min_logged && now >= PhaseMinEnd()) {
+    green_.min_logged = true;
+    LogPhase(PhaseMinEnd(), hires::kPhaseMinComplete);
+  }
+  const Mode target = TargetMode(wanted_plan);
+  if (target == Mode::kFlash || target == Mode::kDark) {
+    if (now >= PhaseMinEnd()) {
+      LogPhase(now, hires::kPhaseForceOff);
+      UsePlan(wanted_plan, now);
+      BeginClearance(std::nullopt, now);
+    }
+  } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_) {
+    // A safe point: the new plan starts after this green's clearance.
+    LogPhase(now, hires::kPhaseForceOff);
+    UsePlan(wanted_plan, now);
+    BeginClearance(FirstPhase(plan_, now), now);
+  } else if (ShouldTerminate(now, calls_)) {
+    LogPhase(now, TerminationCode(now));
+    BeginClearance(ChooseNext(plan_, calls_), now);
+  }
 }
 
 void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_calls,
@@ -409,40 +424,9 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
           }
         }
         break;
-      case Stage::kGreen: {
-        for (std::size_t g : plan().phases[phase_].groups) {
-          if (Call(calls_, g) && !plan().detectors.empty()) last_call_ = now;
-        }
-        // NTCIP phaseMaximum1: the max timer runs while a conflicting call is waiting, and is
-        // held reset while none is (a call on recall counts from the start of the green).
-        if (!ConflictingCall(calls_)) {
-          max_from_.reset();
-        } else if (!max_from_) {
-          max_from_ = now;
-          LogPhase(now, hires::kPhaseCheck);
-        }
-        if (!min_logged_ && now >= PhaseMinEnd()) {
-          min_logged_ = true;
-          LogPhase(PhaseMinEnd(), hires::kPhaseMinComplete);
-        }
-        const Mode target = TargetMode(wanted_plan);
-        if (target == Mode::kFlash || target == Mode::kDark) {
-          if (now >= PhaseMinEnd()) {
-            LogPhase(now, hires::kPhaseForceOff);
-            UsePlan(wanted_plan, now);
-            BeginClearance(std::nullopt, now);
-          }
-        } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_) {
-          // A safe point: the new plan starts after this green's clearance.
-          LogPhase(now, hires::kPhaseForceOff);
-          UsePlan(wanted_plan, now);
-          BeginClearance(FirstPhase(plan_, now), now);
-        } else if (ShouldTerminate(now, calls_)) {
-          LogPhase(now, TerminationCode(now));
-          BeginClearance(ChooseNext(plan_, calls_), now);
-        }
+      case Stage::kGreen:
+        StepGreen(now, wanted_plan);
         break;
-      }
       case Stage::kYellow:
         if (now >= yellow_end_) {
           for (std::size_t g = 0; g < aspects_.size(); ++g) {
@@ -518,10 +502,10 @@ MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
       break;
     case Stage::kGreen: {
       consider(PhaseMinEnd());
-      consider(planned_end_);
-      if (max_from_) consider(*max_from_ + PhaseMaxGreen(phase_));
-      consider(green_start_ + PhaseMaxGreen(phase_) + model_->priority.max_extension);
-      consider(last_call_ + plan().extension);
+      consider(green_.planned_end);
+      if (green_.max_from) consider(*green_.max_from + PhaseMaxGreen(phase_));
+      consider(green_.start + PhaseMaxGreen(phase_) + model_->priority.max_extension);
+      consider(green_.last_call + plan().extension);
       // A call on this phase keeps its gap timer running: step every pass while it lasts.
       if (!plan().detectors.empty()) {
         for (std::size_t g : plan().phases[phase_].groups) {
@@ -565,7 +549,7 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
   switch (stage_) {
     case Stage::kGreen:
       from = phase_;
-      t = green_end(phase_, green_start_, true);
+      t = green_end(phase_, green_.start, true);
       break;
     case Stage::kYellow:
     case Stage::kRedClearance:
@@ -680,9 +664,10 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
                                 extension_allowance);
           case Policy::kLikely:
             if (mode == Mode::kActuated) {
-              return std::clamp(last_call_ + p.extension, min_end, std::max(min_end, MaxEnd(now)));
+              return std::clamp(green_.last_call + p.extension, min_end,
+                                std::max(min_end, MaxEnd(now)));
             }
-            return std::max(min_end, planned_end_);
+            return std::max(min_end, green_.planned_end);
         }
       }
       switch (policy) {
@@ -726,7 +711,7 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
         auto end_of_run = [&](Policy policy) {
           const auto f = green_end(policy);
           const Plan& p = plan();
-          MonoTime t = f(phase_, green_start_, true);
+          MonoTime t = f(phase_, green_.start, true);
           std::size_t from = phase_;
           for (std::size_t step = 1; step < p.phases.size(); ++step) {
             const std::size_t k = (from + 1) % p.phases.size();

@@ -18,6 +18,7 @@
 #include "common/aspect.h"
 #include "common/time.h"
 #include "scm/core/city.h"
+#include "scm/core/hires_log.h"
 
 namespace autodrive::scm {
 
@@ -95,42 +96,6 @@ struct RequestUpdate {
   std::string reason;
 };
 
-/// An event of an intersection's high-resolution log (docs/controller.md, "High-resolution event
-/// log"): a code of the Indiana enumerations (TPF-5(377) edition, as UDOT's ATSPM reads them)
-/// and its parameter, a phase number (the plan's phase, from 1), a flash status or a plan.
-struct HiresEvent {
-  MonoTime at{};
-  std::uint16_t code = 0;
-  std::uint16_t param = 0;
-  bool operator==(const HiresEvent&) const = default;
-};
-
-/// The Indiana codes the controller logs.
-namespace hires {
-inline constexpr std::uint16_t kPhaseOn = 0;
-inline constexpr std::uint16_t kPhaseBeginGreen = 1;
-inline constexpr std::uint16_t kPhaseCheck = 2;  ///< a conflicting call: max timing starts
-inline constexpr std::uint16_t kPhaseMinComplete = 3;
-inline constexpr std::uint16_t kPhaseGapOut = 4;
-inline constexpr std::uint16_t kPhaseMaxOut = 5;
-inline constexpr std::uint16_t kPhaseForceOff = 6;
-inline constexpr std::uint16_t kPhaseGreenTermination = 7;
-inline constexpr std::uint16_t kPhaseBeginYellow = 8;
-inline constexpr std::uint16_t kPhaseEndYellow = 9;
-inline constexpr std::uint16_t kPhaseBeginRedClearance = 10;
-inline constexpr std::uint16_t kPhaseEndRedClearance = 11;
-inline constexpr std::uint16_t kPhaseInactive = 12;
-inline constexpr std::uint16_t kTspEarlyForceOff = 19;
-inline constexpr std::uint16_t kPreemptionForceOff = 20;
-inline constexpr std::uint16_t kCoordPatternChange = 131;
-inline constexpr std::uint16_t kUnitFlashStatusChange = 173;
-/// unitFlashStatus values (NTCIP 1202 asc.3.6), the parameter of code 173.
-inline constexpr std::uint16_t kNotFlash = 2;
-inline constexpr std::uint16_t kFlashAutomatic = 3;     ///< a plan's or the operator's flash
-inline constexpr std::uint16_t kFlashFaultMonitor = 5;  ///< fail-safe
-inline constexpr std::uint16_t kFlashStartup = 7;
-}  // namespace hires
-
 /// The controller of one intersection. Borrows its model, which must outlive it. Copyable
 /// (the property tests copy it); not thread-safe: the daemon drives it from one thread.
 class IntersectionController {
@@ -174,16 +139,16 @@ class IntersectionController {
 
   /// The high-resolution events since the last call, oldest first. At most
   /// `kMaxHiresEvents` wait between calls; later ones are dropped and counted.
-  std::vector<HiresEvent> TakeHiresEvents();
+  std::vector<HiresEvent> TakeHiresEvents() { return log_.Take(); }
   /// The events waiting, oldest first; `ClearHiresEvents` after reading them keeps the buffer
   /// (the daemon's loop, which must not allocate for them every pass).
-  [[nodiscard]] const std::vector<HiresEvent>& hires_events() const { return hires_; }
-  void ClearHiresEvents() { hires_.clear(); }
+  [[nodiscard]] const std::vector<HiresEvent>& hires_events() const { return log_.events(); }
+  void ClearHiresEvents() { log_.Clear(); }
   /// True when `TakeHiresEvents` has something (checking allocates nothing).
-  [[nodiscard]] bool has_hires_events() const { return !hires_.empty(); }
+  [[nodiscard]] bool has_hires_events() const { return !log_.events().empty(); }
   /// Events dropped because no one took them.
-  [[nodiscard]] std::uint64_t hires_dropped() const { return hires_dropped_; }
-  static constexpr std::size_t kMaxHiresEvents = 4096;
+  [[nodiscard]] std::uint64_t hires_dropped() const { return log_.dropped(); }
+  static constexpr std::size_t kMaxHiresEvents = HiresLog::kMaxEvents;
 
   /// The earliest control instant at which `Step` may change anything when its inputs (calls,
   /// day clock, commands, requests, device readiness) stay as they were at the last step. A
@@ -217,6 +182,16 @@ class IntersectionController {
   [[nodiscard]] bool priority_active() const { return active_ && !active_->request.preemption; }
 
  private:
+  /// The timers of the green in service.
+  struct GreenTimers {
+    MonoTime start{};
+    MonoTime planned_end{};  ///< fixed time: where the cycle ends it
+    MonoTime last_call{};    ///< the last step with a call of its own (the passage runs from it)
+    /// When the max timer started: the first step with a conflicting call (NTCIP
+    /// phaseMaximum1); none while no conflicting call waits.
+    std::optional<MonoTime> max_from;
+    bool min_logged = false;  ///< its min complete (code 3) is logged
+  };
   struct Active {
     ServiceRequest request;
     MonoTime accepted{};
@@ -251,18 +226,17 @@ class IntersectionController {
   void EnterFlash(MonoTime now, bool dark);
   void EnterAllRed(MonoTime now, Duration d);
   void StartPhase(std::size_t phase, MonoTime now);
+  /// A step during a green: its timers and log, and its end when one is due (a change to flash
+  /// or dark or to `wanted_plan`, a request, or the plan's rules).
+  void StepGreen(MonoTime now, std::size_t wanted_plan);
   void BeginClearance(std::optional<std::size_t> next, MonoTime now);
   void UpdateRequest(MonoTime now);
   void EndRequest(MonoTime now, RequestStatus status, std::string reason);
   [[nodiscard]] MonoTime ComputeNextWake(MonoTime now) const;
-  /// Logs `code` with `param` at `at`.
-  void Log(MonoTime at, std::uint16_t code, std::uint16_t param);
   /// Logs `code` for the current phase (its number in the plan).
   void LogPhase(MonoTime at, std::uint16_t code) {
-    Log(at, code, static_cast<std::uint16_t>(phase_ + 1));
+    log_.Log(at, code, static_cast<std::uint16_t>(phase_ + 1));
   }
-  /// Logs a unit flash status change (code 173) when `status` is not the last logged.
-  void SetFlashStatus(MonoTime now, std::uint16_t status);
   /// Runs plan `plan` from now (logging a pattern change when it is another).
   void UsePlan(std::size_t plan, MonoTime now);
   /// The Indiana code of why the current green ends now (`ShouldTerminate` said it does).
@@ -279,19 +253,9 @@ class IntersectionController {
   std::optional<std::size_t> scheduled_plan_;
   std::size_t phase_ = 0;
   std::optional<std::size_t> next_phase_;  ///< during a clearance; none: to flash or dark
-  MonoTime green_start_{};
   MonoTime midnight_{};  ///< local midnight on the control timeline, from the last step's day
-  MonoTime planned_end_{};
-  MonoTime last_call_{};
-  /// When the current green's max timer started: the first step with a conflicting call
-  /// (NTCIP phaseMaximum1); none while no conflicting call waits.
-  std::optional<MonoTime> max_from_;
-  bool min_logged_ = false;
-  std::uint16_t flash_status_ =
-      hires::kFlashStartup;  ///< as last logged (code 173)  ///< the current green's min complete
-                             ///< (code 3) is logged
-  std::vector<HiresEvent> hires_;
-  std::uint64_t hires_dropped_ = 0;
+  GreenTimers green_;    ///< of the green in service
+  HiresLog log_;
   MonoTime yellow_end_{};
   Duration red_clearance_{0};  ///< of the clearance under way
   bool advance_ = false;
