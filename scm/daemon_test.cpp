@@ -375,6 +375,35 @@ TEST_F(DaemonTest, BackgroundCarsCallTheirPhaseOnlyFromItsZoneAndOnlyWhileFresh)
   // East is served next (its car calls it).
   run(seconds(10), only_east, [&] { return aspect(0) == Aspect::kGreen; });
   EXPECT_EQ(aspect(0), Aspect::kGreen);
+
+  // The detector channels (one per group, its zones together) are in the high-resolution log:
+  // on (82) and off (81) alternating per channel from off, south's (4) on once its car stood in
+  // the zone and off once it went stale, east's (1) on since.
+  scm.FlushPersistence();
+  HiresQuery q;
+  q.intersection = x.model->id;
+  q.until = clock.Read().wire + seconds(1);
+  std::map<std::uint16_t, std::vector<std::pair<std::uint16_t, MonoTime>>> channels;
+  const MonoTime mono_now = time.mono();
+  const Time wire_now = clock.Read().wire;
+  for (const HiresRecord& r :
+       Store(Options(DrivingSchoolWithoutLights("", /*actuated=*/true)).db_path).Hires(q)) {
+    if (r.code == hires::kDetectorOn || r.code == hires::kDetectorOff) {
+      channels[r.param].push_back({r.code, mono_now - (wire_now - r.time)});
+    }
+  }
+  EXPECT_EQ(channels.size(), 2u) << "south and east only";
+  for (const auto& [channel, changes] : channels) {
+    for (std::size_t i = 0; i < changes.size(); ++i) {
+      EXPECT_EQ(changes[i].first, i % 2 == 0 ? hires::kDetectorOn : hires::kDetectorOff)
+          << "channel " << channel << " change " << i;
+    }
+  }
+  ASSERT_EQ(channels[4].size(), 2u) << "south: on, then off";
+  EXPECT_GE(channels[4][0].second, called - milliseconds(1));
+  EXPECT_LE(channels[4][0].second, south_green);
+  EXPECT_GE(channels[4][1].second, last_south);
+  ASSERT_EQ(channels[1].size(), 1u) << "east: on";
 }
 
 TEST_F(DaemonTest, FiveThousandBackgroundCarsCostTheLoopNoAllocationInSteadyState) {

@@ -165,6 +165,9 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
   x.startup_flash = Scaled(city.start_up.flash_s, scale);
   x.priority = {cfg.priority.enabled, Scaled(cfg.priority.max_extension_s, scale),
                 Scaled(cfg.priority.max_preemption_s, scale)};
+  x.next_phase_decision = cfg.next_phase_decision == "end_of_clearance"
+                              ? NextPhaseDecision::kEndOfClearance
+                              : NextPhaseDecision::kEndOfGreen;
   const MapSite site{map, map_x};
   internal::Groups groups = internal::BuildGroups(cfg, site, floors, scale, where);
   x.conflicts = internal::BuildConflicts(cfg, site, groups, where);

@@ -41,6 +41,10 @@ struct SignalGroup {
 };
 
 enum class PlanType { kFixed, kActuated, kFlash, kDark };
+/// When an actuated controller settles the phase it runs next (docs/controller.md, "Next phase
+/// decision"): when the green ends, or at every step of the yellow and red clearance, the
+/// nearest called phase then (SUMO 1.15's NEMA controller).
+enum class NextPhaseDecision { kEndOfGreen, kEndOfClearance };
 /// "fixed", "actuated", "flash", "dark".
 [[nodiscard]] std::string_view ToString(PlanType type);
 
@@ -100,6 +104,7 @@ struct IntersectionModel {
   std::vector<Plan> plans;
   std::vector<ScheduleEntry> schedule;  ///< sorted by minute; never empty
   PriorityParams priority;
+  NextPhaseDecision next_phase_decision = NextPhaseDecision::kEndOfGreen;
   Duration startup_flash{0};
   Duration startup_all_red{0};
 

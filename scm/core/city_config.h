@@ -202,6 +202,9 @@ struct IntersectionConfig {
   /// Plans by time of day; empty: the first plan all day.
   std::vector<ScheduleEntryConfig> schedule;
   PriorityConfig priority;
+  /// end_of_green: an actuated green's successor is chosen when the green ends;
+  /// end_of_clearance: chosen again at every step of the clearance (SUMO's NEMA controller).
+  std::string next_phase_decision = "end_of_green";
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -214,6 +217,8 @@ struct IntersectionConfig {
     a.Required("plans", plans);
     a.Optional("schedule", schedule);
     a.Optional("priority", priority);
+    a.Optional("next_phase_decision", next_phase_decision,
+               config::OneOf{{"end_of_green", "end_of_clearance"}});
   }
   bool operator==(const IntersectionConfig&) const = default;
 };

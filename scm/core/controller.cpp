@@ -27,6 +27,12 @@ bool Call(const std::vector<bool>& calls, std::size_t g) { return g < calls.size
 
 std::string Secs(Duration d) { return fmt::format("{:.1f} s", ToSeconds(d)); }
 
+/// The side of NEMA's middle barrier that phase `k` (from 0) of a one-ring plan of `n` phases
+/// lies on: the first half (rounded up) before it, the rest after (1, 2 | 3, 4; 1, 2 | 3; 1 | 2),
+/// as the plan's ring form fills a ring's four places (docs/controller.md, "Next phase
+/// decision").
+int BarrierSide(std::size_t k, std::size_t n) { return k < (n + 1) / 2 ? 0 : 1; }
+
 }  // namespace
 
 DayClock DayClock::At(Duration since_midnight) {
@@ -241,6 +247,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
 void IntersectionController::BeginClearance(std::optional<std::size_t> next, MonoTime now) {
   LogPhase(now, hires::kPhaseGreenTermination);
   next_phase_ = next;
+  next_by_calls_ = false;
   Duration yellow{0};
   Duration red{0};
   bool any = false;
@@ -280,9 +287,13 @@ std::uint16_t IntersectionController::TerminationCode(MonoTime now) const {
     return active_->request.preemption ? hires::kPreemptionForceOff : hires::kTspEarlyForceOff;
   }
   if (TargetMode(plan_) == Mode::kActuated) {
-    return now >= green_.last_call + plan().extension ? hires::kPhaseGapOut : hires::kPhaseMaxOut;
+    return GappedOut(now) ? hires::kPhaseGapOut : hires::kPhaseMaxOut;
   }
   return hires::kPhaseForceOff;  // fixed time keeps to its cycle; manual advance; a hold's end
+}
+
+bool IntersectionController::GappedOut(MonoTime now) const {
+  return now >= green_.last_call + plan().extension;
 }
 
 bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
@@ -304,7 +315,7 @@ bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<boo
     case Mode::kActuated: {
       if (!ConflictingCall(calls)) return false;  // rest in green
       const bool max_out = green_.max_from && now >= *green_.max_from + PhaseMaxGreen(phase_);
-      const bool gap_out = now >= green_.last_call + plan().extension;
+      const bool gap_out = GappedOut(now);
       return max_out || gap_out;
     }
     default:
@@ -312,8 +323,9 @@ bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<boo
   }
 }
 
-std::size_t IntersectionController::ChooseNext(std::size_t plan,
-                                               const std::vector<bool>& calls) const {
+std::optional<std::size_t> IntersectionController::CalledNext(std::size_t plan,
+                                                              const std::vector<bool>& calls,
+                                                              std::optional<int> side) const {
   const Plan& p = model_->plans[plan];
   const std::size_t n = p.phases.size();
   const std::size_t from = plan == plan_ ? phase_ : n - 1;
@@ -326,12 +338,34 @@ std::size_t IntersectionController::ChooseNext(std::size_t plan,
   if (TargetMode(plan) == Mode::kActuated) {
     for (std::size_t k = 1; k <= n; ++k) {
       const std::size_t cand = (from + k) % n;
+      if (plan == plan_ && cand == phase_) continue;  // its own call: it rests or recycles
+      if (side && BarrierSide(cand, n) != *side) continue;
       for (std::size_t g : p.phases[cand].groups) {
         if (Call(calls, g) && !(plan == plan_ && InPhase(g))) return cand;
       }
     }
   }
-  return (from + 1) % n;
+  return std::nullopt;
+}
+
+std::size_t IntersectionController::ChooseNext(std::size_t plan,
+                                               const std::vector<bool>& calls) const {
+  const std::size_t n = model_->plans[plan].phases.size();
+  return CalledNext(plan, calls).value_or(((plan == plan_ ? phase_ : n - 1) + 1) % n);
+}
+
+bool IntersectionController::NextMayChange() const {
+  if (model_->next_phase_decision != NextPhaseDecision::kEndOfClearance) return false;
+  if (stage_ != Stage::kYellow && stage_ != Stage::kRedClearance) return false;
+  if (!next_phase_ || !next_by_calls_) return false;
+  if (TargetMode(plan_) != Mode::kActuated && !model_->priority.enabled) return false;
+  return std::ranges::find(aspects_, Aspect::kGreen) == aspects_.end();
+}
+
+void IntersectionController::ChooseNextAgain() {
+  if (!NextMayChange()) return;
+  const int side = BarrierSide(*next_phase_, plan().phases.size());
+  if (const auto k = CalledNext(plan_, calls_, side)) next_phase_ = *k;
 }
 
 void IntersectionController::StepGreen(MonoTime now, std::size_t wanted_plan) {
@@ -365,6 +399,7 @@ void IntersectionController::StepGreen(MonoTime now, std::size_t wanted_plan) {
   } else if (ShouldTerminate(now, calls_)) {
     LogPhase(now, TerminationCode(now));
     BeginClearance(ChooseNext(plan_, calls_), now);
+    next_by_calls_ = true;
   }
 }
 
@@ -380,6 +415,7 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
   scheduled_plan_ = model_->ScheduledPlan(day.minute_of_day);
   const std::size_t wanted_plan = operator_plan_.value_or(*scheduled_plan_);
   UpdateRequest(now);
+  ChooseNextAgain();
 
   for (int guard = 0; guard < 8; ++guard) {
     const Stage before = stage_;
@@ -621,6 +657,7 @@ std::optional<MonoTime> IntersectionController::EarliestGreen(std::size_t g, Mon
     case Stage::kRedClearance: {
       const MonoTime end = stage_ == Stage::kYellow ? yellow_end_ + red_clearance_ : stage_end_;
       if (!next_phase_) return std::nullopt;
+      if (NextMayChange()) return std::max(now, end);  // any phase may still be chosen
       const auto& next = p.phases[*next_phase_].groups;
       if (Contains(next, g)) return std::max(now, end);
       return std::max(now, end) + min_green_of(next) + clearance_of(next);

@@ -137,6 +137,12 @@ class IntersectionController {
   /// True when `TakeRequestUpdates` has something (checking allocates nothing).
   [[nodiscard]] bool has_request_updates() const { return !updates_.empty(); }
 
+  /// Logs a detector channel's change (codes 82 on, 81 off; the channel is the group's number):
+  /// what the group's detector zones call, as `Step` is given it.
+  void LogDetector(MonoTime at, std::size_t group, bool on) {
+    log_.Log(at, on ? hires::kDetectorOn : hires::kDetectorOff,
+             static_cast<std::uint16_t>(group + 1));
+  }
   /// The high-resolution events since the last call, oldest first. At most
   /// `kMaxHiresEvents` wait between calls; later ones are dropped and counted.
   std::vector<HiresEvent> TakeHiresEvents() { return log_.Take(); }
@@ -206,8 +212,22 @@ class IntersectionController {
   /// Where the current green maxes out: its max after the first conflicting call (NTCIP), or
   /// after `now` while none has come.
   [[nodiscard]] MonoTime MaxEnd(MonoTime now) const;
+  /// Whether the green has gapped out: its passage has run out since its own last call.
+  [[nodiscard]] bool GappedOut(MonoTime now) const;
   [[nodiscard]] bool ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const;
   [[nodiscard]] std::size_t ChooseNext(std::size_t plan, const std::vector<bool>& calls) const;
+  /// The phase after the current one that a request or (actuated) a call asks for: the
+  /// request's, else the nearest called in sequence (on `side` of the middle barrier when
+  /// given); nothing when neither asks.
+  [[nodiscard]] std::optional<std::size_t> CalledNext(std::size_t plan,
+                                                      const std::vector<bool>& calls,
+                                                      std::optional<int> side = std::nullopt) const;
+  /// Whether the phase chosen to run next may still change in this clearance (the decision at
+  /// the end of the clearance; only where nothing stays green through it).
+  [[nodiscard]] bool NextMayChange() const;
+  /// The decision at the end of the clearance: the nearest called phase now on the side of the
+  /// middle barrier of the first choice, or the last choice when none there is called.
+  void ChooseNextAgain();
   [[nodiscard]] std::size_t FirstPhase(std::size_t plan, MonoTime at) const;
   [[nodiscard]] MonoTime PlannedEnd(std::size_t phase, MonoTime now) const;
   /// For a fixed-time plan: when `at` falls in the cycle's clearance after a phase's green, how
@@ -253,6 +273,7 @@ class IntersectionController {
   std::optional<std::size_t> scheduled_plan_;
   std::size_t phase_ = 0;
   std::optional<std::size_t> next_phase_;  ///< during a clearance; none: to flash or dark
+  bool next_by_calls_ = false;  ///< `next_phase_` was chosen by the calls (not a plan change)
   MonoTime midnight_{};  ///< local midnight on the control timeline, from the last step's day
   GreenTimers green_;    ///< of the green in service
   HiresLog log_;

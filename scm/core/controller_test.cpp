@@ -368,6 +368,45 @@ TEST(Controller, TheMaxTimerRunsOnlyWhileAConflictingCallWaits) {
   EXPECT_EQ(rig.Of(0), Aspect::kYellow) << "maxed out";
 }
 
+TEST(Controller, TheNextPhaseIsChosenWhenTheGreenEndsOrAgainThroughTheClearanceAsConfigured) {
+  // East (phase 1) rests in green; a south call gaps it out, so the next phase chosen is
+  // south's (4). Calls on north (2) and west (3) come during the yellow: deciding at the end of
+  // the green keeps 4; deciding again through the clearance (SUMO's NEMA controller) serves 3,
+  // the nearest called on 4's side of the middle barrier (1, 2 | 3, 4), not 2. SPaT's min_end
+  // for the groups that may still be chosen is the clearance's end.
+  for (const auto decision : {NextPhaseDecision::kEndOfGreen, NextPhaseDecision::kEndOfClearance}) {
+    IntersectionModel x = DrivingSchool().intersections[0];
+    x.next_phase_decision = decision;
+    const bool again = decision == NextPhaseDecision::kEndOfClearance;
+    SCOPED_TRACE(again ? "end of clearance" : "end of green");
+    Rig rig(x);
+    std::vector<bool> calls(4, false);
+    rig.RunFor(seconds(20), calls, kEvening);
+    ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+    calls[3] = true;
+    rig.RunFor(milliseconds(100), calls, kEvening);
+    ASSERT_EQ(rig.Of(0), Aspect::kYellow);
+    const MonoTime clearance_end =
+        rig.now + x.groups[0].timing.yellow + x.groups[0].timing.red_clearance;
+    const auto signals = rig.controller.Signals(rig.now);
+    EXPECT_EQ(signals[3].min_end, clearance_end);
+    if (again) {
+      EXPECT_EQ(signals[2].min_end, clearance_end) << "west may still be chosen";
+    } else {
+      EXPECT_GT(signals[2].min_end, clearance_end) << "only after south's green";
+    }
+    calls[1] = calls[2] = true;
+    rig.RunFor(seconds(1), calls, kEvening);
+    EXPECT_EQ(rig.controller.Signals(rig.now)[2].min_end,
+              again ? clearance_end : signals[2].min_end);
+    rig.RunTo(clearance_end, calls, kEvening);
+    EXPECT_EQ(rig.Of(2), again ? Aspect::kGreen : Aspect::kRed);
+    EXPECT_EQ(rig.Of(3), again ? Aspect::kRed : Aspect::kGreen);
+    EXPECT_EQ(rig.Of(1), Aspect::kRed) << "north lies across the middle barrier";
+    EXPECT_EQ(rig.Of(0), Aspect::kRed);
+  }
+}
+
 TEST(Controller, PlanChangesAtTheEndOfAGreen) {
   Rig rig(DrivingSchool().intersections[0]);
   rig.RunTo(CycleStart() + seconds(6));
@@ -837,6 +876,18 @@ TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDrivingSchool) {
 
 TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleSmallTown) {
   RunRandomSequences(SmallTown(), test::Cases(10'000), 2);
+}
+
+/// `city` with every intersection choosing its next phase again through the clearance.
+City DecidingAtTheEndOfTheClearance(const City& city) {
+  City out = city;
+  for (auto& x : out.intersections) x.next_phase_decision = NextPhaseDecision::kEndOfClearance;
+  return out;
+}
+
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDecidingAtTheEndOfTheClearance) {
+  RunRandomSequences(DecidingAtTheEndOfTheClearance(DrivingSchool()), test::Cases(5'000), 5);
+  RunRandomSequences(DecidingAtTheEndOfTheClearance(SmallTown()), test::Cases(5'000), 6);
 }
 
 }  // namespace

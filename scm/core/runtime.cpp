@@ -103,6 +103,9 @@ StepReport CityRuntime::Step(const ClockReading& now, const DayClock& day,
     }
     const bool inputs_changed = x.calls != x.last_calls || day.minute_of_day != x.last_minute;
     if (!inputs_changed && now.mono < c.next_wake()) continue;
+    for (std::size_t g = 0; g < x.calls.size(); ++g) {
+      if (x.calls[g] != x.last_calls[g]) c.LogDetector(now.mono, g, x.calls[g]);
+    }
     x.last_calls = x.calls;
     x.last_minute = day.minute_of_day;
     StepOne(i, now, day, events, &report);
