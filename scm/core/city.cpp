@@ -168,6 +168,7 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
   x.next_phase_decision = cfg.next_phase_decision == "end_of_clearance"
                               ? NextPhaseDecision::kEndOfClearance
                               : NextPhaseDecision::kEndOfGreen;
+  x.green_rest = cfg.green_rest == "sumo" ? GreenRest::kSumo : GreenRest::kNtcip;
   const MapSite site{map, map_x};
   internal::Groups groups = internal::BuildGroups(cfg, site, floors, scale, where);
   x.conflicts = internal::BuildConflicts(cfg, site, groups, where);

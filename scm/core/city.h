@@ -45,6 +45,10 @@ enum class PlanType { kFixed, kActuated, kFlash, kDark };
 /// decision"): when the green ends, or at every step of the yellow and red clearance, the
 /// nearest called phase then (SUMO 1.15's NEMA controller).
 enum class NextPhaseDecision { kEndOfGreen, kEndOfClearance };
+/// How an actuated green rests with no conflicting call: as NTCIP times it (its passage runs
+/// whatever the other calls do), or as SUMO 1.15's NEMA controller does (docs/controller.md,
+/// "Green rest").
+enum class GreenRest { kNtcip, kSumo };
 /// "fixed", "actuated", "flash", "dark".
 [[nodiscard]] std::string_view ToString(PlanType type);
 
@@ -105,6 +109,7 @@ struct IntersectionModel {
   std::vector<ScheduleEntry> schedule;  ///< sorted by minute; never empty
   PriorityParams priority;
   NextPhaseDecision next_phase_decision = NextPhaseDecision::kEndOfGreen;
+  GreenRest green_rest = GreenRest::kNtcip;
   Duration startup_flash{0};
   Duration startup_all_red{0};
 

@@ -205,6 +205,9 @@ struct IntersectionConfig {
   /// end_of_green: an actuated green's successor is chosen when the green ends;
   /// end_of_clearance: chosen again at every step of the clearance (SUMO's NEMA controller).
   std::string next_phase_decision = "end_of_green";
+  /// ntcip: an actuated green's passage runs whatever the other calls do; sumo: as SUMO 1.15's
+  /// NEMA controller rests in green (docs/controller.md, "Green rest").
+  std::string green_rest = "ntcip";
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -219,6 +222,7 @@ struct IntersectionConfig {
     a.Optional("priority", priority);
     a.Optional("next_phase_decision", next_phase_decision,
                config::OneOf{{"end_of_green", "end_of_clearance"}});
+    a.Optional("green_rest", green_rest, config::OneOf{{"ntcip", "sumo"}});
   }
   bool operator==(const IntersectionConfig&) const = default;
 };

@@ -231,6 +231,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   next_phase_.reset();
   green_.start = now;
   green_.last_call = now;
+  green_.rest_start = now;
   green_.max_from.reset();
   green_.min_logged = false;
   LogPhase(now, hires::kPhaseOn);
@@ -368,9 +369,27 @@ void IntersectionController::ChooseNextAgain() {
   if (const auto k = CalledNext(plan_, calls_, side)) next_phase_ = *k;
 }
 
+void IntersectionController::SumoGreenRest(MonoTime now) {
+  // SUMO's NEMAPhase::update in green rest: with no other call and the min green served it
+  // slides its start to now - min and keeps the passage left, but compares the time since the
+  // old start with it: when that much has passed the phase is ready to switch, and with nothing
+  // called it rests anew with the passage forgotten.
+  if (ConflictingCall(calls_)) return;
+  const Duration min_green = PhaseMinEnd() - green_.start;
+  const Duration since = now - green_.rest_start;
+  if (since < min_green) return;
+  const MonoTime passage_end =
+      std::max(green_.last_call + plan().extension, green_.rest_start + min_green);
+  if (since - min_green >= passage_end - now) green_.last_call = now - plan().extension;
+  green_.rest_start = now - min_green;
+}
+
 void IntersectionController::StepGreen(MonoTime now, std::size_t wanted_plan) {
   for (std::size_t g : plan().phases[phase_].groups) {
     if (Call(calls_, g) && !plan().detectors.empty()) green_.last_call = now;
+  }
+  if (model_->green_rest == GreenRest::kSumo && TargetMode(plan_) == Mode::kActuated) {
+    SumoGreenRest(now);
   }
   // NTCIP phaseMaximum1: the max timer runs while a conflicting call is waiting, and is
   // held reset while none is (a call on recall counts from the start of the green).

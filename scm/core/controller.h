@@ -197,6 +197,9 @@ class IntersectionController {
     /// phaseMaximum1); none while no conflicting call waits.
     std::optional<MonoTime> max_from;
     bool min_logged = false;  ///< its min complete (code 3) is logged
+    /// `green_rest: sumo`: the start SUMO's green rest slides along (now minus the min green at
+    /// each step with no conflicting call once the min green has passed).
+    MonoTime rest_start{};
   };
   struct Active {
     ServiceRequest request;
@@ -246,6 +249,10 @@ class IntersectionController {
   void EnterFlash(MonoTime now, bool dark);
   void EnterAllRed(MonoTime now, Duration d);
   void StartPhase(std::size_t phase, MonoTime now);
+  /// `green_rest: sumo`: SUMO 1.15's green rest, which forgets the passage at the first step
+  /// without a conflicting call when the time since its slid start, less the min green, is at
+  /// least the passage left (docs/controller.md, "Green rest").
+  void SumoGreenRest(MonoTime now);
   /// A step during a green: its timers and log, and its end when one is due (a change to flash
   /// or dark or to `wanted_plan`, a request, or the plan's rules).
   void StepGreen(MonoTime now, std::size_t wanted_plan);

@@ -407,6 +407,44 @@ TEST(Controller, TheNextPhaseIsChosenWhenTheGreenEndsOrAgainThroughTheClearanceA
   }
 }
 
+TEST(Controller, GreenRestAsSumoForgetsThePassageWhenConflictingCallsBreakOffAfterAWait) {
+  // East green with its own call; a south call waits from 6 s, east's own call ends at 8 s, the
+  // south call breaks off at 8.3 s and comes back at 8.8 s. NTCIP: east's passage (2 s) runs
+  // out at about 10 s whatever south does. SUMO's green rest: at 8.3 s the time since its slid
+  // start less the min green (2.4 s) is above the passage left (1.6 s), so it forgets the
+  // passage and ends as south comes back.
+  for (const auto rest : {GreenRest::kNtcip, GreenRest::kSumo}) {
+    IntersectionModel x = DrivingSchool().intersections[0];
+    x.green_rest = rest;
+    const bool sumo = rest == GreenRest::kSumo;
+    SCOPED_TRACE(sumo ? "sumo" : "ntcip");
+    Rig rig(x);
+    std::vector<bool> calls(4, false);
+    calls[0] = true;
+    rig.RunFor(seconds(20), calls, kEvening);
+    ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+    // A green of its own from here: all red to east's next green, its call kept on.
+    std::vector<bool> south = calls;
+    south[3] = true;
+    rig.RunFor(seconds(20), south, kEvening);  // ... east maxes out, south served
+    rig.RunFor(seconds(30), calls, kEvening);  // ... and east again, resting with its call
+    ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+    ASSERT_EQ(rig.controller.stage(), Stage::kGreen);
+    const MonoTime t0 = rig.now;  // long since its green began: its rest start has slid along
+    rig.RunTo(t0 + seconds(6), calls, kEvening);
+    rig.RunTo(t0 + seconds(8), south, kEvening);
+    std::vector<bool> only_south(4, false);
+    only_south[3] = true;
+    rig.RunTo(t0 + milliseconds(8300), only_south, kEvening);
+    rig.RunTo(t0 + milliseconds(8800), std::vector<bool>(4, false), kEvening);
+    ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+    rig.RunTo(t0 + milliseconds(8900), only_south, kEvening);
+    EXPECT_EQ(rig.Of(0), sumo ? Aspect::kYellow : Aspect::kGreen);
+    rig.RunTo(t0 + milliseconds(9500), only_south, kEvening);
+    EXPECT_EQ(rig.Of(0), sumo ? Aspect::kYellow : Aspect::kGreen) << "the passage runs to ~10 s";
+  }
+}
+
 TEST(Controller, PlanChangesAtTheEndOfAGreen) {
   Rig rig(DrivingSchool().intersections[0]);
   rig.RunTo(CycleStart() + seconds(6));
@@ -878,16 +916,20 @@ TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleSmallTown) {
   RunRandomSequences(SmallTown(), test::Cases(10'000), 2);
 }
 
-/// `city` with every intersection choosing its next phase again through the clearance.
-City DecidingAtTheEndOfTheClearance(const City& city) {
+/// `city` with every intersection choosing its next phase again through the clearance and
+/// resting in green as SUMO's NEMA controller does.
+City AsSumosController(const City& city) {
   City out = city;
-  for (auto& x : out.intersections) x.next_phase_decision = NextPhaseDecision::kEndOfClearance;
+  for (auto& x : out.intersections) {
+    x.next_phase_decision = NextPhaseDecision::kEndOfClearance;
+    x.green_rest = GreenRest::kSumo;
+  }
   return out;
 }
 
-TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleDecidingAtTheEndOfTheClearance) {
-  RunRandomSequences(DecidingAtTheEndOfTheClearance(DrivingSchool()), test::Cases(5'000), 5);
-  RunRandomSequences(DecidingAtTheEndOfTheClearance(SmallTown()), test::Cases(5'000), 6);
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleAsSumosController) {
+  RunRandomSequences(AsSumosController(DrivingSchool()), test::Cases(5'000), 5);
+  RunRandomSequences(AsSumosController(SmallTown()), test::Cases(5'000), 6);
 }
 
 }  // namespace
