@@ -240,8 +240,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
   green_.planned_end = PlannedEnd(phase, now);
   if (active_ && !active_->served && InPhase(active_->request.group)) {
-    active_->served = true;
-    active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+    Serve(now, active_->request.preemption ? hires::kPreemptBeginDwell : hires::kTspEarlyGreen);
   }
 }
 
@@ -893,9 +892,24 @@ void IntersectionController::FailSafe(MonoTime now, std::string reason) {
   EnterFlash(now, false);
 }
 
+void IntersectionController::Serve(MonoTime now, std::uint16_t code) {
+  active_->served = true;
+  active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+  LogRequest(now, code);
+}
+
+void IntersectionController::LogRequest(MonoTime now, std::uint16_t code) {
+  log_.Log(now, code, hires::kV2iRequestNumber);
+}
+
 void IntersectionController::EndRequest(MonoTime now, RequestStatus status, std::string reason) {
-  (void)now;
   if (!active_) return;
+  if (active_->request.preemption) {
+    if (active_->served) LogRequest(now, hires::kPreemptBeginExit);
+    LogRequest(now, hires::kPreemptCallInputOff);
+  } else {
+    LogRequest(now, hires::kTspCheckOut);
+  }
   updates_.push_back({active_->request.vehicle, active_->request.request_id, status,
                       active_->request.group, std::nullopt, std::move(reason)});
   active_.reset();
@@ -905,12 +919,12 @@ void IntersectionController::UpdateRequest(MonoTime now) {
   if (!active_) return;
   const bool green = InPhase(active_->request.group);
   if (green && !active_->served) {
-    active_->served = true;
-    active_->request.end = std::max(active_->request.end, now + active_->request.duration);
+    Serve(now, active_->request.preemption ? hires::kPreemptBeginDwell : hires::kTspEarlyGreen);
   }
   if (active_->served && (now >= active_->request.end || !green)) {
     EndRequest(now, kCompleted, "served");
   } else if (now >= active_->accepted + model_->priority.max_preemption) {
+    if (active_->request.preemption) LogRequest(now, hires::kPreemptMaxPresenceExceeded);
     EndRequest(now, kCompleted, "expired: the request outlived the pre-emption limit");
   }
 }
@@ -936,6 +950,7 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime 
     u.reason = fmt::format("{} is under manual control", model_->name);
     return u;
   }
+  bool fresh = false;  // a new request, not an update of the one served
   if (active_ && active_->request.vehicle == r.vehicle &&
       active_->request.request_id == r.request_id) {
     active_->request.end = r.end;  // an update of the same request
@@ -947,12 +962,25 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime 
     }
     EndRequest(now, kCancelled, fmt::format("pre-empted by an emergency vehicle ({})", r.vehicle));
     active_ = Active{r, now, false};
+    fresh = true;
   } else {
     active_ = Active{r, now, false};
+    fresh = true;
+  }
+  if (fresh) {
+    if (r.preemption) {
+      LogRequest(now, hires::kPreemptCallInputOn);
+      LogRequest(now, hires::kPreemptEntryStarted);  // no preempt delay
+    } else {
+      LogRequest(now, hires::kTspCheckIn);
+    }
   }
   if (InPhase(r.group)) {
-    active_->served = true;
-    active_->request.end = std::max(active_->request.end, now + r.duration);
+    if (active_->served) {
+      active_->request.end = std::max(active_->request.end, now + r.duration);
+    } else {
+      Serve(now, r.preemption ? hires::kPreemptBeginDwell : hires::kTspExtendGreen);
+    }
   }
   u.status = kGranted;
   u.expected_green = EarliestGreen(r.group, now);
@@ -969,8 +997,8 @@ RequestUpdate IntersectionController::Cancel(std::string_view vehicle, std::uint
     return u;
   }
   u.group = active_->request.group;
-  active_.reset();
-  (void)now;
+  EndRequest(now, kCancelled, "cancelled by the vehicle");
+  updates_.pop_back();  // answered here, not among the later changes
   u.status = kCancelled;
   u.reason = "cancelled by the vehicle";
   return u;

@@ -259,6 +259,10 @@ class IntersectionController {
   void BeginClearance(std::optional<std::size_t> next, MonoTime now);
   void UpdateRequest(MonoTime now);
   void EndRequest(MonoTime now, RequestStatus status, std::string reason);
+  /// The request's group is green from now: it is served for its duration, logged as `code`.
+  void Serve(MonoTime now, std::uint16_t code);
+  /// Logs a pre-emption or TSP event of the request (codes 102-115, number 1).
+  void LogRequest(MonoTime now, std::uint16_t code);
   [[nodiscard]] MonoTime ComputeNextWake(MonoTime now) const;
   /// Logs `code` for the current phase (its number in the plan).
   void LogPhase(MonoTime at, std::uint16_t code) {

@@ -495,6 +495,19 @@ TEST(Controller, PreemptionServesTheEmergencyMovementSafelyAndReportsIt) {
   ASSERT_EQ(updates.size(), 1u);
   EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
   EXPECT_EQ(updates[0].vehicle, "nigel_2");
+  // The log: call input on and entry (no delay) at the request, the preemption force off of
+  // east, dwell as west turns green, exit and call input off at its end.
+  std::vector<std::pair<std::uint16_t, double>> preempt;
+  for (const HiresEvent& e : rig.controller.hires_events()) {
+    if ((e.code >= 100 && e.code < 120) || e.code == hires::kPreemptionForceOff) {
+      preempt.push_back({e.code, ToSeconds(e.at - CycleStart())});
+    }
+  }
+  const std::vector<std::pair<std::uint16_t, double>> expected{
+      {hires::kPreemptCallInputOn, 6.0},  {hires::kPreemptEntryStarted, 6.0},
+      {hires::kPreemptionForceOff, 10.0}, {hires::kPreemptBeginDwell, 15.0},
+      {hires::kPreemptBeginExit, 26.0},   {hires::kPreemptCallInputOff, 26.0}};
+  EXPECT_EQ(preempt, expected);
 }
 
 TEST(Controller, APreemptionGrantedInTheStartUpsAllRedIsServedAsItEndsNotAfterTheCycle) {
