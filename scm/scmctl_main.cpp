@@ -23,6 +23,7 @@
 #include "common/dds/topics.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "scm/atspm/report.h"
 #include "scm/config_loader.h"
 #include "scm/core/city.h"
 #include "scm/core/ring_plan.h"
@@ -315,57 +316,63 @@ Time ParseTimeArgument(const std::string& text, const char* what) {
   return TimeFromSeconds(static_cast<double>(t) + fraction);
 }
 
-/// A high-resolution record's time as UDOT's ATSPM files write it: local, to the tenth.
-std::string AtspmTime(std::int64_t ms) {
-  const std::time_t t = static_cast<std::time_t>(ms / 1000);
-  std::tm tm{};
-  localtime_r(&t, &tm);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S", &tm);
-  return fmt::format("{}.{}", text, (ms % 1000) / 100);
-}
-
-/// `hires X --since T [--until T] [--csv]`: the intersection's high-resolution log, asked for in
-/// pages of `page` records; `--csv` in UDOT ATSPM's `SignalIdentifier,Timestamp,EventCode,
-/// EventParam` form, else one line per record. The exit status.
-int Hires(const dds::ParticipantOptions& dds_options, const std::string& intersection,
-          const std::string& since_text, const std::string& until_text, bool csv, bool json,
-          double timeout_s, std::size_t page) {
-  Time since{};
-  std::string until;  // the SCM's argument, seconds since the epoch; empty: up to now
+/// `--since` and `--until` of `hires` and `atspm`; `until` stays empty when not given. False
+/// (the reason printed) when one cannot be read.
+bool ParseWindow(const std::string& since_text, const std::string& until_text, Time& since,
+                 std::optional<Time>& until) {
   try {
     since = ParseTimeArgument(since_text, "--since");
-    if (!until_text.empty()) {
-      until = fmt::format("{:.3f}",
-                          ToSeconds(ParseTimeArgument(until_text, "--until").time_since_epoch()));
-    }
+    if (!until_text.empty()) until = ParseTimeArgument(until_text, "--until");
   } catch (const InputError& e) {
     std::cout << "invalid: " << e.what() << "\n";
-    return kInvalid;
+    return false;
   }
+  return true;
+}
+
+/// What `ReadHires` asks the SCM for and how.
+struct HiresRequest {
+  std::string intersection;
+  Time since{};
+  std::optional<Time> until;  ///< empty: up to now
+  double timeout_s = 5.0;
+  std::size_t page = 100000;  ///< records asked for at a time
+  bool raw_json = false;      ///< print the first answer as JSON (hires --json) and stop
+};
+
+/// Intersection X's high-resolution log from `since` to `until`, asked of the SCM in pages of
+/// `page` records (operator command `hires`): `connected()` once the SCM answers, then `row(ms
+/// since the epoch, code, param)` for each record in time order. 0, or the exit status when the
+/// log could not be read (the reason printed).
+int ReadHires(const dds::ParticipantOptions& dds_options, const HiresRequest& request,
+              const std::function<void()>& connected,
+              const std::function<void(std::int64_t, int, int)>& row) {
   const auto timeout = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(timeout_s));
+      std::chrono::duration<double>(request.timeout_s));
   dds::Participant participant(dds_options);
   OperatorClient client(participant, UniqueClientId("scmctl"), std::nullopt);
   if (!client.WaitForScm(timeout)) {
-    std::cerr << "scmctl: no SCM answered within " << timeout_s << " s\n";
+    std::cerr << "scmctl: no SCM answered within " << request.timeout_s << " s\n";
     return kNoAnswer;
   }
-  if (csv) std::cout << "SignalIdentifier,Timestamp,EventCode,EventParam\n";
-  std::size_t skip = 0;  // records at `since`'s millisecond already printed
-  std::size_t ask = page;
+  connected();
+  Time since = request.since;
+  std::size_t skip = 0;  // records at `since`'s millisecond already read
+  std::size_t ask = request.page;
   for (;;) {
     std::map<std::string, std::string> args{
-        {"intersection", intersection},
+        {"intersection", request.intersection},
         {"since", fmt::format("{:.3f}", ToSeconds(since.time_since_epoch()))},
         {"limit", std::to_string(ask)}};
-    if (!until.empty()) args["until"] = until;
+    if (request.until) args["until"] = fmt::format("{:.3f}", ToSeconds(*request.until));
     const auto answer = client.Call("hires", args, timeout);
     if (!answer) {
-      std::cerr << "scmctl: the SCM did not answer hires within " << timeout_s << " s\n";
+      std::cerr << "scmctl: the SCM did not answer hires within " << request.timeout_s << " s\n";
       return kNoAnswer;
     }
-    if (answer->code != ReplyCode::kOk || json) return Print(*answer, json);
+    if (answer->code != ReplyCode::kOk || request.raw_json) {
+      return Print(*answer, request.raw_json);
+    }
     nlohmann::json rows;
     for (const auto& [key, value] : answer->values) {
       if (key == "records") rows = value.Parse();
@@ -375,30 +382,231 @@ int Hires(const dds::ParticipantOptions& dds_options, const std::string& interse
       return kRefused;
     }
     for (std::size_t i = skip; i < rows.size(); ++i) {
-      const std::int64_t ms = rows[i][0].get<std::int64_t>();
-      const int code = rows[i][1].get<int>(), param = rows[i][2].get<int>();
-      if (csv) {
-        std::cout << intersection << "," << AtspmTime(ms) << "," << code << "," << param << "\n";
-      } else {
-        std::cout << AtspmTime(ms) << "  " << code << "  " << param << "\n";
-      }
+      row(rows[i][0].get<std::int64_t>(), rows[i][1].get<int>(), rows[i][2].get<int>());
     }
     if (rows.size() < ask) break;
-    // The next page starts at the last record's millisecond, skipping those of it printed.
+    // The next page starts at the last record's millisecond, skipping those of it read.
     const std::int64_t last_ms = rows.back()[0].get<std::int64_t>();
     std::size_t at_last = 0;
-    for (const nlohmann::json& row : rows) at_last += row[0].get<std::int64_t>() == last_ms;
+    for (const nlohmann::json& r : rows) at_last += r[0].get<std::int64_t>() == last_ms;
     if (at_last == rows.size()) {
       // More records of one millisecond than a page: ask again for more of them.
       skip = rows.size();
       ask *= 2;
     } else {
       skip = at_last;
-      ask = page;
+      ask = request.page;
       since = Time(std::chrono::milliseconds(last_ms));
     }
   }
   return 0;
+}
+
+/// `hires X --since T [--until T] [--csv]`: the intersection's high-resolution log; `--csv` in
+/// UDOT ATSPM's `SignalIdentifier,Timestamp,EventCode,EventParam` form (local time to the
+/// tenth), else one line per record. The exit status.
+int Hires(const dds::ParticipantOptions& dds_options, HiresRequest request,
+          const std::string& since_text, const std::string& until_text, bool csv) {
+  if (!ParseWindow(since_text, until_text, request.since, request.until)) return kInvalid;
+  return ReadHires(
+      dds_options, request,
+      [&] {
+        if (csv) std::cout << "SignalIdentifier,Timestamp,EventCode,EventParam\n";
+      },
+      [&](std::int64_t ms, int code, int param) {
+        const std::string at = atspm::LocalTime(Time(std::chrono::milliseconds(ms)));
+        if (csv) {
+          std::cout << request.intersection << "," << at << "," << code << "," << param << "\n";
+        } else {
+          std::cout << at << "  " << code << "  " << param << "\n";
+        }
+      });
+}
+
+/// What `atspm` takes besides the window (docs/atspm.md).
+struct AtspmCommandLine {
+  std::string measure;
+  std::string city;                           ///< the city file: which channel calls which phase
+  std::vector<std::string> phase_of_channel;  ///< "CHANNEL:PHASE", for every plan
+  int consecutive = 1;
+  double severe_s = 5.0;
+  double first_of_red_s = 5.0;
+  double bin_min = 15.0;
+  double margin_s = 600.0;
+  CLI::App* command = nullptr;
+};
+
+/// Which detector channel calls which phase in each of intersection X's plans, from its city
+/// file: channel g + 1 is group g's detectors (the controller ORs them into one call), and it
+/// calls each phase of the plan's ring form that drives group g (131's parameter: the plan's
+/// place in the file, from 1). The pairs every plan with phases shares also hold when the plan
+/// is not known. Throws InputError when the file has no intersection X.
+atspm::ChannelMap ChannelsFromCity(const std::string& file, const std::string& intersection) {
+  const City city = LoadCity(file);
+  const IntersectionModel* x = nullptr;
+  for (const IntersectionModel& candidate : city.intersections) {
+    if (candidate.name == intersection || std::to_string(candidate.id.value()) == intersection) {
+      x = &candidate;
+    }
+  }
+  if (x == nullptr) {
+    throw InputError(fmt::format("{} has no signalised intersection \"{}\"", file, intersection));
+  }
+  using Pairs = std::set<std::pair<std::uint16_t, std::uint16_t>>;  // {channel, phase}
+  atspm::ChannelMap map;
+  std::optional<Pairs> in_every_plan;
+  for (std::size_t i = 0; i < x->plans.size(); ++i) {
+    if (x->plans[i].phases.empty()) continue;  // flash, dark
+    Pairs pairs;
+    for (const RingPhase& phase : RingPlanOf(*x, x->plans[i]).phases) {
+      for (const std::size_t g : phase.groups) {
+        pairs.emplace(static_cast<std::uint16_t>(g + 1), static_cast<std::uint16_t>(phase.number));
+      }
+    }
+    for (const auto& [channel, phase] : pairs) {
+      map.Add(static_cast<std::uint16_t>(i + 1), channel, phase);
+    }
+    if (!in_every_plan) {
+      in_every_plan = pairs;
+    } else {
+      std::erase_if(*in_every_plan, [&](const auto& pair) { return !pairs.contains(pair); });
+    }
+  }
+  for (const auto& [channel, phase] : in_every_plan.value_or(Pairs{})) {
+    map.Add(channel, phase);
+  }
+  return map;
+}
+
+/// The channel map `atspm` was given: `--phase-of-channel` pairs (for every plan) and the
+/// city file's. Throws InputError naming a pair that is not CHANNEL:PHASE.
+atspm::ChannelMap ChannelsOf(const AtspmCommandLine& a, const std::string& intersection) {
+  atspm::ChannelMap map =
+      a.city.empty() ? atspm::ChannelMap{} : ChannelsFromCity(a.city, intersection);
+  for (const std::string& list : a.phase_of_channel) {
+    std::size_t from = 0;
+    while (from <= list.size()) {
+      const std::size_t comma = std::min(list.find(',', from), list.size());
+      const std::string pair = list.substr(from, comma - from);
+      unsigned channel = 0, phase = 0;
+      char colon = 0, rest = 0;
+      if (std::sscanf(pair.c_str(), "%u%c%u%c", &channel, &colon, &phase, &rest) != 3 ||
+          colon != ':' || channel < 1 || channel > 65535 || phase < 1 || phase > 65535) {
+        throw InputError(fmt::format(
+            "--phase-of-channel takes CHANNEL:PHASE pairs (numbers 1..65535), got \"{}\"", pair));
+      }
+      map.Add(static_cast<std::uint16_t>(channel), static_cast<std::uint16_t>(phase));
+      from = comma + 1;
+    }
+  }
+  return map;
+}
+
+/// `atspm X --measure M --since T [--until T] [--json]`: an ATSPM measure of intersection X's
+/// high-resolution log (docs/atspm.md), read with `margin_s` more on each side so that cycles
+/// across the window's edges are whole; without `--until` the window ends at the last record
+/// (the SCM's now, on whatever clock it runs). The exit status.
+int Atspm(const dds::ParticipantOptions& dds_options, HiresRequest request,
+          const std::string& since_text, const std::string& until_text, const AtspmCommandLine& a,
+          bool json) {
+  atspm::Window window;
+  std::optional<Time> until;
+  if (!ParseWindow(since_text, until_text, window.since, until)) return kInvalid;
+  const atspm::Measure measure = atspm::ParseMeasure(a.measure).value();  // CLI11 checked it
+  atspm::ChannelMap map;
+  atspm::MeasureOptions options;
+  try {
+    map = ChannelsOf(a, request.intersection);
+    if (atspm::ReadsDetectors(measure) && map.empty()) {
+      throw InputError(fmt::format(
+          "--measure {} reads vehicle detectors (81/82): give --city FILE (the city the SCM "
+          "runs) or --phase-of-channel CHANNEL:PHASE to say which channel calls which phase",
+          a.measure));
+    }
+    options.consecutive = a.consecutive;
+    options.severe_after = FromSeconds(a.severe_s);
+    options.first_of_red = FromSeconds(a.first_of_red_s);
+    options.bin = FromSeconds(a.bin_min * 60.0);
+  } catch (const InputError& e) {
+    std::cout << "invalid: " << e.what() << "\n";
+    return kInvalid;
+  }
+  const Duration margin = FromSeconds(a.margin_s);
+  request.since = window.since - margin;
+  if (until) request.until = *until + margin;
+  std::vector<atspm::Event> events;
+  const int status = ReadHires(
+      dds_options, request, [] {},
+      [&](std::int64_t ms, int code, int param) {
+        events.push_back({Time(std::chrono::milliseconds(ms)), static_cast<std::uint16_t>(code),
+                          static_cast<std::uint16_t>(param)});
+      });
+  if (status != 0) return status;
+  window.until = until.value_or(
+      std::max(window.since,
+               events.empty() ? window.since : events.back().at + std::chrono::milliseconds(1)));
+  try {
+    atspm::Report report = atspm::Compute(measure, events, window, map, options);
+    if (json) {
+      report.json["intersection"] = request.intersection;
+      std::cout << report.json.dump() << std::endl;
+    } else {
+      std::cout << request.intersection << ": " << report.text;
+    }
+  } catch (const InputError& e) {
+    std::cout << "invalid: " << e.what() << "\n";
+    return kInvalid;
+  }
+  return 0;
+}
+
+/// Defines `atspm X --measure M --since T [--until T] [--json] ...` on `app`.
+void AddAtspmCommand(CLI::App& app, std::string& intersection, std::string& since,
+                     std::string& until, std::size_t& page, AtspmCommandLine& a) {
+  a.command = app.add_subcommand(
+      "atspm",
+      "an ATSPM measure (UDOT's definitions) of an intersection's high-resolution log "
+      "(docs/atspm.md)");
+  CLI::App& cmd = *a.command;
+  cmd.add_option("intersection", intersection, "name or id")->required();
+  cmd.add_option("--measure", a.measure, "the measure")
+      ->required()
+      ->check(CLI::IsMember(atspm::MeasureNames()));
+  cmd.add_option("--since", since,
+                 "from this time: seconds since the epoch, or local YYYY-MM-DD HH:MM[:SS]")
+      ->required();
+  cmd.add_option("--until", until, "up to this time (default: the SCM's last record)");
+  cmd.add_option("--city", a.city,
+                 "the city file the SCM runs: which detector channel (a signal group's number in "
+                 "its intersection, from 1) calls which phase in each plan")
+      ->check(CLI::ExistingFile);
+  cmd.add_option("--phase-of-channel", a.phase_of_channel,
+                 "CHANNEL:PHASE[,CHANNEL:PHASE...]: detector channel CHANNEL calls PHASE "
+                 "(whatever plan runs); repeatable");
+  cmd.add_option("--consecutive", a.consecutive,
+                 "phase-termination: a termination counts as consecutive from the Nth of a run")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd.add_option("--severe", a.severe_s,
+                 "yellow-red: a violation this many seconds after the red clearance began is "
+                 "severe")
+      ->check(CLI::Range(0.0, 3600.0))
+      ->capture_default_str();
+  cmd.add_option("--red-seconds", a.first_of_red_s,
+                 "split-failure: the seconds of red whose occupancy counts")
+      ->check(CLI::Range(0.1, 3600.0))
+      ->capture_default_str();
+  cmd.add_option("--bin-minutes", a.bin_min, "pcd, arrivals, split-failure: the bins' length")
+      ->check(CLI::Range(0.1, 1440.0))
+      ->capture_default_str();
+  cmd.add_option("--margin", a.margin_s,
+                 "seconds of log read before and after the window, so that cycles across its "
+                 "edges are whole")
+      ->check(CLI::Range(0.0, 86400.0))
+      ->capture_default_str();
+  cmd.add_option("--page", page, "records asked for at a time (tests)")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{100000}))
+      ->group("");
 }
 
 /// What the command line asks for, as CLI11 fills it.
@@ -421,6 +629,7 @@ struct CommandLine {
   CLI::App* reset = nullptr;
   CLI::App* events = nullptr;
   CLI::App* hires = nullptr;
+  AtspmCommandLine atspm;
   CLI::App* watch = nullptr;
   CLI::App* validate = nullptr;
   CLI::App* apply = nullptr;
@@ -461,6 +670,7 @@ void AddCommands(CLI::App& app, CommandLine& c) {
   c.hires->add_option("--page", c.page, "records asked for at a time (tests)")
       ->check(CLI::Range(std::size_t{1}, std::size_t{100000}))
       ->group("");
+  AddAtspmCommand(app, c.intersection, c.since, c.until, c.page, c.atspm);
   c.watch = AddWatchCommand(app, c.watch_what, c.count, c.duration_s, c.json);
   auto* config = app.add_subcommand("config", "check or apply a city configuration");
   config->require_subcommand(1);
@@ -572,8 +782,11 @@ int main(int argc, char** argv) {
   try {
     if (c.validate->parsed() && !c.validate_on_scm) return ValidateHere(c.file);
     if (c.watch->parsed()) return Watch(dds_options, c.watch_what, c.count, c.duration_s, c.json);
-    if (c.hires->parsed()) {
-      return Hires(dds_options, c.intersection, c.since, c.until, c.csv, c.json, timeout_s, c.page);
+    const HiresRequest log_request{c.intersection, {}, {}, timeout_s, c.page, c.json};
+    if (c.hires->parsed()) return Hires(dds_options, log_request, c.since, c.until, c.csv);
+    if (c.atspm.command->parsed()) {
+      return Atspm(dds_options, {c.intersection, {}, {}, timeout_s, c.page, false}, c.since,
+                   c.until, c.atspm, c.json);
     }
 
     std::string command;

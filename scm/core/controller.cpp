@@ -101,6 +101,8 @@ IntersectionController::IntersectionController(const IntersectionModel& model, M
   AUTODRIVE_CHECK(!model.plans.empty(), "intersection " << model.name << " has no plans");
   if (operator_plan_ && *operator_plan_ >= model.plans.size()) operator_plan_.reset();
   plan_ = operator_plan_.value_or(model.schedule.front().plan);
+  // The plan it starts with, so that a log read from here on knows it (ATSPM's measures by plan).
+  log_.Log(now, hires::kCoordPatternChange, static_cast<std::uint16_t>(plan_ + 1));
   for (std::size_t g = 0; g < aspects_.size(); ++g) aspects_[g] = model.groups[g].flash_aspect;
   stage_ = Stage::kStartupFlash;
   stage_end_ = now + model.startup_flash;

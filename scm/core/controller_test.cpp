@@ -145,11 +145,13 @@ TEST(ControllerHires, AFixedCycleLogsEachPhasesIntervalsInTheIndianaOrderAtTheir
   rig.RunTo(CycleStart() + seconds(52 * 2));
   const std::vector<HiresEvent> events = rig.controller.TakeHiresEvents();
   EXPECT_FALSE(rig.controller.has_hires_events());
-  // The unit: start-up flash, then out of flash when the all red starts (at 3 s).
-  ASSERT_GE(events.size(), 2u);
+  // The unit: start-up flash and the plan it starts with (day, the first), then out of flash
+  // when the all red starts (at 3 s).
+  ASSERT_GE(events.size(), 3u);
   EXPECT_EQ(events[0],
             (HiresEvent{CycleStart(), hires::kUnitFlashStatusChange, hires::kFlashStartup}));
-  EXPECT_EQ(events[1], (HiresEvent{CycleStart() + seconds(3), hires::kUnitFlashStatusChange,
+  EXPECT_EQ(events[1], (HiresEvent{CycleStart(), hires::kCoordPatternChange, 1}));
+  EXPECT_EQ(events[2], (HiresEvent{CycleStart() + seconds(3), hires::kUnitFlashStatusChange,
                                    hires::kNotFlash}));
   // Phase 2 (north), served twice in full: on, green, check (fixed time: every phase is on max
   // recall, so a conflicting call waits from the start), min complete, force off (fixed time
