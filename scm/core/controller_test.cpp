@@ -753,6 +753,7 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
       for (const auto& t : trace) out += "\n  " + t;
       return out;
     };
+    std::optional<std::pair<std::string, std::uint32_t>> granted;  // the last request granted
     // Every command goes to both controllers.
     auto both = [&](auto&& command) {
       auto result = command(c);
@@ -774,13 +775,22 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
         what = both([&](auto& ctl) { return ctl.SetPlan(name, now); }).message;
       } else if (p < 12) {
         what = "advance: " + both([&](auto& ctl) { return ctl.Advance(now); }).message;
+      } else if (p < 16 && granted && percent(rng) < 25) {
+        const auto u =
+            both([&](auto& ctl) { return ctl.Cancel(granted->first, granted->second, now); });
+        what = fmt::format("cancel {} {}: {} {}", granted->first, granted->second,
+                           ToString(u.status), u.reason);
+        granted.reset();
       } else if (p < 16) {
         const std::size_t g = static_cast<std::size_t>(percent(rng)) % x.groups.size();
         const ServiceRequest r{"nigel_" + std::to_string(1 + percent(rng) % 3),
                                static_cast<std::uint32_t>(percent(rng)), percent(rng) < 50, g,
                                now + milliseconds(percent(rng) * 300)};
         const auto u = both([&](auto& ctl) { return ctl.Request(r, now); });
-        if (u.status == RequestStatus::kGranted) ++grants;
+        if (u.status == RequestStatus::kGranted) {
+          ++grants;
+          granted = {r.vehicle, r.request_id};
+        }
         what = fmt::format("request group {} status {} {}", g, ToString(u.status), u.reason);
       } else if (p < 17) {
         both([&](auto& ctl) {
