@@ -13,6 +13,7 @@
 #include <pugixml.hpp>
 
 #include "traffic/nema/diagnosis.h"
+#include "traffic/nema/internal/io.h"
 #include "traffic/nema/intervals.h"
 #include "traffic/nema/nema_program.h"
 #include "traffic/sumo_api.h"
@@ -28,6 +29,7 @@ namespace autodrive::traffic::nema {
 namespace {
 
 namespace fs = std::filesystem;
+using internal::WriteFile;
 
 constexpr Duration kDay = std::chrono::hours(24);
 
@@ -67,13 +69,6 @@ class Simulation {
  private:
   bool running_ = false;
 };
-
-void WriteFile(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  out.close();
-  AUTODRIVE_THROW_UNLESS(!out.fail(), "cannot write " << path.string());
-}
 
 // A time in SUMO's output ("12.30"), to the millisecond.
 Duration SumoTime(const pugi::xml_attribute& a, const fs::path& file) {

@@ -39,6 +39,19 @@ nlohmann::json Report(const fs::path& dir) {
   return nlohmann::json::parse(in);
 }
 
+// The Driving School's actuated evening plan for 3 cycles with the call script `calls`: it must
+// match SUMO; returns the report.
+nlohmann::json EveningWithCalls(const TempDir& dir, const std::string& calls) {
+  std::ofstream(dir.path() / "calls.txt") << calls;
+  const Output r =
+      RunNema({"crosscheck", City(), "driving_school_crossing", "evening", "--cycles", "3",
+               "--calls", (dir.path() / "calls.txt").string(), "--out", dir.str()});
+  EXPECT_EQ(r.code, 0) << r.text;
+  nlohmann::json j = Report(dir.path());
+  EXPECT_TRUE(j.at("match").get<bool>());
+  return j;
+}
+
 TEST(NemaCrosscheck, DrivingSchoolDayPlanMatchesSumoNemaForTenCycles) {
   const TempDir dir;
   // Both start at time 0: our start-up (flash 3 s, all red 7 s) ends at 10 s, inside phase 1's
@@ -94,16 +107,8 @@ TEST(NemaCrosscheck, SmallTownsThreePhaseTeeWithAnOffsetMatchesSumoNema) {
 TEST(NemaCrosscheck, ActuatedEveningPlanFollowsTheSameCallsAsSumo) {
   const TempDir dir;
   // Calls held, a short one lost (non-locking), rests in green without conflicting calls.
-  {
-    std::ofstream calls(dir.path() / "calls.txt");
-    calls << "# phase on_s off_s\n2 20 40\n3 30 31\n4 50 90\n1 100 101\n2 140 141\n3 160 161\n";
-  }
-  const Output r =
-      RunNema({"crosscheck", City(), "driving_school_crossing", "evening", "--cycles", "3",
-               "--calls", (dir.path() / "calls.txt").string(), "--out", dir.str()});
-  ASSERT_EQ(r.code, 0) << r.text;
-  const nlohmann::json j = Report(dir.path());
-  EXPECT_TRUE(j.at("match").get<bool>());
+  const nlohmann::json j = EveningWithCalls(
+      dir, "# phase on_s off_s\n2 20 40\n3 30 31\n4 50 90\n1 100 101\n2 140 141\n3 160 161\n");
   int greens = 0;
   for (const nlohmann::json& phase : j.at("phases")) {
     for (const nlohmann::json& i : phase.at("intervals")) greens += i.at("kind") == "green";
@@ -118,13 +123,7 @@ TEST(NemaCrosscheck, AHeldCallMaxesOutMax1AfterTheConflictingCallAsInSumo) {
   // conflicting call (NTCIP phaseMaximum1), not after its green's start; then each maxes out
   // in turn, every green 15 s.
   const TempDir dir;
-  std::ofstream(dir.path() / "calls.txt") << "1 0 300\n2 30 300\n";
-  const Output r =
-      RunNema({"crosscheck", City(), "driving_school_crossing", "evening", "--cycles", "3",
-               "--calls", (dir.path() / "calls.txt").string(), "--out", dir.str()});
-  ASSERT_EQ(r.code, 0) << r.text;
-  const nlohmann::json j = Report(dir.path());
-  EXPECT_TRUE(j.at("match").get<bool>());
+  const nlohmann::json j = EveningWithCalls(dir, "1 0 300\n2 30 300\n");
   const nlohmann::json& phase1 = j.at("phases").at(0);
   ASSERT_EQ(phase1.at("phase").get<int>(), 1);
   const nlohmann::json& first = phase1.at("intervals").at(0);

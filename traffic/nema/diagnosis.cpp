@@ -67,17 +67,11 @@ std::optional<Interval> EndingAt(const std::vector<Interval>& list, std::uint32_
   return std::nullopt;
 }
 
-const char* kNoSwitch =
-    "no switch of the export or the plan removes it while the plan stays actuated: SUMO 1.15's "
-    "NEMA controller has no setting for when it chooses the next phase, our plan none for when "
-    "ours does. It goes when our "
-    "controller chooses as SUMO does: again at each step of the yellow and red clearance, among "
-    "the called phases on the side of SUMO's middle barrier it first chose, keeping its choice "
-    "while none there is called (scm/core/controller.cpp: ChooseNext, and the red clearance's "
-    "end). Taking the choice away also removes it: with every phase on min recall (a plan "
-    "without detectors, exported as minRecall on all phases) both serve every phase in turn "
-    "(the Driving School's evening plan without its detectors matches SUMO over 900 s), but "
-    "that is no longer an actuated test";
+const char* kNextPhaseSwitch =
+    "the intersection's next_phase_decision: end_of_clearance in the city file (docs/"
+    "controller.md, \"Next phase decision\"): our controller then chooses again at each step "
+    "of the yellow and red clearance, among the called phases on the side of the middle barrier "
+    "it first chose, as SUMO does. No switch of SUMO's export changes SUMO's choice";
 
 // An order difference at the start of a green after both ended the same phase: the next phase
 // chosen during the clearance.
@@ -128,7 +122,7 @@ std::optional<EpisodeNote> NextPhase(const SequenceComparison& seq, const Sequen
       "Calls from {} to {} s: {}",
       ended, S(at), PhaseList(in, at), p.ours->phase, ended, S(green), trace, p.sumo->phase,
       S(p.sumo->begin), S(at), S(green), CallsDuring(in, at, green));
-  n.remedy = kNoSwitch;
+  n.remedy = kNextPhaseSwitch;
   return n;
 }
 
@@ -139,19 +133,35 @@ bool ConflictingCall(const DiagnosisInput& in, std::uint32_t phase, Duration t) 
   return false;
 }
 
+// The first place of an episode when it differs in time only, both sides an interval of `kind`:
+// the pair, its phase and the phase's timing.
+struct TimeDifference {
+  const SequencePair* pair = nullptr;
+  std::uint32_t phase = 0;
+  const PhaseTiming* timing = nullptr;
+};
+
+std::optional<TimeDifference> TimeDifferenceOf(const SequenceComparison& seq,
+                                               const SequenceEpisode& e, const DiagnosisInput& in,
+                                               IntervalKind kind) {
+  const SequencePair& p = seq.pairs[e.first];
+  if (p.difference != SequenceDifferenceKind::kTime || !p.ours || !p.sumo || p.ours->kind != kind) {
+    return std::nullopt;
+  }
+  const auto t = in.timing.find(p.ours->phase);
+  if (t == in.timing.end()) return std::nullopt;
+  return TimeDifference{&p, p.ours->phase, &t->second};
+}
+
 // The first green (SUMO starts a phase at its time 0, as ours does with --our-start at minus
 // its start-up): SUMO times nothing of it before its min green ends.
 std::optional<EpisodeNote> FirstGreen(const SequenceComparison& seq, const SequenceEpisode& e,
                                       const DiagnosisInput& in) {
-  const SequencePair& p = seq.pairs[e.first];
-  if (p.difference != SequenceDifferenceKind::kTime || !p.ours || !p.sumo ||
-      p.ours->kind != IntervalKind::kYellow) {
-    return std::nullopt;
-  }
-  const std::uint32_t phase = p.ours->phase;
-  const auto t = in.timing.find(phase);
-  if (t == in.timing.end()) return std::nullopt;
-  const PhaseTiming& timing = t->second;
+  const std::optional<TimeDifference> d = TimeDifferenceOf(seq, e, in, IntervalKind::kYellow);
+  if (!d) return std::nullopt;
+  const SequencePair& p = *d->pair;
+  const std::uint32_t phase = d->phase;
+  const PhaseTiming& timing = *d->timing;
   const std::optional<Interval> green =
       EndingAt(in.sumo, phase, IntervalKind::kGreen, p.sumo->begin, Duration{0});
   if (!green || green->begin != Duration{0}) return std::nullopt;
@@ -217,15 +227,11 @@ std::optional<EpisodeNote> FirstGreen(const SequenceComparison& seq, const Seque
 // off and one comes back before the passage has run out.
 std::optional<EpisodeNote> PassageCut(const SequenceComparison& seq, const SequenceEpisode& e,
                                       const DiagnosisInput& in) {
-  const SequencePair& p = seq.pairs[e.first];
-  if (p.difference != SequenceDifferenceKind::kTime || !p.ours || !p.sumo ||
-      p.ours->kind != IntervalKind::kGreen || p.sumo->end >= p.ours->end) {
-    return std::nullopt;
-  }
-  const std::uint32_t phase = p.ours->phase;
-  const auto t = in.timing.find(phase);
-  if (t == in.timing.end()) return std::nullopt;
-  const PhaseTiming& timing = t->second;
+  const std::optional<TimeDifference> d = TimeDifferenceOf(seq, e, in, IntervalKind::kGreen);
+  if (!d || d->pair->sumo->end >= d->pair->ours->end) return std::nullopt;
+  const SequencePair& p = *d->pair;
+  const std::uint32_t phase = d->phase;
+  const PhaseTiming& timing = *d->timing;
   const Duration begin = p.ours->begin;
   const Duration end = p.sumo->end;
   std::optional<Duration> last_own;
@@ -263,25 +269,21 @@ std::optional<EpisodeNote> PassageCut(const SequenceComparison& seq, const Seque
       S(p.ours->end), S(break_from), S(end), S(end), S(begin), S(p.ours->end),
       CallsDuring(in, begin, p.ours->end));
   n.remedy =
-      "no switch of SUMO 1.15's export was found (recalls, latching and the coordination "
-      "settings do not touch the passage); ours would have to copy it in "
-      "scm/core/controller.cpp (end a green in its passage when a conflicting call returns "
-      "after a break), which is SUMO's peculiarity rather than a rule of NTCIP 1202";
+      "the intersection's green_rest: sumo in the city file (docs/controller.md, \"Green "
+      "rest\"): our controller then rests in green as SUMO 1.15's NEMAPhase does, whose slid "
+      "start forgets the passage (not a rule of NTCIP 1202). No switch of SUMO's export changes "
+      "it";
   return n;
 }
 
 // A difference in when a green ends: what each side's end matches.
 std::optional<EpisodeNote> GreenEnd(const SequenceComparison& seq, const SequenceEpisode& e,
                                     const DiagnosisInput& in) {
-  const SequencePair& p = seq.pairs[e.first];
-  if (p.difference != SequenceDifferenceKind::kTime || !p.ours || !p.sumo ||
-      p.ours->kind != IntervalKind::kGreen) {
-    return std::nullopt;
-  }
-  const auto t = in.timing.find(p.ours->phase);
-  if (t == in.timing.end()) return std::nullopt;
-  const PhaseTiming& timing = t->second;
-  const std::uint32_t phase = p.ours->phase;
+  const std::optional<TimeDifference> d = TimeDifferenceOf(seq, e, in, IntervalKind::kGreen);
+  if (!d) return std::nullopt;
+  const SequencePair& p = *d->pair;
+  const std::uint32_t phase = d->phase;
+  const PhaseTiming& timing = *d->timing;
   const Duration begin = p.ours->begin;
   const Duration last_end = std::max(p.ours->end, p.sumo->end);
   // The phase's own last called step and the conflicting calls while it was green.
@@ -290,10 +292,7 @@ std::optional<EpisodeNote> GreenEnd(const SequenceComparison& seq, const Sequenc
   std::optional<Duration> conflict_run;  // start of the conflicting calls' run still on
   for (Duration x = begin; x <= last_end; x += in.step) {
     if (Called(in, phase, x)) last_own = x;
-    bool conflict = false;
-    for (std::uint32_t q : in.ring) {
-      if (q != phase && Called(in, q, x)) conflict = true;
-    }
+    const bool conflict = ConflictingCall(in, phase, x);
     if (conflict && !first_conflict) first_conflict = x;
     if (conflict && !conflict_run) conflict_run = x;
     if (!conflict) conflict_run.reset();

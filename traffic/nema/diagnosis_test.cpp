@@ -84,7 +84,7 @@ TEST(Diagnose, NamesTheNextPhaseRuleWithTheRunsTimes) {
                                    "at 30.0 s"),
             std::string::npos)
       << notes[0].evidence;
-  EXPECT_NE(notes[0].remedy.find("minRecall"), std::string::npos);
+  EXPECT_NE(notes[0].remedy.find("next_phase_decision: end_of_clearance"), std::string::npos);
 }
 
 TEST(Diagnose, AnOrderDifferenceTheRuleDoesNotPredictIsUnexplained) {

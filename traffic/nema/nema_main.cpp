@@ -9,12 +9,15 @@
 #include <CLI/CLI.hpp>
 
 #include "traffic/nema/call_script.h"
+#include "traffic/nema/collision_batch.h"
+#include "traffic/nema/collision_oracle.h"
 #include "traffic/nema/crosscheck.h"
 #include "traffic/nema/nema_program.h"
 #include "traffic/nema/random_batch.h"
 #include "traffic/sumo_api.h"
 
 #include "common/error.h"
+#include "common/logging.h"
 #include "common/time.h"
 #include "scm/core/city.h"
 
@@ -54,40 +57,91 @@ std::map<std::uint32_t, Duration> MaxGreens(const std::vector<std::string>& give
   return out;
 }
 
-}  // namespace
+// "HH:MM" of --time-of-day, as a time since midnight.
+Duration TimeOfDay(const std::string& text) {
+  int hours = -1;
+  int minutes = -1;
+  char colon = 0;
+  std::size_t used = 0;
+  try {
+    hours = std::stoi(text, &used);
+    if (used < text.size()) colon = text[used];
+    std::size_t more = 0;
+    if (colon == ':') minutes = std::stoi(text.substr(used + 1), &more);
+    used += 1 + more;
+  } catch (const std::exception&) {
+    hours = -1;
+  }
+  AUTODRIVE_THROW_UNLESS(colon == ':' && used == text.size() && hours >= 0 && hours < 24 &&
+                             minutes >= 0 && minutes < 60,
+                         "--time-of-day wants HH:MM (00:00 to 23:59), got \"" << text << "\"");
+  return std::chrono::hours(hours) + std::chrono::minutes(minutes);
+}
 
-int main(int argc, char** argv) {
-  CLI::App app{
-      "autodrive-scm-nema: a city's signal plan as a program of SUMO's NEMA controller "
-      "(tlLogic type=\"NEMA\"), and the crosscheck of the SCM's intersection controller "
-      "against SUMO running that program. See docs/controller-crosscheck.md.\n"
-      "Exit codes: 0 written / matched, 1 the crosscheck found a difference (crosscheck-random: "
-      "fewer seeds matched than required), 2 bad input (including a plan SUMO's NEMA controller "
-      "cannot run), 3 SUMO failed (crosscheck-random: a seed did not run)."};
-  app.require_subcommand(1);
+// The city file, and the intersection and plan of the subcommands that take them.
+struct Positional {
+  std::string city, intersection, plan;
 
-  std::string city_path, intersection, plan;
-  const auto positional = [&](CLI::App* sub) {
-    sub->add_option("CITY", city_path, "city file (config/cities/*.yaml)")
+  void AddCity(CLI::App* sub) {
+    sub->add_option("CITY", city, "city file (config/cities/*.yaml)")
         ->required()
         ->check(CLI::ExistingFile);
+  }
+  void AddAll(CLI::App* sub) {
+    AddCity(sub);
     sub->add_option("INTERSECTION", intersection, "signalised intersection: name or id")
         ->required();
     sub->add_option("PLAN", plan, "the plan's name (fixed time or actuated)")->required();
-  };
+  }
+};
 
-  std::string export_out;
-  std::string export_check;
-  CLI::App* exp = app.add_subcommand(
-      "export",
-      "write a SUMO additional file with the plan as one tlLogic of type NEMA (programID NEMA) "
-      "for the intersection's junction in the network the co-simulation exports");
-  positional(exp);
-  exp->add_option("-o,--output", export_out, "the file to write (default: standard output)");
-  exp->add_option("--check", export_check,
-                  "also export the city's SUMO network into this folder and run sumo on it with "
-                  "the file for 1 s: fails when SUMO refuses it");
+// `export CITY INTERSECTION PLAN [-o FILE] [--check DIR]`.
+struct ExportCommand {
+  CLI::App* sub = nullptr;
+  std::string out, check;
 
+  void Add(CLI::App& app, Positional& p) {
+    sub = app.add_subcommand(
+        "export",
+        "write a SUMO additional file with the plan as one tlLogic of type NEMA (programID "
+        "NEMA) for the intersection's junction in the network the co-simulation exports");
+    p.AddAll(sub);
+    sub->add_option("-o,--output", out, "the file to write (default: standard output)");
+    sub->add_option("--check", check,
+                    "also export the city's SUMO network into this folder and run sumo on it "
+                    "with the file for 1 s: fails when SUMO refuses it");
+  }
+
+  int Run(const scm::City& city, const Positional& p) const {
+    const NemaProgram program = NemaProgramOf(city, FindPlan(city, p.intersection, p.plan));
+    const std::string xml = NemaAdditionalXml(program);
+    if (out.empty()) {
+      std::fputs(xml.c_str(), stdout);
+      AUTODRIVE_THROW_UNLESS(check.empty(), "--check needs -o FILE");
+      return kMatch;
+    }
+    {
+      std::FILE* file = std::fopen(out.c_str(), "wb");
+      AUTODRIVE_THROW_UNLESS(file != nullptr, "cannot write " << out);
+      const bool ok = std::fputs(xml.c_str(), file) >= 0;
+      AUTODRIVE_THROW_UNLESS(std::fclose(file) == 0 && ok, "cannot write " << out);
+    }
+    std::string ring;
+    for (std::uint32_t n : program.rings[0]) ring += (ring.empty() ? "" : ",") + std::to_string(n);
+    std::fprintf(stderr, "wrote %s: tlLogic %s program %s, ring %s, cycle %s s\n", out.c_str(),
+                 program.tls.c_str(), program.program_id.c_str(), ring.c_str(),
+                 SumoSeconds(program.cycle).c_str());
+    if (!check.empty()) {
+      CheckWithSumo(city, out, check);
+      std::fprintf(stderr, "SUMO accepts it (network in %s)\n", check.c_str());
+    }
+    return kMatch;
+  }
+};
+
+// `crosscheck CITY INTERSECTION PLAN (--cycles N | --duration S) --out DIR ...`.
+struct CrosscheckCommand {
+  CLI::App* sub = nullptr;
   int cycles = 0;
   double duration_s = 0.0;
   std::string calls_path, out_dir;
@@ -98,176 +152,77 @@ int main(int argc, char** argv) {
   double tolerance_s = 0.1;
   double our_start_s = 0.0;
   std::vector<std::string> test_max_green;
-  CLI::App* cross = app.add_subcommand(
-      "crosscheck",
-      "run the plan in SUMO's NEMA controller (libsumo, no vehicles, 0.1 s steps) and in the "
-      "SCM's controller in lockstep, with the same detector calls, and compare every green, "
-      "yellow and red clearance of each phase; writes DIR/report.txt and DIR/report.json");
-  positional(cross);
-  CLI::Option* cycles_opt =
-      cross->add_option("--cycles", cycles, "cycles to compare, after the controller's start-up")
-          ->check(CLI::Range(1, 1000));
-  CLI::Option* duration_opt =
-      cross
-          ->add_option("--duration", duration_s,
-                       "instead of --cycles: compare up to this time on SUMO's clock (s); the run "
-                       "goes on for one more cycle so that the last intervals end")
-          ->check(CLI::Range(1.0, 86400.0));
-  cycles_opt->excludes(duration_opt);
-  CLI::Option* calls_opt =
-      cross
-          ->add_option("--calls", calls_path,
-                       "call script: lines \"phase on_s [off_s]\" (SUMO's clock; # comments)")
-          ->check(CLI::ExistingFile);
-  CLI::Option* random_opt =
-      cross->add_option("--random-calls", random_seed,
-                        "instead of --calls: draw each phase's detector calls from this seed "
-                        "(docs/controller-crosscheck.md), written to DIR/calls.txt; ours then "
-                        "starts so that its first green is at SUMO's time 0 unless --our-start "
-                        "says otherwise");
-  random_opt->excludes(calls_opt);
-  cross
-      ->add_option("--mean-gap", mean_gap_s,
-                   "random calls: mean gap between a phase's vehicles (s), from one leaving "
-                   "its detector to the next arriving")
-      ->check(CLI::Range(0.1, 3600.0))
-      ->capture_default_str()
-      ->needs(random_opt);
-  cross
-      ->add_option("--calls-from", calls_from_s,
-                   "random calls: no vehicle before this time (s; 0: from the start, the "
-                   "default). SUMO's first green times nothing before its min green ends "
-                   "(docs/controller-crosscheck.md, rule first_green): calls from its end leave "
-                   "that start-up out")
-      ->check(CLI::Range(0.0, 86400.0))
-      ->capture_default_str()
-      ->needs(random_opt);
-  cross
-      ->add_option("--compare", compare,
-                   "which comparison gives the verdict (both are reported): pairs (each interval "
-                   "with SUMO's nearest of its phase and kind, cycle lengths equal) or sequence "
-                   "(the same phases in the same order, every start and end within the "
-                   "tolerance: for actuated runs)")
-      ->check(CLI::IsMember({"pairs", "sequence"}))
-      ->capture_default_str();
-  cross->add_option("--out", out_dir, "output folder (created)")->required();
-  cross
-      ->add_option("--tolerance", tolerance_s,
-                   "largest difference of an interval's start or end that still matches (s)")
-      ->check(CLI::Range(0.0, 60.0))
-      ->capture_default_str();
-  CLI::Option* our_start_opt =
-      cross->add_option("--our-start", our_start_s,
-                        "when the SCM's controller starts, on SUMO's clock (s); negative: it runs "
-                        "its start-up alone before SUMO's time 0");
-  our_start_opt->check(CLI::Range(-86400.0, 86400.0))->capture_default_str();
-  // Test only (hidden): SUMO runs phase PHASE with this max green, to show a difference.
-  cross->add_option("--test-sumo-max-green", test_max_green, "")->group("");
+  CLI::Option* cycles_opt = nullptr;
+  CLI::Option* duration_opt = nullptr;
+  CLI::Option* random_opt = nullptr;
+  CLI::Option* our_start_opt = nullptr;
 
-  RandomBatchOptions batch;
-  double batch_duration_s = 900.0;
-  double batch_tolerance_s = 0.2;
-  double batch_mean_gap_s = 20.0;
-  double batch_calls_from_s = 0.0;
-  int batch_required = -1;
-  std::string batch_out;
-  CLI::App* random = app.add_subcommand(
-      "crosscheck-random",
-      "run the crosscheck with seeded random calls for --seeds seeds (each a child process: "
-      "crosscheck --random-calls SEED --compare sequence) and write DIR/summary.txt and "
-      "DIR/summary.json: how many matched and, for each that did not, its differences with the "
-      "rule behind each and the setting that removes it. Exit 0 when at least --require seeds "
-      "matched");
-  positional(random);
-  random->add_option("--seeds", batch.seeds, "how many seeds")
-      ->check(CLI::Range(1, 10000))
-      ->capture_default_str();
-  random->add_option("--first-seed", batch.first_seed, "the first seed")->capture_default_str();
-  random->add_option("--duration", batch_duration_s, "seconds of each run (SUMO's clock)")
-      ->check(CLI::Range(1.0, 86400.0))
-      ->capture_default_str();
-  random
-      ->add_option("--tolerance", batch_tolerance_s,
-                   "largest difference of an interval's start or end that still matches (s)")
-      ->check(CLI::Range(0.0, 60.0))
-      ->capture_default_str();
-  random
-      ->add_option("--mean-gap", batch_mean_gap_s,
-                   "mean gap between a phase's vehicles (s), as crosscheck --mean-gap")
-      ->check(CLI::Range(0.1, 3600.0))
-      ->capture_default_str();
-  random
-      ->add_option("--calls-from", batch_calls_from_s,
-                   "no vehicle before this time (s), as crosscheck --calls-from")
-      ->check(CLI::Range(0.0, 86400.0))
-      ->capture_default_str();
-  random->add_option("--require", batch_required,
-                     "seeds that must match for exit code 0 (default: all)");
-  random->add_option("--out", batch_out, "output folder (created): DIR/seed-N/ per seed")
-      ->required();
-
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? kMatch : kBadInput;
+  void Add(CLI::App& app, Positional& p) {
+    sub = app.add_subcommand(
+        "crosscheck",
+        "run the plan in SUMO's NEMA controller (libsumo, no vehicles, 0.1 s steps) and in the "
+        "SCM's controller in lockstep, with the same detector calls, and compare every green, "
+        "yellow and red clearance of each phase; writes DIR/report.txt and DIR/report.json");
+    p.AddAll(sub);
+    cycles_opt =
+        sub->add_option("--cycles", cycles, "cycles to compare, after the controller's start-up")
+            ->check(CLI::Range(1, 1000));
+    duration_opt =
+        sub->add_option("--duration", duration_s,
+                        "instead of --cycles: compare up to this time on SUMO's clock (s); the "
+                        "run goes on for one more cycle so that the last intervals end")
+            ->check(CLI::Range(1.0, 86400.0));
+    cycles_opt->excludes(duration_opt);
+    CLI::Option* calls_opt =
+        sub->add_option("--calls", calls_path,
+                        "call script: lines \"phase on_s [off_s]\" (SUMO's clock; # comments)")
+            ->check(CLI::ExistingFile);
+    random_opt = sub->add_option(
+        "--random-calls", random_seed,
+        "instead of --calls: draw each phase's detector calls from this seed "
+        "(docs/controller-crosscheck.md), written to DIR/calls.txt; ours then starts so that "
+        "its first green is at SUMO's time 0 unless --our-start says otherwise");
+    random_opt->excludes(calls_opt);
+    sub->add_option("--mean-gap", mean_gap_s,
+                    "random calls: mean gap between a phase's vehicles (s), from one leaving "
+                    "its detector to the next arriving")
+        ->check(CLI::Range(0.1, 3600.0))
+        ->capture_default_str()
+        ->needs(random_opt);
+    sub->add_option("--calls-from", calls_from_s,
+                    "random calls: no vehicle before this time (s; 0: from the start, the "
+                    "default). SUMO's first green times nothing before its min green ends "
+                    "(docs/controller-crosscheck.md, rule first_green): calls from its end "
+                    "leave that start-up out")
+        ->check(CLI::Range(0.0, 86400.0))
+        ->capture_default_str()
+        ->needs(random_opt);
+    sub->add_option("--compare", compare,
+                    "which comparison gives the verdict (both are reported): pairs (each "
+                    "interval with SUMO's nearest of its phase and kind, cycle lengths equal) or "
+                    "sequence (the same phases in the same order, every start and end within "
+                    "the tolerance: for actuated runs)")
+        ->check(CLI::IsMember({"pairs", "sequence"}))
+        ->capture_default_str();
+    sub->add_option("--out", out_dir, "output folder (created)")->required();
+    sub->add_option("--tolerance", tolerance_s,
+                    "largest difference of an interval's start or end that still matches (s)")
+        ->check(CLI::Range(0.0, 60.0))
+        ->capture_default_str();
+    our_start_opt = sub->add_option("--our-start", our_start_s,
+                                    "when the SCM's controller starts, on SUMO's clock (s); "
+                                    "negative: it runs its start-up alone before SUMO's time 0");
+    our_start_opt->check(CLI::Range(-86400.0, 86400.0))->capture_default_str();
+    // Test only (hidden): SUMO runs phase PHASE with this max green, to show a difference.
+    sub->add_option("--test-sumo-max-green", test_max_green, "")->group("");
   }
-  try {
-    const scm::City city = scm::LoadCity(city_path);
-    if (random->parsed()) {
-      (void)FindPlan(city, intersection, plan);  // names a bad intersection or plan at once
-      batch.program = std::filesystem::read_symlink("/proc/self/exe");
-      batch.city = std::filesystem::absolute(city_path);
-      batch.intersection = intersection;
-      batch.plan = plan;
-      batch.duration = FromSeconds(batch_duration_s);
-      batch.tolerance = FromSeconds(batch_tolerance_s);
-      batch.mean_gap = FromSeconds(batch_mean_gap_s);
-      batch.calls_from = FromSeconds(batch_calls_from_s);
-      batch.required = batch_required < 0 ? batch.seeds : batch_required;
-      batch.out_dir = batch_out;
-      const RandomBatchResult result = RunRandomBatch(batch);
-      std::fputs(result.text.c_str(), stdout);
-      if (result.failed > 0) return kSumoFailed;
-      return result.passed ? kMatch : kDifferent;
-    }
-    if (exp->parsed()) {
-      const NemaProgram program = NemaProgramOf(city, FindPlan(city, intersection, plan));
-      const std::string xml = NemaAdditionalXml(program);
-      if (export_out.empty()) {
-        std::fputs(xml.c_str(), stdout);
-        AUTODRIVE_THROW_UNLESS(export_check.empty(), "--check needs -o FILE");
-        return kMatch;
-      }
-      {
-        std::FILE* file = std::fopen(export_out.c_str(), "wb");
-        AUTODRIVE_THROW_UNLESS(file != nullptr, "cannot write " << export_out);
-        const bool ok = std::fputs(xml.c_str(), file) >= 0;
-        AUTODRIVE_THROW_UNLESS(std::fclose(file) == 0 && ok, "cannot write " << export_out);
-      }
-      std::fprintf(
-          stderr, "wrote %s: tlLogic %s program %s, ring %s, cycle %s s\n", export_out.c_str(),
-          program.tls.c_str(), program.program_id.c_str(),
-          [&] {
-            std::string r;
-            for (std::uint32_t n : program.rings[0]) {
-              r += (r.empty() ? "" : ",") + std::to_string(n);
-            }
-            return r;
-          }()
-              .c_str(),
-          SumoSeconds(program.cycle).c_str());
-      if (!export_check.empty()) {
-        CheckWithSumo(city, export_out, export_check);
-        std::fprintf(stderr, "SUMO accepts it (network in %s)\n", export_check.c_str());
-      }
-      return kMatch;
-    }
+
+  int Run(const scm::City& city, const Positional& p) const {
     AUTODRIVE_THROW_UNLESS(cycles_opt->count() > 0 || duration_opt->count() > 0,
                            "give --cycles N (cycles to compare) or --duration S");
     CrosscheckOptions o;
-    o.intersection = intersection;
-    o.plan = plan;
+    o.intersection = p.intersection;
+    o.plan = p.plan;
     o.cycles = cycles;
     if (duration_opt->count() > 0) o.duration = FromSeconds(duration_s);
     if (!calls_path.empty()) o.calls = LoadCallScript(calls_path);
@@ -280,7 +235,7 @@ int main(int argc, char** argv) {
       o.random_calls->params.mean_gap = FromSeconds(mean_gap_s);
       o.random_calls->params.calls_from = FromSeconds(calls_from_s);
       if (our_start_opt->count() == 0) {
-        const scm::IntersectionModel& x = *FindPlan(city, intersection, plan).model;
+        const scm::IntersectionModel& x = *FindPlan(city, p.intersection, p.plan).model;
         o.our_start = -(x.startup_flash + x.startup_all_red);
       }
     }
@@ -288,6 +243,205 @@ int main(int argc, char** argv) {
     const CrosscheckResult result = RunCrosscheck(city, o);
     std::fputs(result.text.c_str(), stdout);
     return result.passed ? kMatch : kDifferent;
+  }
+};
+
+// `crosscheck-random CITY INTERSECTION PLAN --out DIR ...`.
+struct RandomCommand {
+  CLI::App* sub = nullptr;
+  RandomBatchOptions batch;
+  double duration_s = 900.0;
+  double tolerance_s = 0.2;
+  double mean_gap_s = 20.0;
+  double calls_from_s = 0.0;
+  int required = -1;
+  std::string out;
+
+  void Add(CLI::App& app, Positional& p) {
+    sub = app.add_subcommand(
+        "crosscheck-random",
+        "run the crosscheck with seeded random calls for --seeds seeds (each a child process: "
+        "crosscheck --random-calls SEED --compare sequence) and write DIR/summary.txt and "
+        "DIR/summary.json: how many matched and, for each that did not, its differences with "
+        "the rule behind each and the setting that removes it. Exit 0 when at least --require "
+        "seeds matched");
+    p.AddAll(sub);
+    sub->add_option("--seeds", batch.seeds, "how many seeds")
+        ->check(CLI::Range(1, 10000))
+        ->capture_default_str();
+    sub->add_option("--first-seed", batch.first_seed, "the first seed")->capture_default_str();
+    sub->add_option("--duration", duration_s, "seconds of each run (SUMO's clock)")
+        ->check(CLI::Range(1.0, 86400.0))
+        ->capture_default_str();
+    sub->add_option("--tolerance", tolerance_s,
+                    "largest difference of an interval's start or end that still matches (s)")
+        ->check(CLI::Range(0.0, 60.0))
+        ->capture_default_str();
+    sub->add_option("--mean-gap", mean_gap_s,
+                    "mean gap between a phase's vehicles (s), as crosscheck --mean-gap")
+        ->check(CLI::Range(0.1, 3600.0))
+        ->capture_default_str();
+    sub->add_option("--calls-from", calls_from_s,
+                    "no vehicle before this time (s), as crosscheck --calls-from")
+        ->check(CLI::Range(0.0, 86400.0))
+        ->capture_default_str();
+    sub->add_option("--require", required, "seeds that must match for exit code 0 (default: all)");
+    sub->add_option("--out", out, "output folder (created): DIR/seed-N/ per seed")->required();
+  }
+
+  int Run(const scm::City& city, const Positional& p) {
+    (void)FindPlan(city, p.intersection, p.plan);  // names a bad intersection or plan at once
+    batch.program = std::filesystem::read_symlink("/proc/self/exe");
+    batch.city = std::filesystem::absolute(p.city);
+    batch.intersection = p.intersection;
+    batch.plan = p.plan;
+    batch.duration = FromSeconds(duration_s);
+    batch.tolerance = FromSeconds(tolerance_s);
+    batch.mean_gap = FromSeconds(mean_gap_s);
+    batch.calls_from = FromSeconds(calls_from_s);
+    batch.required = required < 0 ? batch.seeds : required;
+    batch.out_dir = out;
+    const RandomBatchResult result = RunRandomBatch(batch);
+    std::fputs(result.text.c_str(), stdout);
+    if (result.failed > 0) return kSumoFailed;
+    return result.passed ? kMatch : kDifferent;
+  }
+};
+
+// `collisions CITY [--intersection X] [--duration S] [--halve-intergreens] --out DIR ...`.
+struct CollisionsCommand {
+  CLI::App* sub = nullptr;
+  CollisionOracleOptions oracle;
+  double duration_s = 3600.0;
+  double headway_s = 6.0;
+  std::string time_of_day = "12:00";
+  std::string intersection;
+  std::string out;
+  bool halve = false;
+  double scale = 1.0;
+  bool at_matrix = false;
+  CLI::Option* scale_opt = nullptr;
+
+  void Add(CLI::App& app, Positional& p) {
+    sub = app.add_subcommand(
+        "collisions",
+        "the intergreen collision oracle: the SCM's controllers (each intersection's scheduled "
+        "fixed-time plan) drive SUMO's lights through the lamps as the co-simulation does, on "
+        "the city's network (x14, 0.1 s steps, junction collision checks), with slow clearing "
+        "and fast entering vehicles that trust the signal through every conflicting movement; "
+        "writes DIR/report.txt and DIR/report.json with every collision SUMO reported. Exit 0 "
+        "when SUMO reported no junction collision, 1 when it did. See "
+        "docs/controller-crosscheck.md, \"Intergreen oracle\"");
+    p.AddCity(sub);
+    sub->add_option("--intersection", intersection,
+                    "traffic through this signalised intersection only (name or id; every "
+                    "intersection's controller runs); default: each signalised intersection in "
+                    "a run of its own (DIR/<intersection>/, DIR/summary.txt and "
+                    "DIR/summary.json)");
+    sub->add_option("--duration", duration_s, "simulated seconds")
+        ->check(CLI::Range(1.0, 86400.0))
+        ->capture_default_str();
+    CLI::Option* halve_opt =
+        sub->add_flag("--halve-intergreens", halve,
+                      "the negative control: every group's yellow + red clearance (the yellow "
+                      "kept, the red cut) and every intergreen matrix entry halved in memory "
+                      "after loading");
+    scale_opt = sub->add_option("--scale-intergreens", scale,
+                                "as --halve-intergreens with another factor (0 < F <= 1): "
+                                "where collisions begin")
+                    ->check(CLI::Range(0.01, 1.0));
+    CLI::Option* matrix_opt =
+        sub->add_flag("--intergreens-at-matrix", at_matrix,
+                      "every group's yellow + red clearance at the largest entry of its row of "
+                      "the intergreen matrix (the yellow kept), in memory after loading");
+    halve_opt->excludes(scale_opt)->excludes(matrix_opt);
+    scale_opt->excludes(matrix_opt);
+    sub->add_option("--time-of-day", time_of_day,
+                    "local time at the start (HH:MM): chooses the scheduled plans, which must "
+                    "be fixed time for the whole run")
+        ->capture_default_str();
+    sub->add_option("--headway", headway_s,
+                    "mean seconds between two vehicles of one ingress lane (random arrivals)")
+        ->check(CLI::Range(0.5, 3600.0))
+        ->capture_default_str();
+    sub->add_option("--seed", oracle.seed, "SUMO's seed")->capture_default_str();
+    sub->add_option("--out", out, "output folder (created)")->required();
+  }
+
+  int Run(const scm::City& city, const Positional& p) {
+    oracle.duration = FromSeconds(duration_s);
+    oracle.time_of_day = TimeOfDay(time_of_day);
+    oracle.headway = FromSeconds(headway_s);
+    if (halve || scale_opt->count() > 0) {
+      oracle.intergreens = {IntergreenChange::Kind::kScale, halve ? 0.5 : scale};
+    } else if (at_matrix) {
+      oracle.intergreens = {IntergreenChange::Kind::kMatrix, 1.0};
+    }
+    if (!intersection.empty()) oracle.intersection = intersection;
+    oracle.out_dir = out;
+    const auto progress = [](const std::string& line) {
+      std::fprintf(stderr, "autodrive-scm-nema collisions: %s\n", line.c_str());
+    };
+    (void)CheckCollisionOracleOptions(city, oracle);  // bad input named at once
+    if (oracle.intersection) {
+      oracle.progress = progress;
+      const CollisionOracleResult result = RunCollisionOracle(city, oracle);
+      std::fputs(result.text.c_str(), stdout);
+      return result.junction_collisions == 0 ? kMatch : kDifferent;
+    }
+    // Each intersection's traffic in a run of its own (collision_batch.h).
+    CollisionBatchOptions batch;
+    batch.program = std::filesystem::read_symlink("/proc/self/exe");
+    batch.city = std::filesystem::absolute(p.city);
+    batch.oracle = oracle;
+    for (const scm::IntersectionModel& x : city.intersections) {
+      batch.intersections.push_back(x.name);
+    }
+    batch.progress = progress;
+    const CollisionBatchResult result = RunCollisionBatch(batch);
+    std::fputs(result.text.c_str(), stdout);
+    if (result.failed > 0) return kSumoFailed;
+    return result.junction_collisions == 0 ? kMatch : kDifferent;
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "autodrive-scm-nema: a city's signal plan as a program of SUMO's NEMA controller "
+      "(tlLogic type=\"NEMA\"), the crosscheck of the SCM's intersection controller against "
+      "SUMO running that program, and the intergreen collision oracle. See "
+      "docs/controller-crosscheck.md.\n"
+      "Exit codes: 0 written / matched (collisions: no junction collision), 1 the crosscheck "
+      "found a difference (crosscheck-random: fewer seeds matched than required; collisions: "
+      "SUMO reported junction collisions), 2 bad input (including a plan SUMO's NEMA "
+      "controller cannot run), 3 SUMO failed (crosscheck-random, collisions: a run did not "
+      "run)."};
+  app.require_subcommand(1);
+  Positional positional;
+  ExportCommand exp;
+  CrosscheckCommand cross;
+  RandomCommand random;
+  CollisionsCommand collisions;
+  exp.Add(app, positional);
+  cross.Add(app, positional);
+  random.Add(app, positional);
+  collisions.Add(app, positional);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? kMatch : kBadInput;
+  }
+  // Library logs (the co-simulation's collisions and teleports) on stderr: stdout is the report.
+  InitLogging("autodrive-scm-nema", spdlog::level::warn);
+  try {
+    const scm::City city = scm::LoadCity(positional.city);
+    if (collisions.sub->parsed()) return collisions.Run(city, positional);
+    if (random.sub->parsed()) return random.Run(city, positional);
+    if (exp.sub->parsed()) return exp.Run(city, positional);
+    return cross.Run(city, positional);
   } catch (const InputError& e) {
     std::fprintf(stderr, "autodrive-scm-nema: %s\n", e.what());
     return kBadInput;

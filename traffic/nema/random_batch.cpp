@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "traffic/nema/internal/child_run.h"
+#include "traffic/nema/internal/io.h"
 #include "traffic/nema/nema_program.h"
 
 #include "common/error.h"
@@ -20,34 +22,13 @@ namespace autodrive::traffic::nema {
 namespace {
 
 namespace fs = std::filesystem;
-
-void WriteFile(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-  out.close();
-  AUTODRIVE_THROW_UNLESS(!out.fail(), "cannot write " << path.string());
-}
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::string Quoted(const std::vector<std::string>& argv) {
-  std::string out;
-  for (const std::string& a : argv) {
-    const bool plain = !a.empty() && a.find_first_of(" \t\"'$\\") == std::string::npos;
-    out += (out.empty() ? "" : " ") + (plain ? a : "'" + a + "'");
-  }
-  return out;
-}
+using internal::Quoted;
+using internal::ReadFile;
+using internal::WriteFile;
 
 // The seed's report.json into `o`.
 void ReadReport(const fs::path& file, SeedOutcome& o) {
   const nlohmann::json j = nlohmann::json::parse(ReadFile(file));
-  o.ran = true;
   o.matched = j.at("match").get<bool>();
   const nlohmann::json& q = j.at("sequence");
   o.intervals = q.at("compared").get<std::size_t>();
@@ -102,60 +83,10 @@ std::vector<std::string> SeedCommand(const RandomBatchOptions& o, std::uint64_t 
           dir.string()};
 }
 
-RandomBatchResult RunRandomBatch(const RandomBatchOptions& o) {
-  AUTODRIVE_THROW_UNLESS(o.seeds >= 1, "--seeds must be at least 1, got " << o.seeds);
-  AUTODRIVE_THROW_UNLESS(o.required >= 0 && o.required <= o.seeds,
-                         "--require must be in [0, --seeds " << o.seeds << "], got " << o.required);
-  AUTODRIVE_THROW_UNLESS(!o.program.empty(), "no program to run each seed with");
-  AUTODRIVE_THROW_UNLESS(!o.out_dir.empty(), "no output folder");
-  fs::create_directories(o.out_dir);
-  const fs::path out = fs::absolute(o.out_dir);
+namespace {
 
-  RandomBatchResult r;
-  for (int k = 0; k < o.seeds; ++k) {
-    SeedOutcome s;
-    s.seed = o.first_seed + static_cast<std::uint64_t>(k);
-    s.dir = out / fmt::format("seed-{}", s.seed);
-    fs::remove_all(s.dir);
-    fs::create_directories(s.dir);
-    const fs::path output = s.dir / "output.txt";
-    const auto started = std::chrono::steady_clock::now();
-    try {
-      ChildOptions child_options;
-      child_options.output_file = output;
-      ChildProcess child = ChildProcess::Start(SeedCommand(o, s.seed, s.dir), child_options);
-      const std::optional<int> code = child.Wait(o.seed_timeout);
-      s.exit_code = code ? *code : child.Stop();
-      if (!code) s.error = fmt::format("stopped after {} s", o.seed_timeout.count() / 1000);
-    } catch (const InputError& e) {
-      s.error = e.what();
-    }
-    s.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    const fs::path report = s.dir / "report.json";
-    if ((s.exit_code == 0 || s.exit_code == 1) && fs::exists(report)) {
-      try {
-        ReadReport(report, s);
-      } catch (const std::exception& e) {  // nlohmann's parse and type errors
-        s.ran = false;
-        s.error = fmt::format("{}: {}", report.string(), e.what());
-      }
-    } else if (s.error.empty()) {
-      s.error = fmt::format("exit code {}: {}", s.exit_code, ReadFile(output));
-    }
-    s.calls = CountCalls(s.dir / "calls.txt");
-    if (!s.ran) ++r.failed;
-    if (s.ran && s.matched) ++r.matched;
-    for (std::size_t i = 0; i < s.differences.size(); ++i) {
-      const std::string rule = s.differences[i].rule.empty() ? "?" : s.differences[i].rule;
-      auto& [first, all] = r.rules[rule];
-      if (i == 0) ++first;
-      ++all;
-    }
-    r.seeds.push_back(std::move(s));
-  }
-  r.passed = r.failed == 0 && r.matched >= o.required;
-
-  // The summary for people.
+// The summary for people.
+std::string SummaryText(const RandomBatchOptions& o, const RandomBatchResult& r) {
   std::string t;
   const auto line = [&](const std::string& x) { t += x + "\n"; };
   line(fmt::format(
@@ -204,22 +135,24 @@ RandomBatchResult RunRandomBatch(const RandomBatchOptions& o) {
     line("  replay: " + Quoted(SeedCommand(o, s.seed, s.dir)));
     line("  files: " + s.dir.string());
   }
-  r.text = t;
+  return t;
+}
 
-  nlohmann::json j;
-  j["city"] = o.city.string();
-  j["intersection"] = o.intersection;
-  j["plan"] = o.plan;
-  j["seeds"] = o.seeds;
-  j["first_seed"] = o.first_seed;
-  j["duration_s"] = ToSeconds(o.duration);
-  j["tolerance_s"] = ToSeconds(o.tolerance);
-  j["mean_gap_s"] = ToSeconds(o.mean_gap);
-  j["calls_from_s"] = ToSeconds(o.calls_from);
-  j["required"] = o.required;
-  j["matched"] = r.matched;
-  j["failed"] = r.failed;
-  j["passed"] = r.passed;
+// The summary as JSON.
+nlohmann::json SummaryJson(const RandomBatchOptions& o, const RandomBatchResult& r) {
+  nlohmann::json j = {{"city", o.city.string()},
+                      {"intersection", o.intersection},
+                      {"plan", o.plan},
+                      {"seeds", o.seeds},
+                      {"first_seed", o.first_seed},
+                      {"duration_s", ToSeconds(o.duration)},
+                      {"tolerance_s", ToSeconds(o.tolerance)},
+                      {"mean_gap_s", ToSeconds(o.mean_gap)},
+                      {"calls_from_s", ToSeconds(o.calls_from)},
+                      {"required", o.required},
+                      {"matched", r.matched},
+                      {"failed", r.failed},
+                      {"passed", r.passed}};
   nlohmann::json rules = nlohmann::json::object();
   for (const auto& [rule, counts] : r.rules) {
     rules[rule] = {{"first_difference_of_seeds", counts.first}, {"stretches", counts.second}};
@@ -250,6 +183,47 @@ RandomBatchResult RunRandomBatch(const RandomBatchOptions& o) {
                      {"replay", Quoted(SeedCommand(o, s.seed, s.dir))}});
   }
   j["seed_results"] = seeds;
+  return j;
+}
+
+}  // namespace
+
+RandomBatchResult RunRandomBatch(const RandomBatchOptions& o) {
+  AUTODRIVE_THROW_UNLESS(o.seeds >= 1, "--seeds must be at least 1, got " << o.seeds);
+  AUTODRIVE_THROW_UNLESS(o.required >= 0 && o.required <= o.seeds,
+                         "--require must be in [0, --seeds " << o.seeds << "], got " << o.required);
+  AUTODRIVE_THROW_UNLESS(!o.program.empty(), "no program to run each seed with");
+  AUTODRIVE_THROW_UNLESS(!o.out_dir.empty(), "no output folder");
+  fs::create_directories(o.out_dir);
+  const fs::path out = fs::absolute(o.out_dir);
+
+  RandomBatchResult r;
+  for (int k = 0; k < o.seeds; ++k) {
+    SeedOutcome s;
+    s.seed = o.first_seed + static_cast<std::uint64_t>(k);
+    s.dir = out / fmt::format("seed-{}", s.seed);
+    const internal::ChildRun run =
+        internal::RunChild(SeedCommand(o, s.seed, s.dir), s.dir, o.seed_timeout,
+                           [&](const fs::path& report) { ReadReport(report, s); });
+    s.exit_code = run.exit_code;
+    s.ran = run.ran;
+    s.error = run.error;
+    s.wall_s = run.wall_s;
+    s.calls = CountCalls(s.dir / "calls.txt");
+    if (!s.ran) ++r.failed;
+    if (s.ran && s.matched) ++r.matched;
+    for (std::size_t i = 0; i < s.differences.size(); ++i) {
+      const std::string rule = s.differences[i].rule.empty() ? "?" : s.differences[i].rule;
+      auto& [first, all] = r.rules[rule];
+      if (i == 0) ++first;
+      ++all;
+    }
+    r.seeds.push_back(std::move(s));
+  }
+  r.passed = r.failed == 0 && r.matched >= o.required;
+
+  r.text = SummaryText(o, r);
+  const nlohmann::json j = SummaryJson(o, r);
   r.text_summary = out / "summary.txt";
   r.json_summary = out / "summary.json";
   WriteFile(r.text_summary, r.text);
