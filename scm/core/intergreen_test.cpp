@@ -125,14 +125,11 @@ TEST_F(Intergreen, AClearanceBelowTheMatrixIsRefusedNamingThePairAndBothFigures)
   // crossing throughs' intergreen 5 + (0.80 + 0.318) / 0.2 - 0.20 / 0.26 = 9.8 s, beside the
   // shipped clearance of 3 s yellow + 7 s red clearance = 10 s: allowed. 6 s makes it 10.8 s.
   const auto dir = test::SourceDir() / "config/cities";
-  EXPECT_NO_THROW((void)LoadCityString(EditedDrivingSchool("min_yellow_s: 3.0",
-                                                           "crossing_time_s: 4.0\n  "
-                                                           "min_yellow_s: 3.0"),
-                                       "four.yaml", dir));
+  EXPECT_NO_THROW((void)LoadCityString(
+      EditedDrivingSchool("crossing_time_s: 3.0", "crossing_time_s: 4.0"), "four.yaml", dir));
   try {
-    (void)LoadCityString(
-        EditedDrivingSchool("min_yellow_s: 3.0", "crossing_time_s: 5.0\n  min_yellow_s: 3.0"),
-        "five.yaml", dir);
+    (void)LoadCityString(EditedDrivingSchool("crossing_time_s: 3.0", "crossing_time_s: 5.0"),
+                         "five.yaml", dir);
     FAIL() << "a clearance under the intergreen matrix loaded";
   } catch (const ConfigError& e) {
     const std::string what = e.what();
