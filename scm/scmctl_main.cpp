@@ -390,8 +390,11 @@ int ReadHires(const dds::ParticipantOptions& dds_options, const HiresRequest& re
     std::size_t at_last = 0;
     for (const nlohmann::json& r : rows) at_last += r[0].get<std::int64_t>() == last_ms;
     if (at_last == rows.size()) {
-      // More records of one millisecond than a page: ask again for more of them.
-      skip = rows.size();
+      // More records of one millisecond than a page: ask again for more of them. Those of it
+      // read before this page (when the page began at that millisecond) stay read.
+      const Time at_ms{std::chrono::milliseconds(last_ms)};
+      skip = since == at_ms ? std::max(skip, rows.size()) : rows.size();
+      since = at_ms;
       ask *= 2;
     } else {
       skip = at_last;

@@ -184,6 +184,18 @@ TEST_F(ScmctlAtspm, TheGoldenCycleAndTheSplitsThroughARealScm) {
   const Output paged = Scmctl({"hires", "driving_school_crossing", "--since", Arg(at(0)), "--until",
                                Arg(at(1000)), "--csv", "--page", "2"});
   EXPECT_EQ(paged.text, r.text);
+  // Over the served cycles, whose milliseconds hold 2 to 4 records each, in pages of 1 to 3 as
+  // in one (a page that ends inside a millisecond read on from a later page once printed some
+  // of its records twice).
+  r = Scmctl({"hires", "driving_school_crossing", "--since", Arg(at(950)), "--until", Arg(at(1200)),
+              "--csv"});
+  ASSERT_EQ(r.code, 0) << r.text;
+  EXPECT_EQ(std::ranges::count(r.text, '\n'), 1 + 3 * 11) << r.text;
+  for (const char* page : {"1", "2", "3"}) {
+    const Output p = Scmctl({"hires", "driving_school_crossing", "--since", Arg(at(950)), "--until",
+                             Arg(at(1200)), "--csv", "--page", page});
+    EXPECT_EQ(p.text, r.text) << "pages of " << page;
+  }
 
   scm.Stop();
   loop.join();
