@@ -21,6 +21,24 @@ void TimingConfig::Validate() const {
   }
 }
 
+void SetPlanCycle(const std::vector<SignalGroup>& groups, Plan& plan) {
+  plan.phase_starts.clear();
+  Duration t{0};
+  for (std::size_t k = 0; k < plan.phases.size(); ++k) {
+    plan.phase_starts.push_back(t);
+    const auto& next = plan.phases[(k + 1) % plan.phases.size()].groups;
+    Duration yellow{0};
+    Duration red{0};
+    for (std::size_t g : plan.phases[k].groups) {
+      if (std::ranges::find(next, g) != next.end()) continue;
+      yellow = std::max(yellow, groups[g].timing.yellow);
+      red = std::max(red, groups[g].timing.red_clearance);
+    }
+    t += plan.phases[k].green + yellow + red;
+  }
+  plan.cycle = t;
+}
+
 std::string_view ToString(PlanType type) {
   switch (type) {
     case PlanType::kFixed:

@@ -80,6 +80,10 @@ struct Plan {
   std::vector<Duration> phase_starts;
 };
 
+/// Sets `plan`'s phase starts and cycle from its greens and `groups`' clearances: each phase
+/// change adds the longest yellow and red clearance of the groups it ends.
+void SetPlanCycle(const std::vector<SignalGroup>& groups, Plan& plan);
+
 /// From `minute_of_day` on, `plan` (an index into `IntersectionModel::plans`).
 struct ScheduleEntry {
   int minute_of_day = 0;

@@ -41,22 +41,9 @@ std::string GroupLabel(const scm::IntersectionModel& x, std::size_t g) {
 Duration FloorToStep(Duration d, Duration step) { return d - d % step; }
 
 // A fixed-time plan's phase starts and cycle from its groups' clearances, as the city loader
-// sets them (greens plus the clearance of the groups each phase change ends).
+// sets them, with its offset kept within the new cycle.
 void SetCycle(const std::vector<scm::SignalGroup>& groups, scm::Plan& plan) {
-  plan.phase_starts.clear();
-  Duration t{0};
-  for (std::size_t k = 0; k < plan.phases.size(); ++k) {
-    plan.phase_starts.push_back(t);
-    const auto& next = plan.phases[(k + 1) % plan.phases.size()].groups;
-    Duration yellow{0}, red{0};
-    for (std::size_t g : plan.phases[k].groups) {
-      if (std::ranges::find(next, g) != next.end()) continue;
-      yellow = std::max(yellow, groups[g].timing.yellow);
-      red = std::max(red, groups[g].timing.red_clearance);
-    }
-    t += plan.phases[k].green + yellow + red;
-  }
-  plan.cycle = t;
+  scm::SetPlanCycle(groups, plan);
   if (plan.cycle > Duration{0}) plan.offset = plan.offset % plan.cycle;
 }
 

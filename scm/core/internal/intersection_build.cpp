@@ -194,27 +194,6 @@ Phase BuildPhase(const PhaseConfig& phc, PlanType type, const IntersectionModel&
   return phase;
 }
 
-/// Sets `plan`'s phase starts and cycle: greens plus the clearance of the groups each phase
-/// change ends.
-void SetCycle(const std::vector<SignalGroup>& groups, Plan& plan) {
-  Duration t{0};
-  for (std::size_t k = 0; k < plan.phases.size(); ++k) {
-    plan.phase_starts.push_back(t);
-    const auto& now_groups = plan.phases[k].groups;
-    const auto& next_groups = plan.phases[(k + 1) % plan.phases.size()].groups;
-    Duration yellow{0};
-    Duration red{0};
-    for (std::size_t gi : now_groups) {
-      if (std::ranges::find(next_groups, gi) == next_groups.end()) {
-        yellow = std::max(yellow, groups[gi].timing.yellow);
-        red = std::max(red, groups[gi].timing.red_clearance);
-      }
-    }
-    t += plan.phases[k].green + yellow + red;
-  }
-  plan.cycle = t;
-}
-
 /// The detectors `dc` places: one zone per ingress lane of its approach.
 void AddDetectors(const DetectorConfig& dc, PlanType type, const IntersectionModel& x,
                   const MapSite& site, std::vector<Detector>& out, const Where& dw) {
@@ -437,7 +416,7 @@ Plan BuildPlan(const PlanConfig& pc, const IntersectionModel& x, const MapSite& 
                           GroupLabel(x.groups[gi])));
     }
   }
-  SetCycle(x.groups, plan);
+  SetPlanCycle(x.groups, plan);
   if (plan.cycle <= Duration{0}) pw.Fail("the cycle is empty");
   plan.offset = plan.offset % plan.cycle;
   for (std::size_t k = 0; k < pc.detectors.size(); ++k) {
