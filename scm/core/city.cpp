@@ -211,6 +211,7 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
     }
   }
   SetIntergreens(city.safety, map, cache, where, x);
+  internal::CheckCrosswalks(cfg, x, site, scale, where);
   x.plans = internal::BuildPlans(cfg, x, site, scale, where);
   x.schedule = internal::BuildSchedule(cfg, x, where);
   return x;

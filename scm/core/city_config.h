@@ -186,6 +186,36 @@ struct PriorityConfig {
   bool operator==(const PriorityConfig&) const = default;
 };
 
+/// A marked crosswalk across one leg of an intersection and its pedestrian timing, checked at
+/// load against the MUTCD at the lab's scale (docs/controller.md, "Pedestrians").
+struct CrosswalkConfig {
+  std::string leg;        ///< the leg it crosses: "east", "north", "west", "south"
+  double length_m = 0.0;  ///< lab metres, from the kerb to the far side of the traveled way
+  /// Lab metres from the push button to the kerb. Absent: no push button (the MUTCD's 6 ft).
+  std::optional<double> button_setback_m;
+  /// The groups whose vehicles cross it (never green during its walk and ped clear). With
+  /// neither `groups` nor `movements`: every group with a movement from or into its leg.
+  std::vector<std::uint32_t> groups;
+  /// Further movements by map name that cross it: their groups are added to `groups`.
+  std::vector<std::string> movements;
+  /// Steady walk (NTCIP phaseWalk), configured seconds: the MUTCD's full-scale seconds.
+  nanoseconds walk_s{0};
+  nanoseconds ped_clear_s{0};  ///< flashing don't walk (NTCIP phasePedestrianClear), as walk_s
+
+  template <typename Archive>
+  void Serialize(Archive& a) {
+    a.Required("leg", leg, config::OneOf{{"east", "north", "west", "south"}});
+    a.Required("length_m", length_m, config::Range{0.01, 10.0});
+    a.Optional("button_setback_m", button_setback_m, config::Range{0.0, 10.0});
+    a.Optional("groups", groups, config::Range<std::uint32_t>{1, 255});
+    a.Optional("movements", movements);
+    const config::Range<nanoseconds> range{nanoseconds(0), std::chrono::minutes(5)};
+    a.Required("walk_s", walk_s, range);
+    a.Required("ped_clear_s", ped_clear_s, range);
+  }
+  bool operator==(const CrosswalkConfig&) const = default;
+};
+
 /// A signalised intersection of the map.
 struct IntersectionConfig {
   std::string name;  ///< the map's intersection name
@@ -208,6 +238,10 @@ struct IntersectionConfig {
   /// ntcip: an actuated green's passage runs whatever the other calls do; sumo: as SUMO 1.15's
   /// NEMA controller rests in green (docs/controller.md, "Green rest").
   std::string green_rest = "ntcip";
+  /// Marked crosswalks with pedestrian signals, at most one per leg.
+  std::vector<CrosswalkConfig> crosswalks;
+  /// Pedestrian volumes do not need the MUTCD's 7 s walk: walks as short as 4 s are allowed.
+  bool low_pedestrian_volume = false;
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -223,6 +257,8 @@ struct IntersectionConfig {
     a.Optional("next_phase_decision", next_phase_decision,
                config::OneOf{{"end_of_green", "end_of_clearance"}});
     a.Optional("green_rest", green_rest, config::OneOf{{"ntcip", "sumo"}});
+    a.Optional("crosswalks", crosswalks);
+    a.Optional("low_pedestrian_volume", low_pedestrian_volume);
   }
   bool operator==(const IntersectionConfig&) const = default;
 };

@@ -119,6 +119,145 @@ TEST(City, RefusesARedClearanceBelowTheIteFigureForItsClearingVehicles) {
       HasSubstr("safety.clearing_vehicles: is empty"));
 }
 
+// --- Pedestrians (docs/controller.md, "Pedestrians") ---
+
+/// The Driving School's east leg (two 0.3 m lanes: 8.4 m at 1:14) with a crosswalk whose
+/// push button is 0.1 m back (1.4 m): ped clear >= 8.4 / 1.07 = 7.85 -> 8 s, walk + ped clear
+/// >= 9.8 / 0.91 = 10.8 -> 11 s. `changes` replace its keys' values (an empty value drops the
+/// key) or add keys; `more` follows it in the list.
+std::pair<std::string, std::string> Crosswalk(
+    const std::vector<std::pair<std::string, std::string>>& changes = {},
+    const std::string& more = "") {
+  std::vector<std::pair<std::string, std::string>> keys{{"leg", "east"},
+                                                        {"length_m", "0.6"},
+                                                        {"button_setback_m", "0.1"},
+                                                        {"walk_s", "7"},
+                                                        {"ped_clear_s", "8"}};
+  for (const auto& [key, value] : changes) {
+    const auto it = std::ranges::find(keys, key, &std::pair<std::string, std::string>::first);
+    if (it == keys.end()) {
+      keys.emplace_back(key, value);
+    } else {
+      it->second = value;
+    }
+  }
+  std::string fields;
+  for (const auto& [key, value] : keys) {
+    if (!value.empty()) fields += (fields.empty() ? "" : ", ") + key + ": " + value;
+  }
+  return {"    plans:\n      - name: day",
+          "    crosswalks:\n      - {" + fields + "}\n" + more + "    plans:\n      - name: day"};
+}
+
+std::string WithCrosswalk(const std::vector<std::pair<std::string, std::string>>& changes = {}) {
+  std::string text = config::ReadFile(CitiesDir() / "driving_school.yaml");
+  const auto [from, to] = Crosswalk(changes);
+  text.replace(text.find(from), from.size(), to);
+  return text;
+}
+
+TEST(Pedestrians, ACrosswalkWithTheMutcdTimesLoads) {
+  const City city = LoadCityString(WithCrosswalk(), "city.yaml", CitiesDir());
+  ASSERT_EQ(city.config.intersections[0].crosswalks.size(), 1u);
+  EXPECT_EQ(city.config.intersections[0].crosswalks[0].ped_clear_s, std::chrono::seconds(8));
+  // Listing the groups it crosses: the east approach's and the westbound through's; the north
+  // and south groups only turn into the east leg, so run parallel to it (yellow 3 + red 7).
+  EXPECT_NO_THROW(
+      (void)LoadCityString(WithCrosswalk({{"groups", "[1, 3]"}}), "city.yaml", CitiesDir()));
+  EXPECT_NO_THROW(
+      (void)LoadCityString(WithCrosswalk({{"groups", "[1]"}, {"movements", "[\"r2c2:W>E:0>0\"]"}}),
+                           "city.yaml", CitiesDir()));
+  // The file round-trips with its crosswalks.
+  const std::string saved = config::SaveString(city.config);
+  EXPECT_EQ(config::LoadString<CityConfig>(saved), city.config);
+}
+
+TEST(Pedestrians, RefusesAWalkBelow7SecondsOr4WithLowVolume) {
+  EXPECT_EQ(LoadError({Crosswalk({{"walk_s", "6"}})}),
+            "city.yaml: intersections[0] (driving_school_crossing).crosswalks[0] (east leg): the "
+            "crossing of 0.6 lab m is 8.40 m at 1:14, its push button 1.40 m (0.1 lab m back); "
+            "walk 6 s is below 7 s; rule: MUTCD 2009 4E.06: walk at least 7 s (4 s only with "
+            "low_pedestrian_volume: true)");
+  const auto low_volume =
+      std::make_pair(std::string("    crosswalks:"), std::string("    low_pedestrian_volume: true\n"
+                                                                 "    crosswalks:"));
+  std::string text = WithCrosswalk({{"walk_s", "4"}});
+  text.replace(text.find(low_volume.first), low_volume.first.size(), low_volume.second);
+  EXPECT_NO_THROW((void)LoadCityString(text, "city.yaml", CitiesDir()));
+  EXPECT_THAT(LoadError({Crosswalk({{"walk_s", "3.5"}}), low_volume}),
+              HasSubstr("walk 3.5 s is below 4 s; rule: MUTCD 2009 4E.06: walk at least 4 s "
+                        "where pedestrian volumes do not need 7 s"));
+}
+
+TEST(Pedestrians, RefusesAPedClearBelowTheCrossingAt3Point5FeetPerSecond) {
+  EXPECT_THAT(LoadError({Crosswalk({{"ped_clear_s", "7.5"}})}),
+              HasSubstr("crosswalks[0] (east leg): the crossing of 0.6 lab m is 8.40 m at 1:14, "
+                        "its push button 1.40 m (0.1 lab m back); ped clear 7.5 s is below "
+                        "8.40 m / 1.07 m/s = 7.85 s, rounded up 8 s; rule: MUTCD 2009 4E.06 P07: "
+                        "pedestrian clearance to the far side of the traveled way at 3.5 ft/s "
+                        "(1.07 m/s)"));
+}
+
+TEST(Pedestrians, RefusesAWalkAndPedClearBelowTheWalkFromTheButtonAt3FeetPerSecond) {
+  // The button 0.5 lab m back: (8.4 + 7.0) / 0.91 = 16.9 -> 17 s; 7 + 8 is 15.
+  EXPECT_THAT(LoadError({Crosswalk({{"button_setback_m", "0.5"}})}),
+              HasSubstr("its push button 7.00 m (0.5 lab m back); walk + ped clear 7 s + 8 s = "
+                        "15 s is below (8.40 m + 7.00 m) / 0.91 m/s = 16.92 s, rounded up 17 s (a "
+                        "walk of at least 9 s with this ped clear); rule: MUTCD 2009 4E.06 P14"));
+  EXPECT_NO_THROW((void)LoadCityString(
+      WithCrosswalk({{"button_setback_m", "0.5"}, {"walk_s", "9"}}), "city.yaml", CitiesDir()));
+  // Without a button, P14 measures from 6 ft (1.83 m) back: (8.4 + 1.83) / 0.91 = 11.2 -> 12 s.
+  EXPECT_THAT(
+      LoadError({Crosswalk({{"button_setback_m", ""}, {"ped_clear_s", "4"}})}),
+      HasSubstr("its start (no push button) 1.83 m (the MUTCD's 6 ft back from the kerb); ped "
+                "clear 4 s is below 8.40 m / 1.07 m/s = 7.85 s, rounded up 8 s; rule: MUTCD 2009 "
+                "4E.06 P07: pedestrian clearance to the far side of the traveled way at 3.5 ft/s "
+                "(1.07 m/s); and walk + ped clear 7 s + 4 s = 11 s is below (8.40 m + 1.83 m) / "
+                "0.91 m/s = 11.24 s, rounded up 12 s"));
+}
+
+TEST(Pedestrians, RefusesABufferBelow3SecondsOnAGroupParallelToTheCrosswalk) {
+  // Floors and a clearing vehicle that let yellow 1.5 s + red clearance 1 s load.
+  const std::vector<std::pair<std::string, std::string>> short_clearances{
+      {"min_yellow_s: 3.0", "min_yellow_s: 1.0"},
+      {"length_m: 0.318, speed_mps: 0.2", "length_m: 0.318, speed_mps: 2.0"},
+      {"crossing_time_s: 3.0", "crossing_time_s: 0.0"},
+      {"{id: 2, name: north, approaches: [north]}",
+       "{id: 2, name: north, approaches: [north], timing: {yellow_s: 1.5, red_clearance_s: 1}}"}};
+  auto edits = short_clearances;
+  edits.push_back(Crosswalk({{"groups", "[1, 3]"}}));
+  EXPECT_THAT(LoadError(edits),
+              HasSubstr("crosswalks[0] (east leg): group 2 (north) runs parallel to it (it is not "
+                        "among the groups it crosses): its yellow 1.5 s + red clearance 1 s = "
+                        "2.5 s; buffer 2.5 s is below 3 s; rule: MUTCD Figure 4E-2: buffer "
+                        "interval"));
+  // Crossed by group 2 (its left turn into the east leg), the crosswalk never runs with it.
+  std::string text = config::ReadFile(CitiesDir() / "driving_school.yaml");
+  edits.back() = Crosswalk({{"groups", "[1, 2, 3]"}});
+  for (const auto& [from, to] : edits) text.replace(text.find(from), from.size(), to);
+  EXPECT_NO_THROW((void)LoadCityString(text, "city.yaml", CitiesDir()));
+}
+
+TEST(Pedestrians, RefusesACrosswalkThatMissesTheTrafficOverItOrItsLeg) {
+  EXPECT_THAT(LoadError({Crosswalk({{"groups", "[3]"}})}),
+              HasSubstr("crosswalks[0] (east leg): group 1 (east) is not among the groups it "
+                        "crosses, but its movement r2c2:E>N:0>0 comes from the east leg; rule: "
+                        "traffic from a leg or straight into it never runs with the leg's walk"));
+  EXPECT_THAT(LoadError({Crosswalk({{"groups", "[1]"}})}),
+              HasSubstr("group 3 (west) is not among the groups it crosses, but its movement "
+                        "r2c2:W>E:0>0 goes straight into the east leg"));
+  EXPECT_THAT(LoadError({Crosswalk({{"groups", "[1, 3]"}, {"movements", "[\"r2c2:N>W:0>0\"]"}})}),
+              HasSubstr("crosswalks[0] (east leg).movements: movement r2c2:N>W:0>0 neither comes "
+                        "from nor goes into the east leg"));
+  EXPECT_THAT(LoadError({Crosswalk({{"length_m", "0.5"}})}),
+              HasSubstr("length_m 0.5 is shorter than the east leg's traveled way, 0.600 m over 2 "
+                        "lanes"));
+  EXPECT_THAT(
+      LoadError({Crosswalk({}, "      - {leg: east, length_m: 0.6, walk_s: 7, ped_clear_s: 8}\n")}),
+      HasSubstr("crosswalks[1] (east leg): crosswalks[0] is on the east leg too; rule: "
+                "one crosswalk per leg"));
+}
+
 TEST(City, RefusesConflictingGroupsInOnePhase) {
   EXPECT_EQ(LoadError("- {groups: [1], green_s: 8.0}", "- {groups: [1, 2], green_s: 8.0}"),
             "city.yaml: intersections[0] (driving_school_crossing).plans[0] (day).phases[0]: "

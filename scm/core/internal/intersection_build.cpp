@@ -10,6 +10,8 @@
 #include <utility>
 
 #include "common/error.h"
+#include "maps/sumo.h"
+#include "scm/core/pedestrian_timing.h"
 
 namespace autodrive::scm::internal {
 
@@ -213,6 +215,128 @@ void AddDetectors(const DetectorConfig& dc, PlanType type, const IntersectionMod
   }
   for (LaneId lane : approach->ingress) {
     out.push_back({gi, lane, dc.setback_m, dc.setback_m + dc.length_m});
+  }
+}
+
+// --- Crosswalks ---
+
+/// How movement `m` meets a crosswalk on the leg at `side`: `crosses` when it comes from the leg
+/// or goes into it; `hard` when it comes from it or goes straight into it, so cannot cross the
+/// crosswalk yielding to its pedestrians as a turn into the leg can.
+struct LegCrossing {
+  bool crosses = false;
+  bool hard = false;
+  std::string how;  ///< "comes from", "goes straight into", "turns into"
+};
+
+LegCrossing CrossingOf(const MapSite& site, MovementId m, maps::Side side) {
+  const maps::Movement& mv = site.map.movement(m);
+  if (site.SideOf(m) == side) return {true, true, "comes from"};
+  const bool into = std::ranges::any_of(
+      site.x.approaches, [&](const auto& a) { return a.id == mv.to_approach && a.side == side; });
+  if (!into) return {};
+  if (mv.turn == maps::Turn::kStraight) return {true, true, "goes straight into"};
+  return {true, false, "turns into"};
+}
+
+/// The groups (by index into `x.groups`) crosswalk `c` on the leg at `side` crosses: as listed,
+/// else every group with a movement from or into the leg; each listed one must cross it, and
+/// every group that cannot cross it permissively must be listed.
+std::vector<bool> CrossedGroups(const CrosswalkConfig& c, maps::Side side,
+                                const IntersectionModel& x, const MapSite& site, const Where& cw) {
+  const std::size_t n = x.groups.size();
+  std::vector<bool> crossed(n, false);
+  const auto group_crosses = [&](std::size_t gi) {
+    return std::ranges::any_of(x.groups[gi].movements,
+                               [&](MovementId m) { return CrossingOf(site, m, side).crosses; });
+  };
+  const bool listed = !c.groups.empty() || !c.movements.empty();
+  for (std::size_t gi = 0; gi < n && !listed; ++gi) crossed[gi] = group_crosses(gi);
+  for (const std::uint32_t id : c.groups) {
+    const std::size_t gi = GroupById(x.groups, id, cw.Then("groups"));
+    if (!group_crosses(gi)) {
+      cw.Then("groups").Fail(fmt::format(
+          "group {} has no movement from or into the {} leg: it does not cross this crosswalk",
+          GroupLabel(x.groups[gi]), c.leg));
+    }
+    crossed[gi] = true;
+  }
+  for (const auto& name : c.movements) {
+    const auto it = std::ranges::find_if(
+        site.x.movements, [&](MovementId m) { return site.map.movement(m).name == name; });
+    if (it == site.x.movements.end()) {
+      cw.Then("movements")
+          .Fail(fmt::format("unknown movement \"{}\" (not a movement of {})", name, site.x.name));
+    }
+    if (!CrossingOf(site, *it, side).crosses) {
+      cw.Then("movements")
+          .Fail(fmt::format("movement {} neither comes from nor goes into the {} leg: it does "
+                            "not cross this crosswalk",
+                            name, c.leg));
+    }
+    crossed[*x.GroupOfMovement(*it)] = true;
+  }
+  for (std::size_t gi = 0; gi < n; ++gi) {
+    if (crossed[gi]) continue;
+    for (MovementId m : x.groups[gi].movements) {
+      const LegCrossing how = CrossingOf(site, m, side);
+      if (!how.hard) continue;
+      cw.Fail(fmt::format(
+          "group {} is not among the groups it crosses, but its movement {} {} the {} leg; "
+          "rule: traffic from a leg or straight into it never runs with the leg's walk (only "
+          "turns into the leg may cross its crosswalk, yielding to pedestrians)",
+          GroupLabel(x.groups[gi]), site.map.movement(m).name, how.how, c.leg));
+    }
+  }
+  return crossed;
+}
+
+/// Checks crosswalk `c` on the leg `approach` of `x`: its length, the groups it crosses, its
+/// MUTCD timing at the lab's scale and the buffer of the groups parallel to it.
+void CheckCrosswalk(const CrosswalkConfig& c, const maps::Approach& approach, bool low_volume,
+                    const IntersectionModel& x, const MapSite& site, double time_scale,
+                    const Where& cw) {
+  double roadway_m = 0.0;
+  for (LaneId lane : approach.ingress) roadway_m += site.map.lane(lane).width_m;
+  for (LaneId lane : approach.egress) roadway_m += site.map.lane(lane).width_m;
+  if (c.length_m < roadway_m - 1e-6) {
+    cw.Fail(fmt::format(
+        "length_m {:g} is shorter than the {} leg's traveled way, {:.3f} m over {} lanes; rule: "
+        "the MUTCD times the pedestrian clearance to the far side of the traveled way",
+        c.length_m, c.leg, roadway_m, approach.ingress.size() + approach.egress.size()));
+  }
+  const std::vector<bool> crossed = CrossedGroups(c, approach.side, x, site, cw);
+  constexpr double scale = maps::kSumoScale;
+  const PedestrianCrossing full{
+      c.length_m * scale, c.button_setback_m ? *c.button_setback_m * scale : kNoButtonSetbackM};
+  const auto violations =
+      CheckPedestrianTiming(full, {ToSeconds(c.walk_s), ToSeconds(c.ped_clear_s)}, low_volume);
+  if (!violations.empty()) {
+    std::string what = fmt::format(
+        "the crossing of {:g} lab m is {:.2f} m at 1:{:g}, its {} {:.2f} m ({}); ", c.length_m,
+        full.length_m, scale, c.button_setback_m ? "push button" : "start (no push button)",
+        full.button_setback_m,
+        c.button_setback_m ? fmt::format("{:g} lab m back", *c.button_setback_m)
+                           : std::string("the MUTCD's 6 ft back from the kerb"));
+    for (std::size_t k = 0; k < violations.size(); ++k) {
+      what += (k == 0 ? "" : "; and ") + violations[k].message;
+    }
+    cw.Fail(what);
+  }
+  for (std::size_t gi = 0; gi < x.groups.size(); ++gi) {
+    if (crossed[gi]) continue;
+    const GroupTiming& t = x.groups[gi].timing;
+    const double buffer_s = ToSeconds(t.yellow + t.red_clearance) / time_scale;
+    if (const auto v = CheckBufferInterval(buffer_s)) {
+      cw.Fail(fmt::format(
+          "group {} runs parallel to it (it is not among the groups it crosses): its yellow "
+          "{:g} s + red clearance {:g} s = {:g} s{}; {}",
+          GroupLabel(x.groups[gi]), ToSeconds(t.yellow) / time_scale,
+          ToSeconds(t.red_clearance) / time_scale, buffer_s,
+          time_scale == 1.0 ? std::string()
+                            : fmt::format(" (configured, time_scale {})", time_scale),
+          v->message));
+    }
   }
 }
 
@@ -442,6 +566,26 @@ std::vector<Plan> BuildPlans(const IntersectionConfig& cfg, const IntersectionMo
     plans.push_back(BuildPlan(pc, x, site, time_scale, pw));
   }
   return plans;
+}
+
+void CheckCrosswalks(const IntersectionConfig& cfg, const IntersectionModel& x, const MapSite& site,
+                     double time_scale, const Where& where) {
+  for (std::size_t k = 0; k < cfg.crosswalks.size(); ++k) {
+    const CrosswalkConfig& c = cfg.crosswalks[k];
+    const Where cw = where.Then(fmt::format("crosswalks[{}] ({} leg)", k, c.leg));
+    for (std::size_t j = 0; j < k; ++j) {
+      if (cfg.crosswalks[j].leg == c.leg) {
+        cw.Fail(fmt::format("crosswalks[{}] is on the {} leg too; rule: one crosswalk per leg", j,
+                            c.leg));
+      }
+    }
+    const auto side = *SideFromName(c.leg);
+    const auto approach = std::ranges::find(site.x.approaches, side, &maps::Approach::side);
+    if (approach == site.x.approaches.end()) {
+      cw.Fail(fmt::format("the intersection has no {} leg", c.leg));
+    }
+    CheckCrosswalk(c, *approach, cfg.low_pedestrian_volume, x, site, time_scale, cw);
+  }
 }
 
 int ParseMinuteOfDay(const std::string& text, const Where& where) {

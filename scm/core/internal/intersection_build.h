@@ -101,6 +101,18 @@ void AssignHeads(const IntersectionConfig& cfg, const MapSite& site, Groups& gro
                                            const IntersectionModel& x, const MapSite& site,
                                            double time_scale, const Where& where);
 
+/// Checks the crosswalks of `cfg` at `site` against `x` (its groups built, timing in lab time at
+/// `time_scale`) and the MUTCD (scm/core/pedestrian_timing.h) at the lab's scale
+/// (`maps::kSumoScale`; docs/controller.md, "Pedestrians"). Rules: one crosswalk per leg of the
+/// intersection, as long as the leg's traveled way; the groups it crosses drive across its leg
+/// and include every group with a movement from the leg or straight into it (only turns into
+/// the leg may cross it permissively); walk, ped clear and walk + ped clear at or above the
+/// MUTCD minimums for its full-scale length and push-button setback; every other group (those
+/// parallel to it) with a yellow + red clearance of at least the 3 s buffer interval. Times are
+/// compared as configured (full-scale seconds), before `time_scale`.
+void CheckCrosswalks(const IntersectionConfig& cfg, const IntersectionModel& x, const MapSite& site,
+                     double time_scale, const Where& where);
+
 /// "HH:MM" as minutes of the day; fails at `where` on anything else.
 [[nodiscard]] int ParseMinuteOfDay(const std::string& text, const Where& where);
 
