@@ -12,6 +12,7 @@
 #include <pugixml.hpp>
 
 #include "traffic/cosim.h"
+#include "traffic/nema/internal/head_lamp.h"
 #include "traffic/nema/internal/io.h"
 #include "traffic/nema/nema_program.h"
 #include "traffic/nema/oracle_traffic.h"
@@ -26,13 +27,12 @@ namespace autodrive::traffic::nema {
 namespace {
 
 namespace fs = std::filesystem;
+using internal::HeadLamp;
 using internal::WriteFile;
 // What a head shows (common/aspect.h; traffic::Aspect is what a driver reads of it).
 using HeadAspect = ::autodrive::Aspect;
 
 constexpr Duration kDay = std::chrono::hours(24);
-/// The light host's flash: on for the first half of each second (infrastructure/device.cpp).
-constexpr Duration kFlashPeriod = std::chrono::seconds(1);
 
 std::string GroupLabel(const scm::IntersectionModel& x, std::size_t g) {
   return fmt::format("group {} ({})", x.groups[g].id.value(), x.groups[g].name);
@@ -46,34 +46,6 @@ void SetCycle(const std::vector<scm::SignalGroup>& groups, scm::Plan& plan) {
   scm::SetPlanCycle(groups, plan);
   if (plan.cycle > Duration{0}) plan.offset = plan.offset % plan.cycle;
 }
-
-// What a head's lamps show (`signal_<i>/state`: 0 dark, 1 red, 2 yellow, 3 green) as the light
-// host shows the aspect: a flashing aspect lit for the first half of each period from when it
-// began.
-class HeadLamp {
- public:
-  int At(HeadAspect aspect, Duration now) {
-    if (aspect != aspect_) {
-      aspect_ = aspect;
-      since_ = now;
-    }
-    switch (aspect_) {
-      case HeadAspect::kFlashingRed:
-      case HeadAspect::kFlashingYellow: {
-        const bool on = (now - since_) % kFlashPeriod < kFlashPeriod / 2;
-        if (!on) return 0;
-        return aspect_ == HeadAspect::kFlashingRed ? ToWire(HeadAspect::kRed)
-                                                   : ToWire(HeadAspect::kYellow);
-      }
-      default:
-        return ToWire(aspect_);
-    }
-  }
-
- private:
-  HeadAspect aspect_ = HeadAspect::kOff;
-  Duration since_{0};
-};
 
 // Each group's greens as the controllers showed them, and the least intergreen seen between
 // conflicting groups.

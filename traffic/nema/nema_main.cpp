@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "traffic/nema/atspm_check.h"
 #include "traffic/nema/call_script.h"
 #include "traffic/nema/collision_batch.h"
 #include "traffic/nema/collision_oracle.h"
@@ -405,6 +406,71 @@ struct CollisionsCommand {
   }
 };
 
+// `atspm-check CITY INTERSECTION [--duration S] [--seed N] --out DIR ...`.
+struct AtspmCheckCommand {
+  CLI::App* sub = nullptr;
+  AtspmCheckOptions options;
+  double duration_s = 3600.0;
+  double headway_s = 40.0;
+  double shift_s = 0.0;
+  std::string time_of_day = "12:00";
+  std::string out;
+
+  void Add(CLI::App& app, Positional& p) {
+    sub = app.add_subcommand(
+        "atspm-check",
+        "ATSPM measures against SUMO's own records: the oracle's co-simulation (the SCM's "
+        "controllers driving SUMO's lights, 0.1 s lockstep) with random arrivals through one "
+        "intersection, a detection point per ingress lane seen by both the SCM (a zone: 82/81 "
+        "in its hires log) and SUMO (an instantInductionLoop), SUMO's SaveTLSSwitchTimes and "
+        "SaveTLSStates; compares scm/atspm's arrivals on green per phase and 15 min with the "
+        "loop entries inside SUMO's greens, and the split monitor with SUMO's green + yellow + "
+        "red. Writes DIR/report.txt and DIR/report.json; exit 0 when every difference is "
+        "within tolerance, 1 otherwise. See docs/atspm.md, \"Checked against SUMO\"");
+    p.AddCity(sub);
+    sub->add_option("INTERSECTION", options.intersection, "signalised intersection: name or id")
+        ->required();
+    sub->add_option("--duration", duration_s, "simulated seconds")
+        ->check(CLI::Range(1.0, 86400.0))
+        ->capture_default_str();
+    sub->add_option("--seed", options.seed, "SUMO's seed")->capture_default_str();
+    sub->add_option("--headway", headway_s,
+                    "mean seconds between two vehicles of one ingress lane (random arrivals)")
+        ->check(CLI::Range(0.5, 3600.0))
+        ->capture_default_str();
+    sub->add_option("--time-of-day", time_of_day,
+                    "local time at the start (HH:MM): the scheduled plan, fixed time for the "
+                    "whole run")
+        ->capture_default_str();
+    sub->add_option("--setback", options.setback_m,
+                    "the detection point, lab metres upstream of the stop line")
+        ->check(CLI::Range(0.02, 10.0))
+        ->capture_default_str();
+    sub->add_option("--test-shift-sumo-windows", shift_s,
+                    "a test's perturbation: SUMO's greens of the lowest-numbered phase moved by "
+                    "S seconds when read (the check must fail)");
+    sub->add_flag("--literal", options.literal_verdict,
+                  "the verdict on SUMO's loop stamps inside its greens as they are, not on the "
+                  "entries at the times the SCM's detector reads them (the step after SUMO's "
+                  "step that moved the vehicle past the loop)");
+    sub->add_option("--out", out, "output folder (created)")->required();
+  }
+
+  int Run(const scm::City& city) {
+    options.duration = FromSeconds(duration_s);
+    options.headway = FromSeconds(headway_s);
+    options.time_of_day = TimeOfDay(time_of_day);
+    options.test_shift_sumo_windows = FromSeconds(shift_s);
+    options.out_dir = out;
+    options.progress = [](const std::string& line) {
+      std::fprintf(stderr, "autodrive-scm-nema atspm-check: %s\n", line.c_str());
+    };
+    const AtspmCheckResult result = RunAtspmCheck(city, options);
+    std::fputs(result.text.c_str(), stdout);
+    return result.passed ? kMatch : kDifferent;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -424,10 +490,12 @@ int main(int argc, char** argv) {
   CrosscheckCommand cross;
   RandomCommand random;
   CollisionsCommand collisions;
+  AtspmCheckCommand atspm;
   exp.Add(app, positional);
   cross.Add(app, positional);
   random.Add(app, positional);
   collisions.Add(app, positional);
+  atspm.Add(app, positional);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -439,6 +507,7 @@ int main(int argc, char** argv) {
   try {
     const scm::City city = scm::LoadCity(positional.city);
     if (collisions.sub->parsed()) return collisions.Run(city, positional);
+    if (atspm.sub->parsed()) return atspm.Run(city);
     if (random.sub->parsed()) return random.Run(city, positional);
     if (exp.sub->parsed()) return exp.Run(city, positional);
     return cross.Run(city, positional);
