@@ -630,6 +630,11 @@ struct CommandLine {
   CLI::App* plan_cmd = nullptr;
   CLI::App* advance = nullptr;
   CLI::App* reset = nullptr;
+  /// omit, ped-omit, hold, force-off, call, ped-call: a phase control each.
+  std::vector<CLI::App*> phase_controls;
+  std::size_t phase = 0;
+  double for_s = 0.0;
+  bool off = false;
   CLI::App* events = nullptr;
   CLI::App* hires = nullptr;
   AtspmCommandLine atspm;
@@ -654,6 +659,30 @@ void AddCommands(CLI::App& app, CommandLine& c) {
   c.plan_cmd->add_option("plan", c.plan, "plan name, or auto for the schedule")->required();
   c.advance = app.add_subcommand("advance", "manual mode: end the current phase (operator)");
   c.advance->add_option("intersection", c.intersection, "name or id")->required();
+  constexpr std::pair<const char*, const char*> kPhaseControls[] = {
+      {"omit", "do not serve a phase of the running plan, nor its calls (NTCIP phase omit)"},
+      {"ped-omit", "do not serve a phase's pedestrians (NTCIP ped omit)"},
+      {"hold", "keep a phase's green once it has it (NTCIP hold)"},
+      {"force-off", "end a phase's green once its min green is served (NTCIP force off)"},
+      {"call", "call a phase as a detector would (NTCIP vehicle call)"},
+      {"ped-call", "call a phase's pedestrians as a push button would (NTCIP ped call)"}};
+  for (const auto& [name, about] : kPhaseControls) {
+    CLI::App* sub = app.add_subcommand(name, std::string(about) + ", for a time (operator)");
+    sub->add_option("intersection", c.intersection, "name or id")->required();
+    sub->add_option("phase", c.phase, "phase number in the running plan (scmctl show)")
+        ->required()
+        ->check(CLI::Range(std::size_t{1}, std::size_t{255}));
+    auto* for_s = sub->add_option("--for", c.for_s, "seconds it lasts (at most 86400)")
+                      ->check(CLI::Range(0.1, 86400.0));
+    auto* off = sub->add_flag("--off", c.off, "take it off before its time");
+    for_s->excludes(off);
+    sub->callback([sub] {
+      if (sub->count("--for") == 0 && sub->count("--off") == 0) {
+        throw CLI::ValidationError(sub->get_name(), "give --for SECONDS, or --off");
+      }
+    });
+    c.phase_controls.push_back(sub);
+  }
   c.reset =
       app.add_subcommand("reset", "clear a fail-safe flash latch, and the lights' (operator)");
   c.reset->add_option("intersection", c.intersection, "name or id")->required();
@@ -701,6 +730,17 @@ bool ToRequest(const CommandLine& c, std::string& command,
   if (c.plan_cmd->parsed()) command = "plan", args["plan"] = c.plan;
   if (c.advance->parsed()) command = "advance";
   if (c.reset->parsed()) command = "reset";
+  for (const CLI::App* sub : c.phase_controls) {
+    if (!sub->parsed()) continue;
+    command = "phase_control";
+    args["control"] = sub->get_name();
+    args["phase"] = std::to_string(c.phase);
+    if (c.off) {
+      args["off"] = "true";
+    } else {
+      args["for_s"] = fmt::format("{}", c.for_s);
+    }
+  }
   if (!c.intersection.empty()) args["intersection"] = c.intersection;
   if (c.events->parsed()) {
     command = "events";

@@ -339,6 +339,23 @@ TEST_F(ScmSystem, ScmctlAnswersEveryCommand) {
   EXPECT_EQ(r.code, 0) << r.text;
   r = Lab({"plan", "driving_school_crossing", "evening"});
   EXPECT_EQ(r.code, 0) << r.text;
+  // Phase controls: an operator's, refused to others, shown while in force, and logged.
+  r = Scmctl({"omit", "driving_school_crossing", "2", "--for", "30"}, "mallory");
+  EXPECT_EQ(r.code, 1) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("operator \"mallory\" may not change state in this city"));
+  r = Lab({"omit", "driving_school_crossing", "2", "--for", "30"});
+  EXPECT_EQ(r.code, 0) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("ok: driving_school_crossing omit phase 2 of plan "));
+  r = Lab({"hold", "driving_school_crossing", "9", "--for", "5"});
+  EXPECT_EQ(r.code, 1) << r.text;
+  EXPECT_THAT(r.text, HasSubstr("there is no phase 9"));
+  r = Lab({"hold", "driving_school_crossing", "1"});  // neither --for nor --off
+  EXPECT_EQ(r.code, 2) << r.text;
+  r = Scmctl({"show", "driving_school_crossing"});
+  EXPECT_THAT(r.text, ::testing::ContainsRegex("omit phase 2 of plan [a-z]+ for [0-9.]+ s more"));
+  r = Lab({"omit", "driving_school_crossing", "2", "--off"});
+  EXPECT_EQ(r.code, 0) << r.text;
+  EXPECT_THAT(Scmctl({"show", "driving_school_crossing"}).text, Not(HasSubstr("omit phase")));
   r = Lab({"plan", "driving_school_crossing", "rush"});
   EXPECT_EQ(r.code, 2) << "invalid, as an unknown mode is";
   EXPECT_THAT(r.text, HasSubstr("has no plan \"rush\""));

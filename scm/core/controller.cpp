@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <tuple>
 
 #include "common/error.h"
 
@@ -32,6 +33,39 @@ std::string Secs(Duration d) { return fmt::format("{:.1f} s", ToSeconds(d)); }
 /// as the plan's ring form fills a ring's four places (docs/controller.md, "Next phase
 /// decision").
 int BarrierSide(std::size_t k, std::size_t n) { return k < (n + 1) / 2 ? 0 : 1; }
+
+/// The yellow plus red clearance from phase `a` to phase `b` of `p`: the longest of the groups
+/// `a` ends.
+Duration Clearance(const std::vector<SignalGroup>& groups, const Plan& p, std::size_t a,
+                   std::size_t b) {
+  Duration yellow{0};
+  Duration red{0};
+  for (std::size_t h : p.phases[a].groups) {
+    if (Contains(p.phases[b].groups, h)) continue;
+    yellow = std::max(yellow, groups[h].timing.yellow);
+    red = std::max(red, groups[h].timing.red_clearance);
+  }
+  return yellow + red;
+}
+
+/// The hires codes of a phase control's start and end (none: 0).
+std::pair<std::uint16_t, std::uint16_t> ControlCodes(PhaseControlKind kind) {
+  switch (kind) {
+    case PhaseControlKind::kHold:
+      return {hires::kPhaseHoldActive, hires::kPhaseHoldReleased};
+    case PhaseControlKind::kCall:
+      return {hires::kPhaseCallRegistered, hires::kPhaseCallDropped};
+    case PhaseControlKind::kOmit:
+      return {hires::kPhaseOmitOn, hires::kPhaseOmitOff};
+    case PhaseControlKind::kPedOmit:
+      return {hires::kPedOmitOn, hires::kPedOmitOff};
+    case PhaseControlKind::kPedCall:
+      return {hires::kPedCallRegistered, 0};
+    case PhaseControlKind::kForceOff:
+      return {0, 0};  // its effect is logged: 6 when it ends a green
+  }
+  return {0, 0};
+}
 
 }  // namespace
 
@@ -188,13 +222,62 @@ void IntersectionController::EnterAllRed(MonoTime now, Duration d) {
 
 std::size_t IntersectionController::FirstPhase(std::size_t plan, MonoTime at) const {
   const Plan& p = model_->plans[plan];
-  if (TargetMode(plan) != Mode::kFixed || p.cycle <= Duration{0}) return 0;
+  const std::size_t first = NextServed(plan, p.phases.size() - 1);
+  if (TargetMode(plan) != Mode::kFixed || p.cycle <= Duration{0}) return first;
   const Duration pos = (at - midnight_ - p.offset) % p.cycle;
   const Duration in_cycle = pos < Duration{0} ? pos + p.cycle : pos;
   for (std::size_t k = 0; k < p.phases.size(); ++k) {
-    if (in_cycle < p.phase_starts[k] + p.phases[k].green) return k;
+    if (Omitted(plan, k)) continue;
+    if (in_cycle < p.phase_starts[k] + ServedGreen(plan, k)) return k;
   }
-  return 0;
+  return first;
+}
+
+std::size_t IntersectionController::NextServed(std::size_t plan, std::size_t from) const {
+  const std::size_t n = model_->plans[plan].phases.size();
+  for (std::size_t step = 1; step < n; ++step) {
+    const std::size_t k = (from + step) % n;
+    if (!Omitted(plan, k)) return k;
+  }
+  return from;
+}
+
+Duration IntersectionController::ServedGreen(std::size_t plan, std::size_t k) const {
+  const Plan& p = model_->plans[plan];
+  const Duration green = p.phases[k].green;
+  if (controls_.empty() || TargetMode(plan) != Mode::kFixed || p.cycle <= Duration{0}) {
+    return green;
+  }
+  const std::size_t next = NextServed(plan, k);
+  if (next == k) return std::max(green, p.cycle);  // the only phase served: it rests
+  if (next == (k + 1) % p.phases.size()) return green;
+  Duration span = p.phase_starts[next] - Clearance(model_->groups, p, k, next) - p.phase_starts[k];
+  if (next < k) span += p.cycle;
+  return std::max(green, span);
+}
+
+void IntersectionController::ApplyControls(MonoTime now) {
+  for (const PhaseControl& c : controls_.Expire(now)) LogControl(now, c, false);
+  const Plan& p = plan();
+  for (std::size_t k = 0; k < p.phases.size(); ++k) {
+    if (!controls_.Active(PhaseControlKind::kCall, plan_, k)) continue;
+    for (std::size_t g : p.phases[k].groups) calls_[g] = true;
+  }
+  if (controls_.Count(PhaseControlKind::kOmit, plan_) == 0) return;
+  for (std::size_t g = 0; g < calls_.size(); ++g) {
+    if (!calls_[g] || InPhase(g)) continue;
+    bool served = false;  // by a phase not omitted
+    for (std::size_t k = 0; k < p.phases.size() && !served; ++k) {
+      served = !Omitted(plan_, k) && Contains(p.phases[k].groups, g);
+    }
+    if (!served) calls_[g] = false;
+  }
+}
+
+void IntersectionController::LogControl(MonoTime at, const PhaseControl& control, bool on) {
+  const auto [start, end] = ControlCodes(control.kind);
+  const std::uint16_t code = on ? start : end;
+  if (code != 0) log_.Log(at, code, static_cast<std::uint16_t>(control.phase + 1));
 }
 
 Duration IntersectionController::CycleClearanceLeft(std::size_t plan, MonoTime at) const {
@@ -203,9 +286,15 @@ Duration IntersectionController::CycleClearanceLeft(std::size_t plan, MonoTime a
   Duration pos = (at - midnight_ - p.offset) % p.cycle;
   if (pos < Duration{0}) pos += p.cycle;
   for (std::size_t k = 0; k < p.phases.size(); ++k) {
-    const Duration green_end = p.phase_starts[k] + p.phases[k].green;
-    const Duration next_start = k + 1 < p.phases.size() ? p.phase_starts[k + 1] : p.cycle;
-    if (pos >= green_end && pos < next_start) return next_start - pos;
+    if (Omitted(plan, k)) continue;
+    const std::size_t next = NextServed(plan, k);
+    const Duration green_end = p.phase_starts[k] + ServedGreen(plan, k);
+    const Duration next_start = p.phase_starts[next] + (next <= k ? p.cycle : Duration{0});
+    // The clearance after the last phase served runs past the cycle's end when phase 1 is
+    // omitted: look at the position one cycle on as well.
+    for (const Duration q : {pos, pos + p.cycle}) {
+      if (q >= green_end && q < next_start) return next_start - q;
+    }
   }
   return Duration{0};
 }
@@ -216,12 +305,13 @@ MonoTime IntersectionController::PlannedEnd(std::size_t phase, MonoTime now) con
   for (std::size_t g : p.phases[phase].groups) {
     lo = std::max(lo, since_[g] + model_->groups[g].timing.min_green - now);
   }
-  const Duration hi = std::max(lo, p.phases[phase].green);
+  const Duration green = ServedGreen(plan_, phase);
+  const Duration hi = std::max(lo, green);
   if (TargetMode(plan_) != Mode::kFixed || p.cycle <= Duration{0}) return now + hi;
   // Keep to the cycle: end where the plan's cycle says, within the phase's min and max.
   Duration pos = (now - midnight_ - p.offset) % p.cycle;
   if (pos < Duration{0}) pos += p.cycle;
-  Duration delta = p.phase_starts[phase] + p.phases[phase].green - pos;
+  Duration delta = p.phase_starts[phase] + green - pos;
   if (delta > p.cycle / 2) delta -= p.cycle;
   if (delta <= -p.cycle / 2) delta += p.cycle;
   return now + std::clamp(delta, lo, hi);
@@ -238,7 +328,6 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   green_.min_logged = false;
   LogPhase(now, hires::kPhaseOn);
   LogPhase(now, hires::kPhaseBeginGreen);
-  advance_ = false;
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
   green_.planned_end = PlannedEnd(phase, now);
   if (active_ && !active_->served && InPhase(active_->request.group)) {
@@ -248,6 +337,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
 
 void IntersectionController::BeginClearance(std::optional<std::size_t> next, MonoTime now) {
   LogPhase(now, hires::kPhaseGreenTermination);
+  controls_.EndOnce();  // an advance: this green has ended
   next_phase_ = next;
   next_by_calls_ = false;
   Duration yellow{0};
@@ -288,6 +378,7 @@ std::uint16_t IntersectionController::TerminationCode(MonoTime now) const {
   if (active_ && !InPhase(active_->request.group)) {
     return active_->request.preemption ? hires::kPreemptionForceOff : hires::kTspEarlyForceOff;
   }
+  if (controls_.Active(PhaseControlKind::kForceOff, plan_, phase_)) return hires::kPhaseForceOff;
   if (TargetMode(plan_) == Mode::kActuated) {
     return GappedOut(now) ? hires::kPhaseGapOut : hires::kPhaseMaxOut;
   }
@@ -301,6 +392,12 @@ bool IntersectionController::GappedOut(MonoTime now) const {
 bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
   if (now < PhaseMinEnd()) return false;
   const Mode mode = TargetMode(plan_);
+  const bool preempted = active_ && active_->request.preemption && !InPhase(active_->request.group);
+  // The operator's hold keeps the green (only a pre-emption elsewhere ends it), and a green with
+  // nowhere else to go rests; a force-off then ends it at its min green.
+  if (controls_.Active(PhaseControlKind::kHold, plan_, phase_) && !preempted) return false;
+  if (!preempted && NextServed(plan_, phase_) == phase_) return false;
+  if (controls_.Active(PhaseControlKind::kForceOff, plan_, phase_) && !preempted) return true;
   if (active_) {
     const auto& r = active_->request;
     if (!InPhase(r.group)) return true;  // go and serve it
@@ -313,7 +410,7 @@ bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<boo
   }
   switch (mode) {
     case Mode::kManual:
-      return advance_;
+      return false;  // until an advance (a force-off)
     case Mode::kActuated: {
       if (!ConflictingCall(calls)) return false;  // rest in green
       const bool max_out = green_.max_from && now >= *green_.max_from + PhaseMaxGreen(phase_);
@@ -332,8 +429,13 @@ std::optional<std::size_t> IntersectionController::CalledNext(std::size_t plan,
   const std::size_t n = p.phases.size();
   const std::size_t from = plan == plan_ ? phase_ : n - 1;
   if (active_) {
+    // An emergency vehicle's phase is served even when omitted; a bus's is not.
+    const bool preemption = active_->request.preemption;
     for (std::size_t k = 1; k <= n; ++k) {
       const std::size_t cand = (from + k) % n;
+      if (!preemption && Omitted(plan, cand)) continue;
+      // Not the green in service again: its groups are green now.
+      if (stage_ == Stage::kGreen && plan == plan_ && cand == phase_) continue;
       if (Contains(p.phases[cand].groups, active_->request.group)) return cand;
     }
   }
@@ -341,6 +443,7 @@ std::optional<std::size_t> IntersectionController::CalledNext(std::size_t plan,
     for (std::size_t k = 1; k <= n; ++k) {
       const std::size_t cand = (from + k) % n;
       if (plan == plan_ && cand == phase_) continue;  // its own call: it rests or recycles
+      if (Omitted(plan, cand)) continue;
       if (side && BarrierSide(cand, n) != *side) continue;
       for (std::size_t g : p.phases[cand].groups) {
         if (Call(calls, g) && !(plan == plan_ && InPhase(g))) return cand;
@@ -353,7 +456,7 @@ std::optional<std::size_t> IntersectionController::CalledNext(std::size_t plan,
 std::size_t IntersectionController::ChooseNext(std::size_t plan,
                                                const std::vector<bool>& calls) const {
   const std::size_t n = model_->plans[plan].phases.size();
-  return CalledNext(plan, calls).value_or(((plan == plan_ ? phase_ : n - 1) + 1) % n);
+  return CalledNext(plan, calls).value_or(NextServed(plan, plan == plan_ ? phase_ : n - 1));
 }
 
 bool IntersectionController::NextMayChange() const {
@@ -411,7 +514,8 @@ void IntersectionController::StepGreen(MonoTime now, std::size_t wanted_plan) {
       UsePlan(wanted_plan, now);
       BeginClearance(std::nullopt, now);
     }
-  } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_) {
+  } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_ &&
+             !controls_.Active(PhaseControlKind::kHold, plan_, phase_)) {
     // A safe point: the new plan starts after this green's clearance.
     LogPhase(now, hires::kPhaseForceOff);
     UsePlan(wanted_plan, now);
@@ -432,13 +536,16 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
   for (const auto& d : plan().detectors) {
     if (Call(in_calls, d.group)) calls_[d.group] = true;
   }
+  if (!controls_.empty()) ApplyControls(now);
   scheduled_plan_ = model_->ScheduledPlan(day.minute_of_day);
   const std::size_t wanted_plan = operator_plan_.value_or(*scheduled_plan_);
   UpdateRequest(now);
   ChooseNextAgain();
 
   for (int guard = 0; guard < 8; ++guard) {
-    const Stage before = stage_;
+    // A stage, or a green that went on as another phase (a plan change keeping its groups, which
+    // the new phase's controls may end at once): step again at the same instant.
+    const auto before = std::tuple(stage_, phase_, plan_);
     switch (stage_) {
       case Stage::kStartupFlash:
         if (now >= stage_end_ && devices_ready_ && !latched_) {
@@ -525,7 +632,7 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
         }
         break;
     }
-    if (stage_ == before) break;
+    if (std::tuple(stage_, phase_, plan_) == before) break;
   }
   // A request's group that turned green in this step is served from now (not from whenever
   // the next step comes: the outcome must not depend on how often the controller is stepped).
@@ -540,6 +647,7 @@ MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
   auto consider = [&](MonoTime t) {
     if (t > now) next = std::min(next, t);
   };
+  consider(controls_.next_expiry());
   if (active_) {
     consider(active_->request.end);
     consider(active_->accepted + model_->priority.max_preemption);
@@ -562,6 +670,12 @@ MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
       if (green_.max_from) consider(*green_.max_from + PhaseMaxGreen(phase_));
       consider(green_.start + PhaseMaxGreen(phase_) + model_->priority.max_extension);
       consider(green_.last_call + plan().extension);
+      // SUMO's green rest slides its start at every step, and when it forgets the passage depends
+      // on how far apart the steps are (docs/controller.md, "Green rest"): step every pass.
+      if (model_->green_rest == GreenRest::kSumo && TargetMode(plan_) == Mode::kActuated &&
+          !ConflictingCall(calls_)) {
+        return now;
+      }
       // A call on this phase keeps its gap timer running: step every pass while it lasts.
       if (!plan().detectors.empty()) {
         for (std::size_t g : plan().phases[phase_].groups) {
@@ -592,16 +706,7 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
   if (n == 0) return std::nullopt;
   std::size_t from = 0;
   MonoTime t{};
-  auto clearance = [&](std::size_t a, std::size_t b) {
-    Duration yellow{0};
-    Duration red{0};
-    for (std::size_t h : p.phases[a].groups) {
-      if (Contains(p.phases[b].groups, h)) continue;
-      yellow = std::max(yellow, model_->groups[h].timing.yellow);
-      red = std::max(red, model_->groups[h].timing.red_clearance);
-    }
-    return yellow + red;
-  };
+  auto clearance = [&](std::size_t a, std::size_t b) { return Clearance(model_->groups, p, a, b); };
   switch (stage_) {
     case Stage::kGreen:
       from = phase_;
@@ -631,7 +736,7 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
   }
   bool in_run = after_run;  // still in the phases that keep the group green
   for (std::size_t step = 1; step <= n + (after_run ? n : 0); ++step) {
-    const std::size_t k = (from + 1) % n;
+    const std::size_t k = NextServed(plan_, from);
     t += clearance(from, k);
     const bool has = Contains(p.phases[k].groups, g);
     if (has && !in_run) return t;
@@ -716,9 +821,9 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
           case Policy::kMin:
             return min_end;
           case Policy::kMax:
-            return std::max(min_end,
-                            (mode == Mode::kActuated ? MaxEnd(now) : start + PhaseMaxGreen(k)) +
-                                extension_allowance);
+            return std::max(
+                min_end, (mode == Mode::kActuated ? MaxEnd(now) : start + ServedGreen(plan_, k)) +
+                             extension_allowance);
           case Policy::kLikely:
             if (mode == Mode::kActuated) {
               return std::clamp(green_.last_call + p.extension, min_end,
@@ -731,20 +836,26 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
         case Policy::kMin:
           return start + min_green;
         case Policy::kMax:
-          return start + std::max(min_green, p.phases[k].green) + extension_allowance;
+          return start + std::max(min_green, ServedGreen(plan_, k)) + extension_allowance;
         case Policy::kLikely:
           if (mode == Mode::kActuated) {
             return start +
                    std::min(std::max(min_green, p.phases[k].green), min_green + p.extension);
           }
-          return start + std::max(min_green, p.phases[k].green);
+          return start + std::max(min_green, ServedGreen(plan_, k));
       }
       return start;
     };
   };
   const float confidence = mode == Mode::kFixed ? 0.9f : 0.5f;
+  // An operator's hold has no end the controller knows, and an omit's end puts its phase back in
+  // the sequence: no latest end while either lasts.
+  const bool unbounded =
+      (stage_ == Stage::kGreen && controls_.Active(PhaseControlKind::kHold, plan_, phase_)) ||
+      controls_.Count(PhaseControlKind::kOmit, plan_) > 0;
   for (std::size_t g = 0; g < aspects_.size(); ++g) {
     GroupSignal& s = out[g];
+
     s.aspect = aspects_[g];
     s.since = since_[g];
     s.min_end = now;
@@ -771,8 +882,8 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
           MonoTime t = f(phase_, green_.start, true);
           std::size_t from = phase_;
           for (std::size_t step = 1; step < p.phases.size(); ++step) {
-            const std::size_t k = (from + 1) % p.phases.size();
-            if (!Contains(p.phases[k].groups, g)) break;
+            const std::size_t k = NextServed(plan_, from);
+            if (k == from || !Contains(p.phases[k].groups, g)) break;
             t = f(k, t, false);
             from = k;
           }
@@ -805,6 +916,9 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
       }
     }
   }
+  if (unbounded) {
+    for (auto& s : out) s.max_end.reset();
+  }
 }
 
 CommandResult IntersectionController::SetMode(Mode mode, MonoTime now) {
@@ -823,7 +937,7 @@ CommandResult IntersectionController::SetMode(Mode mode, MonoTime now) {
     }
   }
   mode_ = mode;
-  if (mode != Mode::kManual) advance_ = false;
+  if (mode != Mode::kManual) controls_.EndOnce();  // an advance asked in manual mode
   std::string note;
   if (latched_) note = " (the intersection stays in fail-safe flash until reset)";
   return CommandResult::Ok(fmt::format("{} mode {}{}", model_->name, ToString(mode), note));
@@ -864,13 +978,88 @@ CommandResult IntersectionController::Advance(MonoTime now) {
     return CommandResult::Refused(
         fmt::format("{} is in {}; advance works during a green", model_->name, ToString(stage_)));
   }
-  advance_ = true;
+  controls_.Set({PhaseControlKind::kForceOff, plan_, phase_, now, true});
   const MonoTime min_end = PhaseMinEnd();
   if (now < min_end) {
     return CommandResult::Ok(
         fmt::format("advancing when min green is served, in {}", Secs(min_end - now)));
   }
   return CommandResult::Ok("advancing");
+}
+
+CommandResult IntersectionController::Control(PhaseControlKind kind, std::size_t number,
+                                              Duration duration, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  const Plan& p = plan();
+  if (p.phases.empty()) {
+    return CommandResult::Refused(
+        fmt::format("{} runs plan {}, which has no phases", model_->name, p.name));
+  }
+  if (number < 1 || number > p.phases.size()) {
+    return CommandResult::Refused(
+        fmt::format("plan {} of {} has phases 1 to {}; there is no phase {}", p.name, model_->name,
+                    p.phases.size(), number));
+  }
+  if (duration <= Duration{0} || duration > kMaxPhaseControl) {
+    return CommandResult::Refused(
+        fmt::format("a phase control lasts more than 0 s and at most {}", Secs(kMaxPhaseControl)));
+  }
+  const std::size_t k = number - 1;
+  if (kind == PhaseControlKind::kPedOmit || kind == PhaseControlKind::kPedCall) {
+    return CommandResult::Refused(
+        fmt::format("phase {} of plan {} serves no crosswalk: {} has no pedestrian signals", number,
+                    p.name, model_->name));
+  }
+  if (kind == PhaseControlKind::kOmit && !Omitted(plan_, k) &&
+      controls_.Count(PhaseControlKind::kOmit, plan_) + 1 >= p.phases.size()) {
+    return CommandResult::Refused(
+        fmt::format("omitting phase {} would leave plan {} of {} no phase to serve", number, p.name,
+                    model_->name));
+  }
+  const PhaseControl control{kind, plan_, k, now + duration, false};
+  if (!controls_.Set(control)) LogControl(now, control, true);
+  std::string note;
+  if (phase() == k && stage_ == Stage::kGreen) {
+    if (kind == PhaseControlKind::kOmit) note = "; it is green now and ends by its own rules";
+    if (kind == PhaseControlKind::kForceOff && now < PhaseMinEnd()) {
+      note = fmt::format("; it is green now and ends when its min green is served, in {}",
+                         Secs(PhaseMinEnd() - now));
+    }
+  }
+  return CommandResult::Ok(fmt::format("{} {} phase {} of plan {} for {}{}", model_->name,
+                                       ToString(kind), number, p.name, Secs(duration), note));
+}
+
+bool IntersectionController::RestoreControl(const PhaseControl& control, MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  if (control.plan >= model_->plans.size() ||
+      control.phase >= model_->plans[control.plan].phases.size() || control.once ||
+      control.until <= now) {
+    return false;
+  }
+  if (control.kind == PhaseControlKind::kOmit &&
+      !controls_.Active(control.kind, control.plan, control.phase) &&
+      controls_.Count(PhaseControlKind::kOmit, control.plan) + 1 >=
+          model_->plans[control.plan].phases.size()) {
+    return false;  // the plan has lost phases since: never omit its last
+  }
+  if (!controls_.Set(control)) LogControl(now, control, true);
+  return true;
+}
+
+CommandResult IntersectionController::ClearControl(PhaseControlKind kind, std::size_t number,
+                                                   MonoTime now) {
+  next_wake_ = MonoTime::min();  // an input changed: step at once
+  const Plan& p = plan();
+  if (number < 1 || number > p.phases.size() || !controls_.Active(kind, plan_, number - 1)) {
+    return CommandResult::Refused(fmt::format("{} has no {} on phase {} of plan {}", model_->name,
+                                              ToString(kind), number, p.name));
+  }
+  const PhaseControl control{kind, plan_, number - 1, now, false};
+  controls_.Clear(kind, plan_, number - 1);
+  LogControl(now, control, false);
+  return CommandResult::Ok(
+      fmt::format("{} {} off phase {} of plan {}", model_->name, ToString(kind), number, p.name));
 }
 
 CommandResult IntersectionController::Reset(MonoTime now) {
@@ -890,7 +1079,7 @@ void IntersectionController::FailSafe(MonoTime now, std::string reason) {
   next_wake_ = MonoTime::min();  // an input changed: step at once
   if (!latched_) latch_reason_ = std::move(reason);
   latched_ = true;
-  advance_ = false;
+  controls_.EndOnce();
   EnterFlash(now, false);
 }
 
@@ -951,6 +1140,18 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime 
   if (mode == Mode::kManual) {
     u.reason = fmt::format("{} is under manual control", model_->name);
     return u;
+  }
+  if (!r.preemption) {
+    const auto& phases = plan().phases;
+    const bool served = std::ranges::any_of(phases, [&](const Phase& ph) {
+      const auto k = static_cast<std::size_t>(&ph - phases.data());
+      return !Omitted(plan_, k) && Contains(ph.groups, r.group);
+    });
+    if (!served) {
+      u.reason =
+          fmt::format("the operator omits every phase of plan {} with that group", plan().name);
+      return u;
+    }
   }
   bool fresh = false;  // a new request, not an update of the one served
   if (active_ && active_->request.vehicle == r.vehicle &&

@@ -19,6 +19,7 @@
 #include "common/time.h"
 #include "scm/core/city.h"
 #include "scm/core/hires_log.h"
+#include "scm/core/phase_controls.h"
 
 namespace autodrive::scm {
 
@@ -115,8 +116,23 @@ class IntersectionController {
   CommandResult SetMode(Mode mode, MonoTime now);
   /// Operator: run plan `name` from the next safe point, or "auto" to follow the schedule.
   CommandResult SetPlan(std::string_view name, MonoTime now);
-  /// Operator (manual mode): end the current phase once its min green is served.
+  /// Operator (manual mode): end the current phase once its min green is served: a force-off
+  /// of the phase in green until its green ends.
   CommandResult Advance(MonoTime now);
+  /// Operator: puts phase control `kind` on phase `phase` (from 1) of the running plan for
+  /// `duration` (NTCIP's phase control group; docs/controller.md, "Phase controls"). Setting it
+  /// again replaces the expiry.
+  CommandResult Control(PhaseControlKind kind, std::size_t phase, Duration duration, MonoTime now);
+  /// Operator: takes phase control `kind` off phase `phase` (from 1) of the running plan.
+  CommandResult ClearControl(PhaseControlKind kind, std::size_t phase, MonoTime now);
+  /// Puts back a phase control saved before a restart (its plan and phase indexes of this
+  /// model, its `until` on this controller's timeline); false, changing nothing, when the plan
+  /// has no such phase or its time is up at `now`.
+  bool RestoreControl(const PhaseControl& control, MonoTime now);
+  /// The longest a phase control may be set for.
+  static constexpr Duration kMaxPhaseControl = std::chrono::hours(24);
+  /// The phase controls in force (their plans are indexes of the model's plans).
+  [[nodiscard]] const PhaseControls& controls() const { return controls_; }
   /// Clears a fail-safe latch; the intersection restarts through all red.
   CommandResult Reset(MonoTime now);
   /// Goes to fail-safe flash at once and latches (reason kept for status).
@@ -232,6 +248,21 @@ class IntersectionController {
   /// middle barrier of the first choice, or the last choice when none there is called.
   void ChooseNextAgain();
   [[nodiscard]] std::size_t FirstPhase(std::size_t plan, MonoTime at) const;
+  /// Whether phase `k` of `plan` is omitted by the operator.
+  [[nodiscard]] bool Omitted(std::size_t plan, std::size_t k) const {
+    return controls_.Active(PhaseControlKind::kOmit, plan, k);
+  }
+  /// The first phase of `plan` after `from` in sequence that is not omitted; `from` itself
+  /// when every other is.
+  [[nodiscard]] std::size_t NextServed(std::size_t plan, std::size_t from) const;
+  /// A fixed-time phase's green with the time of the omitted phases after it, which it keeps so
+  /// that the cycle keeps its length; a phase's green otherwise.
+  [[nodiscard]] Duration ServedGreen(std::size_t plan, std::size_t k) const;
+  /// Logs a phase control's start or end (codes 41-49).
+  void LogControl(MonoTime at, const PhaseControl& control, bool on);
+  /// At a step: ends the phase controls whose time is up, adds the operator's calls to `calls_`
+  /// and takes away the calls only omitted phases would serve.
+  void ApplyControls(MonoTime now);
   [[nodiscard]] MonoTime PlannedEnd(std::size_t phase, MonoTime now) const;
   /// For a fixed-time plan: when `at` falls in the cycle's clearance after a phase's green, how
   /// long until the next phase's green is due (zero otherwise). Leaving all red then would start
@@ -290,7 +321,7 @@ class IntersectionController {
   HiresLog log_;
   MonoTime yellow_end_{};
   Duration red_clearance_{0};  ///< of the clearance under way
-  bool advance_ = false;
+  PhaseControls controls_;     ///< the operator's omits, holds, force-offs and calls
   bool devices_ready_ = true;
   bool latched_ = false;
   std::string latch_reason_;

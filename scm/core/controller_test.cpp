@@ -314,6 +314,139 @@ TEST(Controller, AdvanceOutsideManualIsRefused) {
   EXPECT_EQ(r.message, "advance needs manual mode; driving_school_crossing runs fixed");
 }
 
+// Phase controls (NTCIP's phase control group): docs/controller.md, "Phase controls".
+using Kind = PhaseControlKind;
+
+TEST(ControllerPhaseControls, AFixedTimeOmitGivesItsTimeToThePhaseBeforeAndKeepsTheCycle) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  // The day plan: each phase 8 s green, 3 s yellow, 2 s red clearance; cycle 52 s.
+  const MonoTime c = CycleStart() + seconds(52);
+  rig.RunTo(c - seconds(1));  // phase 4's red clearance
+  (void)rig.controller.TakeHiresEvents();
+  const auto r = rig.controller.Control(Kind::kOmit, 2, seconds(52), rig.now);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.message, "driving_school_crossing omit phase 2 of plan day for 52.0 s");
+  rig.RunTo(c + seconds(1));
+  const auto predicted = rig.controller.Signals(rig.now);
+  EXPECT_EQ(predicted[0].likely_end, c + seconds(21)) << "phase 1 keeps phase 2's 13 s";
+  EXPECT_EQ(predicted[2].next_green, c + seconds(26)) << "phase 3 on its time";
+  EXPECT_FALSE(predicted[2].max_end) << "an omit's end may bring phase 2 back first";
+  bool north_green = false;
+  while (rig.now < c + seconds(21) - milliseconds(100)) {
+    rig.RunFor(milliseconds(100));
+    north_green = north_green || rig.Of(1) == Aspect::kGreen;
+    ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  }
+  rig.RunTo(c + seconds(21));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunTo(c + seconds(26) - milliseconds(100));
+  EXPECT_EQ(rig.Of(2), Aspect::kRed);
+  rig.RunTo(c + seconds(26));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  rig.RunTo(c + seconds(52));
+  EXPECT_FALSE(north_green);
+  EXPECT_TRUE(rig.controller.controls().empty()) << "expired at c + 51 s";
+  // The next cycle serves phase 2 on its time again.
+  rig.RunTo(c + seconds(52 + 13));
+  EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+  const auto events = rig.controller.TakeHiresEvents();
+  EXPECT_EQ(At(events, hires::kPhaseOmitOn, 2), c - seconds(1));
+  EXPECT_EQ(At(events, hires::kPhaseOmitOff, 2), c + seconds(51));
+}
+
+TEST(ControllerPhaseControls, AnActuatedOmitIgnoresItsPhasesCallsAndAnOperatorCallIsServed) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  const std::vector<bool> none(4, false);
+  rig.RunFor(seconds(5), none, kEvening);
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  ASSERT_TRUE(rig.controller.Control(Kind::kOmit, 4, seconds(60), rig.now).ok);
+  std::vector<bool> south(4, false);
+  south[3] = true;
+  rig.RunFor(seconds(20), south, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen) << "the south's call is for an omitted phase: it rests";
+  // The operator calls phase 3 (west): east gaps out, west is served, south still waits.
+  ASSERT_TRUE(rig.controller.Control(Kind::kCall, 3, seconds(10), rig.now).ok);
+  rig.RunFor(milliseconds(100), south, kEvening);
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  rig.RunFor(seconds(5), south, kEvening);
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_EQ(rig.Of(3), Aspect::kRed);
+  // The omit ends (60 s after it was set): the south's call is served.
+  rig.RunFor(seconds(40), south, kEvening);
+  EXPECT_TRUE(rig.controller.controls().empty());
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);
+  const auto events = rig.controller.TakeHiresEvents();
+  EXPECT_EQ(At(events, hires::kPhaseCallDropped, 3),
+            At(events, hires::kPhaseCallRegistered, 3) + seconds(10));
+  EXPECT_EQ(At(events, hires::kPhaseOmitOff, 4), At(events, hires::kPhaseOmitOn, 4) + seconds(60));
+}
+
+TEST(ControllerPhaseControls, AHoldKeepsAGreenUntilReleasedAndAForceOffEndsOneAtItsMinGreen) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  const MonoTime c = CycleStart() + seconds(52);
+  rig.RunTo(c + seconds(1));
+  ASSERT_TRUE(rig.controller.Control(Kind::kHold, 1, seconds(60), rig.now).ok);
+  rig.RunTo(c + seconds(20));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen) << "held past its 8 s";
+  EXPECT_FALSE(rig.controller.Signals(rig.now)[0].max_end) << "a hold has no known end";
+  EXPECT_GE(rig.controller.Signals(rig.now)[1].min_end, rig.now + seconds(5))
+      << "the clearance is still ahead of a red group";
+  const auto released = rig.controller.ClearControl(Kind::kHold, 1, rig.now);
+  ASSERT_TRUE(released.ok) << released.message;
+  rig.RunFor(milliseconds(100));
+  EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+  // Actuated, with calls everywhere: a force-off on phase 1 ends each of its greens at its min
+  // green (5 s) rather than at its max, logged as a force-off.
+  Rig act(x);
+  const std::vector<bool> all(4, true);
+  act.RunFor(seconds(6), all, kEvening);
+  ASSERT_EQ(act.Of(0), Aspect::kGreen);
+  ASSERT_TRUE(act.controller.Control(Kind::kForceOff, 1, seconds(600), act.now).ok);
+  const MonoTime green = act.now - seconds(1);
+  act.RunTo(green + seconds(5) - milliseconds(100), all, kEvening);
+  EXPECT_EQ(act.Of(0), Aspect::kGreen);
+  act.RunTo(green + seconds(5), all, kEvening);
+  EXPECT_EQ(act.Of(0), Aspect::kYellow);
+  const auto events = act.controller.TakeHiresEvents();
+  EXPECT_EQ(At(events, hires::kPhaseForceOff, 1), green + seconds(5));
+  EXPECT_EQ(rig.controller.TakeHiresEvents().back().code, hires::kPhaseBeginYellow);
+}
+
+TEST(ControllerPhaseControls, RefusesWhatCannotBeDoneAndOmitsDoNotStopAnEmergencyVehicle) {
+  const auto& x = DrivingSchool().intersections[0];
+  Rig rig(x);
+  rig.RunTo(CycleStart() + seconds(6));
+  auto& c = rig.controller;
+  EXPECT_EQ(c.Control(Kind::kOmit, 0, seconds(1), rig.now).message,
+            "plan day of driving_school_crossing has phases 1 to 4; there is no phase 0");
+  EXPECT_FALSE(c.Control(Kind::kHold, 5, seconds(1), rig.now).ok);
+  EXPECT_EQ(c.Control(Kind::kPedCall, 1, seconds(1), rig.now).message,
+            "phase 1 of plan day serves no crosswalk: driving_school_crossing has no pedestrian "
+            "signals");
+  EXPECT_FALSE(c.Control(Kind::kCall, 1, seconds(0), rig.now).ok);
+  EXPECT_FALSE(c.Control(Kind::kCall, 1, std::chrono::hours(25), rig.now).ok);
+  EXPECT_EQ(c.ClearControl(Kind::kHold, 2, rig.now).message,
+            "driving_school_crossing has no hold on phase 2 of plan day");
+  for (std::size_t k = 2; k <= 4; ++k)
+    ASSERT_TRUE(c.Control(Kind::kOmit, k, seconds(60), rig.now).ok);
+  EXPECT_EQ(c.Control(Kind::kOmit, 1, seconds(60), rig.now).message,
+            "omitting phase 1 would leave plan day of driving_school_crossing no phase to serve");
+  // Phase 1 alone is served: it rests in green past its cycle.
+  rig.RunFor(seconds(30));
+  EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+  // A bus asking for an omitted phase is refused; an ambulance is served.
+  const ServiceRequest bus{"bus", 1, false, 3, rig.now + seconds(20), seconds(5)};
+  EXPECT_EQ(c.Request(bus, rig.now).reason,
+            "the operator omits every phase of plan day with that group");
+  const ServiceRequest ambulance{"ambulance", 2, true, 3, rig.now + seconds(20), seconds(5)};
+  ASSERT_EQ(c.Request(ambulance, rig.now).status, RequestStatus::kGranted);
+  rig.RunFor(seconds(15));
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);
+}
+
 TEST(Controller, ActuatedRestsInGreenAndGapsOutToACall) {
   const auto& x = DrivingSchool().intersections[0];
   Rig rig(x);
@@ -810,7 +943,15 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
       } else if (p < 30) {
         calls[static_cast<std::size_t>(percent(rng)) % calls.size()].flip();
         lazy_due = true;
-      } else if (p < 31) {
+      } else if (p < 35) {
+        // A phase control on a phase (sometimes not one), set or taken off.
+        const auto kind = static_cast<PhaseControlKind>(percent(rng) % 6);
+        const std::size_t phase = 1 + static_cast<std::size_t>(percent(rng)) % 5;
+        const auto d = milliseconds(100 + percent(rng) * 400);
+        what = percent(rng) < 25
+                   ? both([&](auto& ctl) { return ctl.ClearControl(kind, phase, now); }).message
+                   : both([&](auto& ctl) { return ctl.Control(kind, phase, d, now); }).message;
+      } else if (p < 36) {
         minute = std::uniform_int_distribution<int>(0, 1439)(rng);
         what = "schedule";
         lazy_due = true;

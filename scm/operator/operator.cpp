@@ -24,8 +24,10 @@ constexpr std::array<std::string_view, 2> kPlan{"intersection", "plan"};
 constexpr std::array<std::string_view, 2> kEvents{"since", "limit"};
 constexpr std::array<std::string_view, 4> kConfig{"yaml", "path", "yaml_bytes", "yaml_hash"};
 constexpr std::array<std::string_view, 4> kHires{"intersection", "since", "until", "limit"};
+constexpr std::array<std::string_view, 5> kPhaseControl{"intersection", "control", "phase", "for_s",
+                                                        "off"};
 
-constexpr std::array<CommandSpec, 11> kCommands = {{
+constexpr std::array<CommandSpec, 12> kCommands = {{
     {"status", false, false, kNone},
     {"intersections", false, false, kNone},
     {"show", true, false, kShow},
@@ -35,6 +37,7 @@ constexpr std::array<CommandSpec, 11> kCommands = {{
     {"mode", true, true, kMode},
     {"plan", true, true, kPlan},
     {"advance", true, true, kX},
+    {"phase_control", true, true, kPhaseControl},
     {"reset", true, true, kX},
     {"config_apply", false, true, kConfig},
 }};

@@ -24,8 +24,10 @@
 /// | mode | intersection, mode | yes | auto, fixed, actuated, manual, flash or dark |
 /// | plan | intersection, plan | yes | a plan by name, or auto (the schedule) |
 /// | advance | intersection | yes | manual mode: end the current phase |
-/// | reset | intersection | yes | clear a fail-safe flash latch (and the infrastructure's) |
-/// | config_apply | yaml, path, yaml_bytes, yaml_hash | yes | check and apply it |
+/// | phase_control | intersection, control, phase, for_s or off | yes | omit, ped_omit, hold,
+/// force_off, call or ped_call a phase of the running plan for for_s seconds, or take it off | |
+/// reset | intersection | yes | clear a fail-safe flash latch (and the infrastructure's) | |
+/// config_apply | yaml, path, yaml_bytes, yaml_hash | yes | check and apply it |
 
 #include <cstdint>
 #include <map>

@@ -247,6 +247,24 @@ std::optional<Reply> Show(const OperatorCommand& cmd, const ClockReading& now, C
     r.values.emplace_back("infrastructure monitor",
                           ctx.supervisor.monitor_latched(*xi) ? "latched" : "watching");
   }
+  for (const PhaseControl& pc : x.controller->controls().all()) {
+    const Plan& plan = x.model->plans[pc.plan];
+    const double left = pc.once ? 0.0 : ToSeconds(pc.until - now.mono);
+    r.values.emplace_back(
+        fmt::format("{} phase {} {}", ToString(pc.kind), pc.phase + 1, plan.name),
+        nlohmann::json{
+            {"control", ToString(pc.kind)},
+            {"phase", pc.phase + 1},
+            {"plan", plan.name},
+            {"left_s", pc.once ? nlohmann::json(nullptr) : nlohmann::json(left)},
+            {"text", pc.once ? fmt::format("{} phase {} of plan {} until its green ends",
+                                           ToString(pc.kind), pc.phase + 1, plan.name)
+                             : fmt::format("{} phase {} of plan {} for {:.1f} s more{}",
+                                           ToString(pc.kind), pc.phase + 1, plan.name, left,
+                                           pc.plan == x.controller->plan_index()
+                                               ? ""
+                                               : " (when that plan runs)")}});
+  }
   if (cmd.Arg("intergreen") == "true") AddIntergreens(ctx.runtime.city(), *x.model, r);
   return r;
 }
@@ -306,6 +324,46 @@ std::optional<Reply> Advance(const OperatorCommand& cmd, const ClockReading& now
   if (!xi) return error;
   auto& c = *ctx.runtime.intersections()[*xi].controller;
   return Changed(cmd, *xi, c.Advance(now.mono), now, ctx);
+}
+
+/// Parses the whole of `text` as a number into `out`; false when it is not one.
+template <typename T>
+bool ParseWhole(const std::string& text, T& out) {
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc() && end == text.data() + text.size() && !text.empty();
+}
+
+/// `phase_control`: an omit, ped omit, hold, force-off, call or ped call on a phase of the
+/// running plan for `for_s` seconds, or taken off with `off` (docs/controller.md, "Phase
+/// controls").
+std::optional<Reply> PhaseControlCommand(const OperatorCommand& cmd, const ClockReading& now,
+                                         CommandContext& ctx, Responder&) {
+  Reply error;
+  const auto xi = Intersection(cmd, ctx, error);
+  if (!xi) return error;
+  const auto kind = PhaseControlFromString(cmd.Arg("control"));
+  if (!kind) {
+    return Reply::Invalid(
+        fmt::format("unknown phase control \"{}\" ({})", cmd.Arg("control"), PhaseControlNames()));
+  }
+  std::size_t phase = 0;
+  if (!ParseWhole(cmd.Arg("phase"), phase) || phase == 0) {
+    return Reply::Invalid(
+        fmt::format("phase must be a phase number (1, 2, ...), got \"{}\"", cmd.Arg("phase")));
+  }
+  auto& c = *ctx.runtime.intersections()[*xi].controller;
+  if (cmd.Arg("off") == "true")
+    return Changed(cmd, *xi, c.ClearControl(*kind, phase, now.mono), now, ctx);
+  double for_s = 0;
+  const double most = ToSeconds(IntersectionController::kMaxPhaseControl);
+  if (!ParseWhole(cmd.Arg("for_s"), for_s) || !std::isfinite(for_s) || for_s <= 0 || for_s > most) {
+    return Reply::Invalid(fmt::format(
+        "for_s must be the control's duration in seconds, more than 0 and at most {:.0f}, got "
+        "\"{}\" (or off: true to take it off)",
+        most, cmd.Arg("for_s")));
+  }
+  const auto duration = std::chrono::duration_cast<Duration>(std::chrono::duration<double>(for_s));
+  return Changed(cmd, *xi, c.Control(*kind, phase, duration, now.mono), now, ctx);
 }
 
 std::optional<Reply> Reset(const OperatorCommand& cmd, const ClockReading& now, CommandContext& ctx,
@@ -487,17 +545,12 @@ struct Entry {
   Handler handler;
 };
 constexpr Entry kHandlers[] = {
-    {"status", Status},
-    {"intersections", Intersections},
-    {"show", Show},
-    {"events", Events},
-    {"hires", Hires},
-    {"config_validate", ConfigValidate},
-    {"mode", SetMode},
-    {"plan", SetPlan},
-    {"advance", Advance},
-    {"reset", Reset},
-    {"config_apply", ConfigApply},
+    {"status", Status},   {"intersections", Intersections},
+    {"show", Show},       {"events", Events},
+    {"hires", Hires},     {"config_validate", ConfigValidate},
+    {"mode", SetMode},    {"plan", SetPlan},
+    {"advance", Advance}, {"phase_control", PhaseControlCommand},
+    {"reset", Reset},     {"config_apply", ConfigApply},
 };
 
 }  // namespace

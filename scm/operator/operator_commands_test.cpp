@@ -198,6 +198,36 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
        {{"intersection", "centre"}},
        ReplyCode::kRejected,
        "centre is not in fail-safe flash; nothing to reset"},
+      // Phase controls: set, shown, taken off; bad arguments named.
+      {"phase_control",
+       {{"intersection", "north_t"}, {"control", "hold"}, {"phase", "2"}, {"for_s", "30"}},
+       ReplyCode::kOk,
+       "north_t hold phase 2 of plan"},
+      {"show", {{"intersection", "north_t"}}, ReplyCode::kOk, "north_t: id="},
+      {"phase_control",
+       {{"intersection", "north_t"}, {"control", "hold"}, {"phase", "2"}, {"off", "true"}},
+       ReplyCode::kOk,
+       "north_t hold off phase 2 of plan"},
+      {"phase_control",
+       {{"intersection", "north_t"}, {"control", "hold"}, {"phase", "2"}, {"off", "true"}},
+       ReplyCode::kRejected,
+       "north_t has no hold on phase 2 of plan"},
+      {"phase_control",
+       {{"intersection", "centre"}, {"control", "stop"}, {"phase", "1"}, {"for_s", "5"}},
+       ReplyCode::kInvalid,
+       "unknown phase control \"stop\" (omit, ped_omit, hold, force_off, call, ped_call)"},
+      {"phase_control",
+       {{"intersection", "centre"}, {"control", "omit"}, {"phase", "x"}, {"for_s", "5"}},
+       ReplyCode::kInvalid,
+       "phase must be a phase number (1, 2, ...), got \"x\""},
+      {"phase_control",
+       {{"intersection", "centre"}, {"control", "omit"}, {"phase", "1"}, {"for_s", "1e9"}},
+       ReplyCode::kInvalid,
+       "for_s must be the control's duration in seconds, more than 0 and at most 86400"},
+      {"phase_control",
+       {{"intersection", "centre"}, {"control", "force-off"}, {"phase", "9"}, {"for_s", "5"}},
+       ReplyCode::kRejected,
+       "there is no phase 9"},
       {"events", {{"limit", "0"}}, ReplyCode::kInvalid, "limit must be a number in 1..10000"},
       {"hires", {{"intersection", "centre"}}, ReplyCode::kInvalid, "hires needs since"},
       {"hires",
@@ -251,6 +281,7 @@ TEST_F(OperatorCommandsTest, EachCommandAnswersAsTheTableSays) {
   // State changes were logged with who, and persisted.
   EXPECT_EQ(events_.WithCode("operator_mode").size(), 1u);
   EXPECT_EQ(events_.WithCode("operator_mode")[0].actor, "test/client");
+  EXPECT_EQ(events_.WithCode("operator_phase_control").size(), 2u) << "set and taken off";
   persistence_->Flush();
   const auto states = persistence_->store().LoadIntersectionStates();
   ASSERT_EQ(states.size(), 2u);
