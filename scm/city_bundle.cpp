@@ -47,11 +47,11 @@ CityBundle::~CityBundle() {
   runtime.reset();
 }
 
-void CityBundle::Start(MonoTime now) {
+void CityBundle::Start(const ClockReading& now) {
   runtime->Start(now, restore);
   lights->Forget();
   supervisor = std::make_unique<DeviceSupervisor>(*runtime, SupervisionParamsOf(runtime->city()));
-  devices = std::make_unique<DeviceTable>(*runtime, runtime->city().device_timeout, now);
+  devices = std::make_unique<DeviceTable>(*runtime, runtime->city().device_timeout, now.mono);
 }
 
 }  // namespace autodrive::scm

@@ -36,9 +36,10 @@ class CityBundle {
   CityBundle& operator=(const CityBundle&) = delete;
   ~CityBundle();
 
-  /// Starts the controllers at `now` (the start-up sequence) and forgets what devices said
+  /// Starts the controllers at `now` (the start-up sequence) with `restore`'s modes, plans and
+  /// phase controls, and forgets what devices said
   /// (a new session of the control timeline, or a newly applied city).
-  void Start(MonoTime now);
+  void Start(const ClockReading& now);
 
   [[nodiscard]] const City& city() const { return runtime->city(); }
 

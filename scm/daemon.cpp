@@ -273,7 +273,7 @@ void Scm::Impl::WarnIfLockedOut() {
 }
 
 void Scm::Impl::Install(std::unique_ptr<CityBundle> next, const ClockReading& now) {
-  next->Start(now.mono);
+  next->Start(now);
   // What runs: the file the SCM started with, or the configuration an operator applied since.
   figures.config_path = next->city().config_path.string();
   publishers->Reset(*next->runtime, next->city().config.name);
@@ -381,7 +381,7 @@ void Scm::Impl::NewSession(const ClockReading& now) {
   clock_session = now.session;
   ++counters.clock_sessions;
   bundle->restore = bundle->runtime->OperatorStates(now.wire);
-  bundle->Start(now.mono);
+  bundle->Start(now);
   bundle->fleet->DropStale(Time::max());
   v2i.Clear();
   schedule.Restart(now.mono);

@@ -506,6 +506,8 @@ TEST_F(ScmSystem, KillingTheScmMakesEveryLightFlashAndARestartRestoresModesAndPl
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   ASSERT_EQ(Lab({"mode", "driving_school_crossing", "manual"}).code, 0);
   ASSERT_EQ(Lab({"plan", "driving_school_crossing", "evening"}).code, 0);
+  // A phase control (on the plan running now): it comes back with the time it has left.
+  ASSERT_EQ(Lab({"hold", "driving_school_crossing", "3", "--for", "3600"}).code, 0);
   const auto events_before = Scmctl({"events", "--limit", "1000"}).text;
   dds::Reader<msg::Heartbeat> heartbeats(*participant_, dds::topics::Heartbeat());
   // The SCM's heartbeats, by their stamps: the last one before the kill.
@@ -557,6 +559,9 @@ TEST_F(ScmSystem, KillingTheScmMakesEveryLightFlashAndARestartRestoresModesAndPl
   ASSERT_TRUE(WaitSpat(AnyGreen, seconds(30)));
   const auto show = Scmctl({"show", "driving_school_crossing"});
   EXPECT_THAT(show.text, HasSubstr("mode=manual requested=manual plan=evening (operator)"));
+  EXPECT_THAT(show.text, ::testing::ContainsRegex("hold phase 3 of plan [a-z]+ for 3[0-9][0-9][0-9]"
+                                                  "\\.[0-9] s more"))
+      << "the operator's hold, with the time it has left";
   const auto events_after = Scmctl({"events", "--limit", "1000"}).text;
   EXPECT_GT(events_after.size(), events_before.size());
   EXPECT_THAT(events_after, HasSubstr("operator_plan"));

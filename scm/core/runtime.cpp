@@ -52,6 +52,32 @@ void CityRuntime::Start(MonoTime now, const std::vector<IntersectionStateRecord>
   }
 }
 
+void CityRuntime::Start(const ClockReading& now,
+                        const std::vector<IntersectionStateRecord>& restore) {
+  Start(now.mono, restore);
+  for (const IntersectionStateRecord& saved : restore) {
+    const auto xi = Find(saved.intersection);
+    if (!xi) continue;
+    IntersectionRuntime& x = xs_[*xi];
+    for (const PhaseControlRecord& r : saved.controls) {
+      const auto kind = PhaseControlFromString(r.control);
+      const auto plan = x.model->PlanIndex(r.plan);
+      const bool put_back =
+          kind && plan && r.phase >= 1 &&
+          x.controller->RestoreControl(
+              {*kind, *plan, r.phase - 1, now.mono + (r.until - now.wire), false}, now.mono);
+      if (put_back) {
+        spdlog::info("{}: restoring {} of phase {} of plan {} for {:.1f} s", x.model->name,
+                     r.control, r.phase, r.plan, ToSeconds(r.until - now.wire));
+      } else if (r.until > now.wire) {
+        spdlog::warn("{}: the saved {} of phase {} of plan {} no longer fits the city: dropped",
+                     x.model->name, r.control, r.phase, r.plan);
+      }
+    }
+    x.saved_controls = x.controller->controls().all();
+  }
+}
+
 std::optional<std::size_t> CityRuntime::HeadIndex(SignalHeadId id) const {
   const auto it = head_index_.find(id);
   if (it == head_index_.end()) return std::nullopt;
@@ -188,22 +214,38 @@ std::vector<IntersectionStateRecord> CityRuntime::OperatorStates(Time now) const
   std::vector<IntersectionStateRecord> out;
   for (const auto& x : xs_) {
     const auto& c = *x.controller;
-    out.push_back({x.model->id, std::string(ToString(c.requested_mode())),
+    out.push_back({x.model->id,
+                   std::string(ToString(c.requested_mode())),
                    c.operator_plan() ? x.model->plans[*c.operator_plan()].name : "auto",
-                   c.operator_plan().has_value(), now});
+                   c.operator_plan().has_value(),
+                   now,
+                   {}});
   }
   return out;
 }
 
-std::optional<IntersectionStateRecord> CityRuntime::TakeStateToSave(std::size_t i, Time now) {
+std::optional<IntersectionStateRecord> CityRuntime::TakeStateToSave(std::size_t i,
+                                                                    const ClockReading& now) {
   IntersectionRuntime& x = xs_[i];
   const auto& c = *x.controller;
   const std::string mode(ToString(c.requested_mode()));
   const std::string plan = c.operator_plan() ? x.model->plans[*c.operator_plan()].name : "auto";
-  if (mode == x.saved_mode && plan == x.saved_plan) return std::nullopt;
+  std::vector<PhaseControl> controls;
+  for (const PhaseControl& pc : c.controls().all()) {
+    if (!pc.once) controls.push_back(pc);  // an advance lasts one green: not worth a restart
+  }
+  if (mode == x.saved_mode && plan == x.saved_plan && controls == x.saved_controls) {
+    return std::nullopt;
+  }
   x.saved_mode = mode;
   x.saved_plan = plan;
-  return IntersectionStateRecord{x.model->id, mode, plan, true, now};
+  x.saved_controls = controls;
+  IntersectionStateRecord out{x.model->id, mode, plan, true, now.wire, {}};
+  for (const PhaseControl& pc : controls) {
+    out.controls.push_back({std::string(ToString(pc.kind)), x.model->plans[pc.plan].name,
+                            static_cast<std::uint32_t>(pc.phase + 1), now.ToWire(pc.until)});
+  }
+  return out;
 }
 
 }  // namespace autodrive::scm

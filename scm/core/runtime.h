@@ -63,6 +63,7 @@ struct IntersectionRuntime {
   std::string fault;                 ///< why supervision latched it (for reset refusals)
   std::string saved_mode = "auto";   ///< as last persisted
   std::string saved_plan = "auto";
+  std::vector<PhaseControl> saved_controls;  ///< the phase controls as last persisted
 };
 
 /// What `CityRuntime::Step` reports besides events.
@@ -83,6 +84,10 @@ class CityRuntime {
   /// Starts every controller at `now` through the start-up sequence, with the operator's mode
   /// and plan from `restore` where one was saved (by intersection id).
   void Start(MonoTime now, const std::vector<IntersectionStateRecord>& restore);
+  /// `Start`, then the phase controls saved in `restore` with the time each has left (wall
+  /// time, so `now`'s mapping): those whose plan or phase is gone, or whose time is up, are
+  /// dropped and logged.
+  void Start(const ClockReading& now, const std::vector<IntersectionStateRecord>& restore);
 
   /// One pass at `now`: detector calls from `fleet` (fleet time `wire`), then every controller
   /// that is due (its `next_wake`) or whose inputs changed, its output checked by the conflict
@@ -117,11 +122,13 @@ class CityRuntime {
   [[nodiscard]] IntersectionSummary Summary(std::size_t x) const;
   /// `Describe(Summary(x))`.
   [[nodiscard]] std::string Describe(std::size_t x) const;
-  /// Every intersection's operator state now (mode and operator plan), to restart with.
+  /// Every intersection's operator state now (mode and operator plan), to restart a new
+  /// session of the control timeline with (a simulation restarted): phase controls, timed on the
+  /// old timeline, are not carried over.
   [[nodiscard]] std::vector<IntersectionStateRecord> OperatorStates(Time now) const;
-  /// The operator's state of `x` to persist when it changed since last saved (and marks it
-  /// saved), or nothing.
-  std::optional<IntersectionStateRecord> TakeStateToSave(std::size_t x, Time now);
+  /// The operator's state of `x` (mode, plan, phase controls) to persist when it changed since
+  /// last saved (and marks it saved), or nothing.
+  std::optional<IntersectionStateRecord> TakeStateToSave(std::size_t x, const ClockReading& now);
 
  private:
   void Check(std::size_t x, MonoTime now, EventSink& events, StepReport& report);

@@ -277,7 +277,7 @@ Reply Changed(const OperatorCommand& cmd, std::size_t xi, const CommandResult& r
   ctx.events.Emit(Event{Severity::kInfo, "operator_" + cmd.name,
                         fmt::format("{} {}: {}", cmd.name, x.model->name, res.message), x.model->id,
                         "", cmd.actor, false});
-  if (auto state = ctx.runtime.TakeStateToSave(xi, now.wire)) {
+  if (auto state = ctx.runtime.TakeStateToSave(xi, now)) {
     ctx.persistence.SaveIntersectionState(std::move(*state));
   }
   ctx.runtime.StepOne(xi, now, ctx.day, ctx.events);

@@ -56,7 +56,7 @@ class OperatorCommandsTest : public ::testing::Test {
     bundle_ = std::make_unique<CityBundle>(
         std::make_unique<City>(LoadCity(test::SourceDir() / "config/cities/small_town.yaml")),
         participant_, ClockKind::kWall, writers_, std::vector<IntersectionStateRecord>{}, 1);
-    bundle_->Start(now_.mono);
+    bundle_->Start(now_);
     publishers_ = std::make_unique<ScmPublishers>(participant_, "small_town", 42);
     publishers_->Reset(*bundle_->runtime, "small_town");
     loader_ = std::make_unique<ConfigLoader>(

@@ -48,7 +48,7 @@ TEST_F(PersistenceTest, EverythingQueuedIsWrittenAndSurvivesAReopen) {
     for (std::uint32_t x = 1; x <= 3; ++x) {
       for (int k = 0; k < 50; ++k) {  // coalesced: the newest state per intersection wins
         p.SaveIntersectionState(
-            {IntersectionId(x), k % 2 ? "manual" : "fixed", "day", true, Time(seconds(k))});
+            {IntersectionId(x), k % 2 ? "manual" : "fixed", "day", true, Time(seconds(k)), {}});
       }
     }
     p.Flush();

@@ -85,6 +85,18 @@ CREATE TABLE IF NOT EXISTS hires (
 CREATE INDEX IF NOT EXISTS hires_of_intersection ON hires (intersection_id, time_ns);
 CREATE INDEX IF NOT EXISTS hires_by_time ON hires (time_ns);
 )sql";
+// The operators' phase controls in force, saved with each intersection's state: made on every
+// open like the log above (a database of schema version 1 gets it then).
+constexpr const char* kPhaseControlsTable = R"sql(
+CREATE TABLE IF NOT EXISTS phase_controls (
+  intersection_id INTEGER NOT NULL CHECK (intersection_id BETWEEN 1 AND 4294967295),
+  control TEXT NOT NULL CHECK (control <> ''),
+  plan TEXT NOT NULL,
+  phase INTEGER NOT NULL CHECK (phase BETWEEN 1 AND 255),
+  until_ns INTEGER NOT NULL,
+  PRIMARY KEY (intersection_id, control, plan, phase)
+) STRICT;
+)sql";
 constexpr const char* kLatestProcessEvents =
     "SELECT code, device_id, max(time_ns) FROM events "
     "WHERE code IN ('process_exited', 'process_restarted') GROUP BY code, device_id";
@@ -231,6 +243,7 @@ struct Store::Impl {
   Statement insert_config, latest_config, config_by_id, config_history;
   Statement prune_events_before, prune_events_keep, prune_configs, count_configs;
   Statement upsert_state, select_states;
+  Statement delete_controls, insert_control, select_controls;
   struct HiresStatements {
     Statement insert, select_one, select_all, prune_before, prune_keep, count;
   } hires;
@@ -350,6 +363,7 @@ struct Store::Impl {
     // Migrations from older versions go here when there are any (version < kSchemaVersion).
     Exec(kProcessEventsIndex);
     Exec(kHiresTable);
+    Exec(kPhaseControlsTable);
 
     begin = Statement(db, "BEGIN IMMEDIATE");
     commit = Statement(db, "COMMIT");
@@ -407,6 +421,13 @@ struct Store::Impl {
                                  "DELETE FROM hires WHERE id <= (SELECT id FROM hires "
                                  "ORDER BY id DESC LIMIT 1 OFFSET ?1)");
     hires.count = Statement(db, "SELECT count(*) FROM hires");
+    delete_controls = Statement(db, "DELETE FROM phase_controls WHERE intersection_id = ?1");
+    insert_control = Statement(db,
+                               "INSERT INTO phase_controls (intersection_id, control, plan, phase, "
+                               "until_ns) VALUES (?1, ?2, ?3, ?4, ?5)");
+    select_controls = Statement(db,
+                                "SELECT control, plan, phase, until_ns FROM phase_controls WHERE "
+                                "intersection_id = ?1 ORDER BY until_ns, control, plan, phase");
     select_states = Statement(db,
                               "SELECT intersection_id, mode, plan, operator_chosen, "
                               "updated_at_ns FROM intersection_states ORDER BY intersection_id");
@@ -688,6 +709,16 @@ void Store::SaveIntersectionState(const IntersectionStateRecord& state) {
         .Bind(4, std::int64_t{state.operator_chosen ? 1 : 0})
         .Bind(5, ToNs(state.updated_at));
     use.Run();
+    Use(impl_->db, impl_->delete_controls).Bind(1, std::int64_t{state.intersection.value()}).Run();
+    for (const PhaseControlRecord& c : state.controls) {
+      Use(impl_->db, impl_->insert_control)
+          .Bind(1, std::int64_t{state.intersection.value()})
+          .Bind(2, c.control)
+          .Bind(3, c.plan)
+          .Bind(4, std::int64_t{c.phase})
+          .Bind(5, ToNs(c.until))
+          .Run();
+    }
     return 0;
   });
 }
@@ -704,6 +735,14 @@ std::vector<IntersectionStateRecord> Store::LoadIntersectionStates() const {
     s.operator_chosen = use.Int(3) != 0;
     s.updated_at = FromNs(use.Int(4));
     out.push_back(std::move(s));
+  }
+  for (IntersectionStateRecord& s : out) {
+    Use controls(impl_->db, impl_->select_controls);
+    controls.Bind(1, std::int64_t{s.intersection.value()});
+    while (controls.Step()) {
+      s.controls.push_back({controls.Text(0), controls.Text(1),
+                            static_cast<std::uint32_t>(controls.Int(2)), FromNs(controls.Int(3))});
+    }
   }
   return out;
 }

@@ -116,12 +116,23 @@ struct AppliedConfigSummary {
 };
 
 /// What to restore for one intersection after a restart.
+/// An operator's phase control in force (docs/controller.md, "Phase controls"), kept so that a
+/// restarted SCM puts it back for the time it has left.
+struct PhaseControlRecord {
+  std::string control;      ///< "omit", "hold", "force_off", "call", ...; not empty
+  std::string plan;         ///< the plan's name
+  std::uint32_t phase = 0;  ///< its phase number in that plan, 1..255
+  Time until{};             ///< when it ends (wall time)
+  bool operator==(const PhaseControlRecord&) const = default;
+};
+
 struct IntersectionStateRecord {
   IntersectionId intersection{0};
   std::string mode;              ///< e.g. "fixed", "actuated", "manual", "flash", "dark"; not empty
   std::string plan;              ///< the signal plan's name; may be empty
   bool operator_chosen = false;  ///< true when an operator chose this mode and plan
   Time updated_at{};             ///< when it was last saved
+  std::vector<PhaseControlRecord> controls;  ///< the phase controls in force, saved with it
   bool operator==(const IntersectionStateRecord&) const = default;
 };
 

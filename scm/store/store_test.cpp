@@ -295,24 +295,53 @@ TEST_F(StoreTest, ConfigurationsAreKeptWithHashAuthorAndTimeNewestFirst) {
 
 TEST_F(StoreTest, IntersectionStatesAreUpsertedAndLoadedById) {
   Store store(":memory:");
-  store.SaveIntersectionState({IntersectionId(3), "actuated", "am_peak", false, Time(seconds(1))});
-  store.SaveIntersectionState({IntersectionId(1), "fixed", "default", false, Time(seconds(2))});
-  store.SaveIntersectionState({IntersectionId(3), "flash", "", true, Time(seconds(3))});
+  store.SaveIntersectionState(
+      {IntersectionId(3), "actuated", "am_peak", false, Time(seconds(1)), {}});
+  store.SaveIntersectionState({IntersectionId(1), "fixed", "default", false, Time(seconds(2)), {}});
+  store.SaveIntersectionState({IntersectionId(3), "flash", "", true, Time(seconds(3)), {}});
   const auto states = store.LoadIntersectionStates();
   ASSERT_EQ(states.size(), 2u);
-  EXPECT_EQ(states[0], (IntersectionStateRecord{IntersectionId(1), "fixed", "default", false,
-                                                Time(seconds(2))}));
+  EXPECT_EQ(states[0], (IntersectionStateRecord{
+                           IntersectionId(1), "fixed", "default", false, Time(seconds(2)), {}}));
   EXPECT_EQ(states[1],
-            (IntersectionStateRecord{IntersectionId(3), "flash", "", true, Time(seconds(3))}));
+            (IntersectionStateRecord{IntersectionId(3), "flash", "", true, Time(seconds(3)), {}}));
 
   EXPECT_EQ(test::ErrorMessage([&] {
-              store.SaveIntersectionState({IntersectionId(0), "fixed", "", false, Time()});
+              store.SaveIntersectionState({IntersectionId(0), "fixed", "", false, Time(), {}});
             }),
             "an intersection state needs an intersection id, got 0");
   EXPECT_EQ(test::ErrorMessage([&] {
-              store.SaveIntersectionState({IntersectionId(2), "", "", false, Time()});
+              store.SaveIntersectionState({IntersectionId(2), "", "", false, Time(), {}});
             }),
             "the state of IntersectionId(2) has an empty mode");
+}
+
+TEST_F(StoreTest, PhaseControlsAreSavedWithTheirIntersectionsStateAndReplacedWhole) {
+  {
+    Store store(DbPath());
+    const std::vector<PhaseControlRecord> two = {{"omit", "day", 2, Time(seconds(100))},
+                                                 {"hold", "evening", 1, Time(seconds(50))}};
+    store.SaveIntersectionState({IntersectionId(4), "auto", "auto", true, Time(seconds(1)), two});
+    store.SaveIntersectionState({IntersectionId(5), "auto", "auto", true, Time(seconds(1)), two});
+    // A later save of the same intersection replaces its controls, not another's.
+    store.SaveIntersectionState({IntersectionId(5),
+                                 "auto",
+                                 "auto",
+                                 true,
+                                 Time(seconds(2)),
+                                 {{"call", "day", 3, Time(seconds(9))}}});
+  }
+  Store store(DbPath());  // reopened: they were written to the file
+  const auto states = store.LoadIntersectionStates();
+  ASSERT_EQ(states.size(), 2u);
+  EXPECT_EQ(states[0].controls,
+            (std::vector<PhaseControlRecord>{{"hold", "evening", 1, Time(seconds(50))},
+                                             {"omit", "day", 2, Time(seconds(100))}}))
+      << "in order of their ends";
+  EXPECT_EQ(states[1].controls,
+            (std::vector<PhaseControlRecord>{{"call", "day", 3, Time(seconds(9))}}));
+  store.SaveIntersectionState({IntersectionId(4), "auto", "auto", true, Time(seconds(3)), {}});
+  EXPECT_TRUE(store.LoadIntersectionStates()[0].controls.empty());
 }
 
 TEST_F(StoreTest, ReopenedFileHasEverythingAndIsInWalMode) {
@@ -320,7 +349,7 @@ TEST_F(StoreTest, ReopenedFileHasEverythingAndIsInWalMode) {
     Store store(DbPath());
     for (int i = 0; i < 5; ++i) store.AppendEvent(MakeEvent(i));
     store.SaveAppliedConfig("a.yaml", "x: 1\n", "scm", Time(seconds(7)));
-    store.SaveIntersectionState({IntersectionId(1), "manual", "p", true, Time(seconds(8))});
+    store.SaveIntersectionState({IntersectionId(1), "manual", "p", true, Time(seconds(8)), {}});
   }
   EXPECT_EQ(RawText(DbPath(), "PRAGMA journal_mode"), "wal");
   EXPECT_EQ(RawText(DbPath(), "PRAGMA user_version"), "1");
@@ -428,7 +457,7 @@ TEST_F(StoreTest, NothingCommittedIsLostAndTheFileIsIntactWhenTheWriterIsKilled)
           const std::int64_t id = store.AppendEvent(e);
           if (i % 16 == 0) {
             store.SaveIntersectionState(
-                {IntersectionId(1), "fixed", std::to_string(i), false, Time(seconds(i))});
+                {IntersectionId(1), "fixed", std::to_string(i), false, Time(seconds(i)), {}});
           }
           if (i % 64 == 0) store.SaveAppliedConfig("c.yaml", e.message, "scm", Time(seconds(i)));
           if (write(fds[1], &id, sizeof id) != static_cast<ssize_t>(sizeof id)) _exit(3);
