@@ -23,9 +23,11 @@
 #include "common/dds/topics.h"
 #include "common/logging.h"
 #include "common/shutdown.h"
+#include "maps/sumo.h"
 #include "scm/atspm/report.h"
 #include "scm/config_loader.h"
 #include "scm/core/city.h"
+#include "scm/core/pedestrian_timing.h"
 #include "scm/core/ring_plan.h"
 #include "scm/operator/client.h"
 #include "scm/store/store.h"
@@ -107,6 +109,53 @@ CLI::App* AddWatchCommand(CLI::App& app, std::string& watch_what, int& count, do
   watch->add_option("--duration", duration_s, "stop after this many seconds (0: no limit)");
   watch->add_flag("--json", json, "one JSON object per line");
   return watch;
+}
+
+/// What `scmctl pedestrian-timing` asks for.
+struct PedestrianTimingLine {
+  CLI::App* command = nullptr;
+  double length = 0.0;
+  std::optional<double> setback;
+  bool feet = false;  ///< lengths in feet
+  bool lab = false;   ///< lengths in lab metres, at the lab's scale
+  bool low_volume = false;
+  int edition = 2009;
+};
+
+void AddPedestrianTimingCommand(CLI::App& app, PedestrianTimingLine& p) {
+  p.command = app.add_subcommand(
+      "pedestrian-timing",
+      "the MUTCD's least walk and pedestrian clearance for a crossing (no SCM needed; "
+      "docs/controller.md, \"Pedestrians\")");
+  p.command
+      ->add_option("length", p.length, "the crossing, kerb to the far side of the traveled way")
+      ->required()
+      ->check(CLI::Range(0.01, 1000.0));
+  p.command
+      ->add_option("--button-setback", p.setback,
+                   "the push button's distance back from the kerb (default: none, the "
+                   "MUTCD's 6 ft)")
+      ->check(CLI::Range(0.0, 1000.0));
+  auto* feet = p.command->add_flag("--feet", p.feet, "lengths in feet (the MUTCD's example)");
+  p.command->add_flag("--lab", p.lab, "lengths in lab metres, taken at 1:14")->excludes(feet);
+  p.command->add_flag("--low-volume", p.low_volume,
+                      "pedestrian volumes that do not need a 7 s walk (4 s)");
+  p.command->add_option("--mutcd", p.edition, "2009 (current) or 2003 (4 ft/s, no button rule)")
+      ->check(CLI::IsMember({2009, 2003}))
+      ->capture_default_str();
+}
+
+int PrintPedestrianTiming(const PedestrianTimingLine& p) {
+  const double to_m = p.feet ? 0.3048 : p.lab ? maps::kSumoScale : 1.0;
+  PedestrianCrossing crossing{p.length * to_m};
+  if (p.setback) crossing.button_setback_m = *p.setback * to_m;
+  if (p.lab) {
+    std::cout << fmt::format("lab {:g} m at 1:{:g}\n", p.length, maps::kSumoScale);
+  }
+  std::cout << DescribePedestrianMinimums(
+      crossing, p.low_volume, p.edition == 2003 ? MutcdEdition::k2003 : MutcdEdition::k2009,
+      p.feet);
+  return 0;
 }
 
 /// `config validate FILE` without `--scm`: the file checked here.
@@ -638,6 +687,7 @@ struct CommandLine {
   CLI::App* events = nullptr;
   CLI::App* hires = nullptr;
   AtspmCommandLine atspm;
+  PedestrianTimingLine pedestrian;
   CLI::App* watch = nullptr;
   CLI::App* validate = nullptr;
   CLI::App* apply = nullptr;
@@ -703,6 +753,7 @@ void AddCommands(CLI::App& app, CommandLine& c) {
       ->check(CLI::Range(std::size_t{1}, std::size_t{100000}))
       ->group("");
   AddAtspmCommand(app, c.intersection, c.since, c.until, c.page, c.atspm);
+  AddPedestrianTimingCommand(app, c.pedestrian);
   c.watch = AddWatchCommand(app, c.watch_what, c.count, c.duration_s, c.json);
   auto* config = app.add_subcommand("config", "check or apply a city configuration");
   config->require_subcommand(1);
@@ -824,6 +875,7 @@ int main(int argc, char** argv) {
   if (builds_city && app.count("--timeout") == 0) timeout_s = 120.0;
   try {
     if (c.validate->parsed() && !c.validate_on_scm) return ValidateHere(c.file);
+    if (c.pedestrian.command->parsed()) return PrintPedestrianTiming(c.pedestrian);
     if (c.watch->parsed()) return Watch(dds_options, c.watch_what, c.count, c.duration_s, c.json);
     const HiresRequest log_request{c.intersection, {}, {}, timeout_s, c.page, c.json};
     if (c.hires->parsed()) return Hires(dds_options, log_request, c.since, c.until, c.csv);

@@ -196,10 +196,8 @@ TEST_F(ScmGuard, SpatKeepsEveryMinEndPromiseAndItsRateWhileOperatorsCommand) {
   const std::vector<std::vector<std::string>> commands = {
       {"mode", "driving_school_crossing", "manual"},
       {"advance", "driving_school_crossing"},
-      {"hold", "driving_school_crossing", "1", "--for", "4"},
-      {"omit", "driving_school_crossing", "2", "--for", "10"},
+      {"omit", "driving_school_crossing", "2", "--for", "6"},
       {"force-off", "driving_school_crossing", "3", "--for", "20"},
-      {"call", "driving_school_crossing", "4", "--for", "6"},
       {"plan", "driving_school_crossing", "evening"},
       {"mode", "driving_school_crossing", "dark"},
       {"mode", "driving_school_crossing", "auto"},

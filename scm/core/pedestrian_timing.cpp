@@ -48,6 +48,38 @@ PedestrianMinimums MutcdPedestrianMinimums(const PedestrianCrossing& crossing,
   return m;
 }
 
+std::string DescribePedestrianMinimums(const PedestrianCrossing& crossing,
+                                       bool low_pedestrian_volume, MutcdEdition edition,
+                                       bool feet) {
+  constexpr double kFoot = 0.3048;
+  const auto length = [&](double m) {
+    return feet ? fmt::format("{:.2f} m ({:.0f} ft)", m, m / kFoot) : fmt::format("{:.2f} m", m);
+  };
+  const PedestrianMinimums m = MutcdPedestrianMinimums(crossing, low_pedestrian_volume, edition);
+  const bool y2009 = edition == MutcdEdition::k2009;
+  std::string out = fmt::format("crossing {}, push button {} back from the kerb, MUTCD {} rules\n",
+                                length(crossing.length_m), length(crossing.button_setback_m),
+                                y2009 ? "2009" : "2003");
+  out += fmt::format("  walk                >= {:g} s{}\n", m.walk_s,
+                     low_pedestrian_volume ? " (low pedestrian volume)" : "");
+  out += fmt::format("  ped clear           >= {:.2f} m / {:g} m/s = {:.2f} s, rounded up {:g} s\n",
+                     crossing.length_m,
+                     y2009 ? kClearanceWalkingSpeedMps : kClearanceWalkingSpeed2003Mps,
+                     m.ped_clear_exact_s, m.ped_clear_s);
+  if (y2009) {
+    out += fmt::format(
+        "  walk + ped clear    >= ({:.2f} m + {:.2f} m) / {:g} m/s = {:.2f} s, rounded up {:g} s\n",
+        crossing.length_m, crossing.button_setback_m, kButtonWalkingSpeedMps,
+        m.walk_and_clear_exact_s, m.walk_and_clear_s);
+  }
+  out += fmt::format("  shortest timing:    walk {:g} s + ped clear {:g} s = {:g} s\n",
+                     m.shortest_walk_s, m.ped_clear_s, m.ShortestTotalS());
+  out +=
+      fmt::format("  buffer              >= {:g} s (the parallel phase's yellow + red clearance)\n",
+                  kMinBufferS);
+  return out;
+}
+
 std::vector<PedestrianViolation> CheckPedestrianTiming(const PedestrianCrossing& crossing,
                                                        const PedestrianTiming& timing,
                                                        bool low_pedestrian_volume) {

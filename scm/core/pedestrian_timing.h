@@ -71,6 +71,13 @@ struct PedestrianMinimums {
     const PedestrianCrossing& crossing, bool low_pedestrian_volume,
     MutcdEdition edition = MutcdEdition::k2009);
 
+/// The minimums of `crossing` for people, one line per rule with how it comes about and the
+/// shortest timing that meets them all (`scmctl pedestrian-timing`). `feet`: lengths also in
+/// feet (the MUTCD's unit).
+[[nodiscard]] std::string DescribePedestrianMinimums(const PedestrianCrossing& crossing,
+                                                     bool low_pedestrian_volume,
+                                                     MutcdEdition edition, bool feet = false);
+
 /// One rule a pedestrian timing breaks.
 struct PedestrianViolation {
   std::string rule;  ///< e.g. "MUTCD 2009 4E.06 P14: walk + pedestrian clearance"

@@ -90,5 +90,20 @@ TEST(PedestrianTiming, TheBufferIsAtLeast3Seconds) {
   EXPECT_THAT(v->message, HasSubstr("buffer 2.5 s is below 3 s; rule: MUTCD Figure 4E-2"));
 }
 
+TEST(PedestrianTiming, TheDescriptionForPeopleShowsTheFhwaExampleStepByStep) {
+  // scmctl pedestrian-timing 130 --button-setback 60 --feet
+  const PedestrianCrossing fhwa{130 * 0.3048, 60 * 0.3048};
+  EXPECT_EQ(DescribePedestrianMinimums(fhwa, false, MutcdEdition::k2009, true),
+            "crossing 39.62 m (130 ft), push button 18.29 m (60 ft) back from the kerb, MUTCD "
+            "2009 rules\n"
+            "  walk                >= 7 s\n"
+            "  ped clear           >= 39.62 m / 1.07 m/s = 37.03 s, rounded up 38 s\n"
+            "  walk + ped clear    >= (39.62 m + 18.29 m) / 0.91 m/s = 63.64 s, rounded up 64 s\n"
+            "  shortest timing:    walk 26 s + ped clear 38 s = 64 s\n"
+            "  buffer              >= 3 s (the parallel phase's yellow + red clearance)\n");
+  EXPECT_THAT(DescribePedestrianMinimums(fhwa, false, MutcdEdition::k2003),
+              HasSubstr("  shortest timing:    walk 7 s + ped clear 33 s = 40 s\n"));
+}
+
 }  // namespace
 }  // namespace autodrive::scm
