@@ -171,6 +171,59 @@ void SetIntergreens(const SafetyConfig& safety, const maps::Map& map, Intergreen
   }
 }
 
+/// Sets `x`'s pre-emption parameters (its groups and plans built) and checks them: no green is
+/// ended or timed below its min green, which the conflict monitor holds every green to, and
+/// every plan with phases has a phase driving all the track groups (docs/controller.md,
+/// "Pre-emption").
+void SetPreempt(const PriorityConfig& cfg, double scale, const Where& where, IntersectionModel& x) {
+  PriorityParams& p = x.priority;
+  p.preempt_delay = Scaled(cfg.preempt_delay_s, scale);
+  p.preempt_min_duration = Scaled(cfg.preempt_min_duration_s, scale);
+  if (cfg.preempt_min_green_s) p.preempt_min_green = Scaled(*cfg.preempt_min_green_s, scale);
+  p.preempt_track_green = Scaled(cfg.preempt_track_green_s, scale);
+  p.preempt_dwell_green = Scaled(cfg.preempt_dwell_green_s, scale);
+  for (const std::uint32_t id : cfg.preempt_track_groups) {
+    p.preempt_track_groups.push_back(internal::GroupById(x.groups, id, where));
+  }
+  if ((p.preempt_track_green > Duration{0}) != !p.preempt_track_groups.empty()) {
+    where.Fail(
+        "preempt_track_green_s and preempt_track_groups come together (a track clearance needs "
+        "its groups and its green)");
+  }
+  for (const SignalGroup& g : x.groups) {
+    if (p.preempt_min_green && *p.preempt_min_green < g.timing.min_green) {
+      where.Fail(fmt::format(
+          "preempt_min_green_s {} is below group {}'s min green {}; rule: the conflict monitor "
+          "holds every green to its min green, so a pre-emption may not end one sooner",
+          Seconds(*p.preempt_min_green), internal::GroupLabel(g), Seconds(g.timing.min_green)));
+    }
+  }
+  for (const std::size_t t : p.preempt_track_groups) {
+    if (p.preempt_track_green < x.groups[t].timing.min_green) {
+      where.Fail(fmt::format(
+          "preempt_track_green_s {} is below track group {}'s min green {}; rule: the conflict "
+          "monitor holds every green to its min green",
+          Seconds(p.preempt_track_green), internal::GroupLabel(x.groups[t]),
+          Seconds(x.groups[t].timing.min_green)));
+    }
+  }
+  if (p.preempt_track_groups.empty()) return;
+  for (const Plan& plan : x.plans) {
+    if (plan.phases.empty()) continue;
+    const bool driven = std::ranges::any_of(plan.phases, [&](const Phase& phase) {
+      return std::ranges::all_of(p.preempt_track_groups, [&](std::size_t t) {
+        return std::ranges::find(phase.groups, t) != phase.groups.end();
+      });
+    });
+    if (!driven) {
+      where.Fail(fmt::format(
+          "no phase of plan {} drives every track group (preempt_track_groups); rule: the track "
+          "clearance is one phase of the running plan (NTCIP preemptTrackPhase)",
+          plan.name));
+    }
+  }
+}
+
 /// Builds one intersection; `map_x` is the map's intersection of that name.
 IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionConfig& cfg,
                                     const maps::Map& map, const maps::Intersection& map_x,
@@ -181,8 +234,9 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
   x.name = map_x.name;
   const double scale = city.time_scale;
   x.startup_flash = Scaled(city.start_up.flash_s, scale);
-  x.priority = {cfg.priority.enabled, Scaled(cfg.priority.max_extension_s, scale),
-                Scaled(cfg.priority.max_preemption_s, scale)};
+  x.priority.enabled = cfg.priority.enabled;
+  x.priority.max_extension = Scaled(cfg.priority.max_extension_s, scale);
+  x.priority.max_preemption = Scaled(cfg.priority.max_preemption_s, scale);
   x.next_phase_decision = cfg.next_phase_decision == "end_of_clearance"
                               ? NextPhaseDecision::kEndOfClearance
                               : NextPhaseDecision::kEndOfGreen;
@@ -214,6 +268,7 @@ IntersectionModel BuildIntersection(const CityConfig& city, const IntersectionCo
   internal::CheckCrosswalks(cfg, x, site, scale, where);
   x.plans = internal::BuildPlans(cfg, x, site, scale, where);
   x.schedule = internal::BuildSchedule(cfg, x, where);
+  SetPreempt(cfg.priority, scale, where.Then("priority"), x);
   return x;
 }
 

@@ -90,11 +90,26 @@ struct ScheduleEntry {
   std::size_t plan = 0;
 };
 
-/// Priority and pre-emption limits, lab time.
+/// Priority and pre-emption parameters, lab time (docs/controller.md, "Pre-emption"; the NTCIP
+/// 1202 preempt object each pre-emption field is).
 struct PriorityParams {
   bool enabled = true;
   Duration max_extension{0};
-  Duration max_preemption{0};
+  Duration max_preemption{0};        ///< preemptMaximumPresence
+  Duration preempt_delay{0};         ///< preemptDelay
+  Duration preempt_min_duration{0};  ///< preemptMinimumDuration
+  /// preemptMinimumGreen; none: each green's min green.
+  std::optional<Duration> preempt_min_green;
+  Duration preempt_track_green{0};  ///< preemptTrackGreen; zero: no track clearance
+  /// The groups (indexes) of the track clearance; preemptTrackPhase is the phase of the running
+  /// plan that drives them all (every plan with phases has one, checked at load).
+  std::vector<std::size_t> preempt_track_groups;
+  Duration preempt_dwell_green{0};  ///< preemptDwellGreen (the minimum dwell)
+
+  /// Whether a track clearance comes before the dwell.
+  [[nodiscard]] bool track() const {
+    return preempt_track_green > Duration{0} && !preempt_track_groups.empty();
+  }
 };
 
 /// One signalised intersection, ready to run.

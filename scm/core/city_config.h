@@ -167,13 +167,33 @@ struct ScheduleEntryConfig {
   bool operator==(const ScheduleEntryConfig&) const = default;
 };
 
-/// V2I priority and pre-emption at one intersection.
+/// V2I priority and pre-emption at one intersection. The pre-emption keys are NTCIP 1202's
+/// preempt table (asc.6.2.1) for the one preempt V2I emergency requests call, in configured
+/// seconds (docs/controller.md, "Pre-emption").
 struct PriorityConfig {
   bool enabled = true;
   /// Longest a priority request may extend a green beyond its max green (configured s).
   nanoseconds max_extension_s = std::chrono::seconds(10);
-  /// Longest a pre-emption may hold its green (configured s).
+  /// Longest a pre-emption input may stay on before it is released (preemptMaximumPresence).
   nanoseconds max_preemption_s = std::chrono::seconds(60);
+  /// From the call input on to the start of entry (preemptDelay).
+  nanoseconds preempt_delay_s{0};
+  /// Least time from entry to the end of the dwell (preemptMinimumDuration).
+  nanoseconds preempt_min_duration_s{0};
+  /// A green in service at entry is not ended before the lesser of its min green and this
+  /// (preemptMinimumGreen). Absent: its min green. Never below a group's min green here (the
+  /// conflict monitor holds every green to it).
+  std::optional<nanoseconds> preempt_min_green_s;
+  /// Green of the track groups before the dwell (preemptTrackGreen); 0: no track clearance.
+  nanoseconds preempt_track_green_s{0};
+  /// The groups green for the track clearance (preemptTrackPhase: the running plan's phase that
+  /// drives them all).
+  std::vector<std::uint32_t> preempt_track_groups;
+  /// Least green of the dwell phase (preemptDwellGreen, the minimum dwell).
+  nanoseconds preempt_dwell_green_s = std::chrono::seconds(5);
+  /// Where the pre-emption exits (preemptExitPhase): `next`, the phase after the dwell phase in
+  /// the running plan's sequence.
+  std::string preempt_exit = "next";
 
   template <typename Archive>
   void Serialize(Archive& a) {
@@ -182,6 +202,17 @@ struct PriorityConfig {
                config::Range<nanoseconds>{nanoseconds(0), std::chrono::minutes(10)});
     a.Optional("max_preemption_s", max_preemption_s,
                config::Range<nanoseconds>{std::chrono::seconds(1), std::chrono::hours(1)});
+    a.Optional("preempt_delay_s", preempt_delay_s,
+               config::Range<nanoseconds>{nanoseconds(0), std::chrono::seconds(600)});
+    a.Optional("preempt_min_duration_s", preempt_min_duration_s,
+               config::Range<nanoseconds>{nanoseconds(0), std::chrono::hours(1)});
+    const config::Range<nanoseconds> to_255{nanoseconds(0), std::chrono::seconds(255)};
+    a.Optional("preempt_min_green_s", preempt_min_green_s, to_255);
+    a.Optional("preempt_track_green_s", preempt_track_green_s, to_255);
+    a.Optional("preempt_track_groups", preempt_track_groups, config::Range<std::uint32_t>{1, 255});
+    a.Optional("preempt_dwell_green_s", preempt_dwell_green_s,
+               config::Range<nanoseconds>{std::chrono::seconds(1), std::chrono::seconds(255)});
+    a.Optional("preempt_exit", preempt_exit, config::OneOf{{"next"}});
   }
   bool operator==(const PriorityConfig&) const = default;
 };

@@ -13,7 +13,6 @@ namespace {
 
 constexpr RequestStatus kGranted = RequestStatus::kGranted;
 constexpr RequestStatus kRejected = RequestStatus::kRejected;
-constexpr RequestStatus kCompleted = RequestStatus::kCompleted;
 constexpr RequestStatus kCancelled = RequestStatus::kCancelled;
 
 constexpr std::pair<Mode, std::string_view> kModeNames[] = {
@@ -76,20 +75,6 @@ DayClock DayClock::At(Duration since_midnight) {
   return DayClock{static_cast<int>(std::chrono::duration_cast<std::chrono::minutes>(d).count()), d};
 }
 
-std::string_view ToString(RequestStatus status) {
-  switch (status) {
-    case RequestStatus::kGranted:
-      return "granted";
-    case RequestStatus::kRejected:
-      return "rejected";
-    case RequestStatus::kCompleted:
-      return "completed";
-    case RequestStatus::kCancelled:
-      return "cancelled";
-  }
-  return "?";
-}
-
 std::string_view ToString(Mode mode) {
   for (const auto& [m, name] : kModeNames) {
     if (m == mode) return name;
@@ -131,7 +116,8 @@ IntersectionController::IntersectionController(const IntersectionModel& model, M
       since_(model.groups.size(), now),
       mode_(mode),
       operator_plan_(operator_plan),
-      log_(now) {
+      log_(now),
+      requests_(model.priority) {
   AUTODRIVE_CHECK(!model.plans.empty(), "intersection " << model.name << " has no plans");
   if (operator_plan_ && *operator_plan_ >= model.plans.size()) operator_plan_.reset();
   plan_ = operator_plan_.value_or(model.schedule.front().plan);
@@ -208,9 +194,8 @@ void IntersectionController::EnterFlash(MonoTime now, bool dark) {
   for (std::size_t g = 0; g < aspects_.size(); ++g) {
     Show(g, dark ? Aspect::kOff : model_->groups[g].flash_aspect, now);
   }
-  if (active_)
-    EndRequest(now, kCancelled,
-               dark ? "the intersection went dark" : "the intersection went to flash");
+  requests_.Abort(now, dark ? "the intersection went dark" : "the intersection went to flash",
+                  log_);
 }
 
 void IntersectionController::EnterAllRed(MonoTime now, Duration d) {
@@ -330,9 +315,7 @@ void IntersectionController::StartPhase(std::size_t phase, MonoTime now) {
   LogPhase(now, hires::kPhaseBeginGreen);
   for (std::size_t g : plan().phases[phase].groups) Show(g, Aspect::kGreen, now);
   green_.planned_end = PlannedEnd(phase, now);
-  if (active_ && !active_->served && InPhase(active_->request.group)) {
-    Serve(now, active_->request.preemption ? hires::kPreemptBeginDwell : hires::kTspEarlyGreen);
-  }
+  UpdateRequest(now);  // a request's green is served from now
 }
 
 void IntersectionController::BeginClearance(std::optional<std::size_t> next, MonoTime now) {
@@ -375,8 +358,10 @@ MonoTime IntersectionController::MaxEnd(MonoTime now) const {
 }
 
 std::uint16_t IntersectionController::TerminationCode(MonoTime now) const {
-  if (active_ && !InPhase(active_->request.group)) {
-    return active_->request.preemption ? hires::kPreemptionForceOff : hires::kTspEarlyForceOff;
+  if (requests_.preempting() && !PreemptGreen(now)) return hires::kPreemptionForceOff;
+  if (requests_.exiting()) return hires::kPhaseForceOff;  // the dwell phase's, to the exit
+  if (const ServiceRequest* r = requests_.request(); r && !r->preemption && !InPhase(r->group)) {
+    return hires::kTspEarlyForceOff;
   }
   if (controls_.Active(PhaseControlKind::kForceOff, plan_, phase_)) return hires::kPhaseForceOff;
   if (TargetMode(plan_) == Mode::kActuated) {
@@ -389,24 +374,45 @@ bool IntersectionController::GappedOut(MonoTime now) const {
   return now >= green_.last_call + plan().extension;
 }
 
+bool IntersectionController::PreemptGreen(MonoTime now) const {
+  if (!requests_.WantsTrack(now)) return InPhase(*requests_.group());
+  return std::ranges::all_of(model_->priority.preempt_track_groups,
+                             [&](std::size_t t) { return InPhase(t); });
+}
+
+MonoTime IntersectionController::EntryMinEnd() const {
+  const auto& preempt_min = model_->priority.preempt_min_green;
+  if (!preempt_min) return PhaseMinEnd();
+  MonoTime end = green_.start;
+  for (std::size_t g : plan().phases[phase_].groups) {
+    end = std::max(end, since_[g] + std::min(model_->groups[g].timing.min_green, *preempt_min));
+  }
+  return end;
+}
+
 bool IntersectionController::ShouldTerminate(MonoTime now, const std::vector<bool>& calls) const {
-  if (now < PhaseMinEnd()) return false;
+  // A pre-emption ends a green it does not want at the lesser of its min green and
+  // preemptMinimumGreen, and holds the one it wants (the track green to its end, the dwell
+  // green to the exit).
+  const bool preempting = requests_.preempting();
+  const bool preempted = preempting && !PreemptGreen(now);
+  if (now < (preempted ? EntryMinEnd() : PhaseMinEnd())) return false;
+  // The pre-emption outranks the operator's controls: it ends a hold elsewhere, and neither a
+  // force-off nor an advance cuts its track or dwell green.
+  if (preempting) return preempted;
   const Mode mode = TargetMode(plan_);
-  const bool preempted = active_ && active_->request.preemption && !InPhase(active_->request.group);
-  // The operator's hold keeps the green (only a pre-emption elsewhere ends it), and a green with
-  // nowhere else to go rests; a force-off then ends it at its min green.
-  if (controls_.Active(PhaseControlKind::kHold, plan_, phase_) && !preempted) return false;
-  if (!preempted && NextServed(plan_, phase_) == phase_) return false;
-  if (controls_.Active(PhaseControlKind::kForceOff, plan_, phase_) && !preempted) return true;
-  if (active_) {
-    const auto& r = active_->request;
-    if (!InPhase(r.group)) return true;  // go and serve it
-    const MonoTime hold = r.preemption
-                              ? std::min(r.end, active_->accepted + model_->priority.max_preemption)
-                              : std::min(r.end, green_.start + PhaseMaxGreen(phase_) +
-                                                    model_->priority.max_extension);
+  const ServiceRequest* request = requests_.request();
+  // The operator's hold keeps the green, and a green with nowhere else to go rests; a force-off
+  // then ends it at its min green.
+  if (controls_.Active(PhaseControlKind::kHold, plan_, phase_)) return false;
+  if (NextServed(plan_, phase_) == phase_) return false;
+  if (controls_.Active(PhaseControlKind::kForceOff, plan_, phase_)) return true;
+  if (requests_.exiting() && requests_.dwell_phase() == phase_) return true;  // to the exit phase
+  if (request && !request->preemption) {
+    if (!InPhase(request->group)) return true;  // go and serve it
+    const MonoTime hold = std::min(
+        request->end, green_.start + PhaseMaxGreen(phase_) + model_->priority.max_extension);
     if (now < hold) return false;
-    if (r.preemption) return true;
   }
   switch (mode) {
     case Mode::kManual:
@@ -428,16 +434,27 @@ std::optional<std::size_t> IntersectionController::CalledNext(std::size_t plan,
   const Plan& p = model_->plans[plan];
   const std::size_t n = p.phases.size();
   const std::size_t from = plan == plan_ ? phase_ : n - 1;
-  if (active_) {
-    // An emergency vehicle's phase is served even when omitted; a bus's is not.
-    const bool preemption = active_->request.preemption;
+  // The pre-emption's track or dwell phase (served even when omitted), its exit phase (the next
+  // after the dwell phase), or a bus's phase (not when omitted).
+  const ServiceRequest* r = requests_.request();
+  const bool tsp = r && !r->preemption;
+  if (requests_.preempting() || tsp) {
+    const bool track = requests_.TrackNext();
     for (std::size_t k = 1; k <= n; ++k) {
       const std::size_t cand = (from + k) % n;
-      if (!preemption && Omitted(plan, cand)) continue;
+      if (tsp && Omitted(plan, cand)) continue;
       // Not the green in service again: its groups are green now.
       if (stage_ == Stage::kGreen && plan == plan_ && cand == phase_) continue;
-      if (Contains(p.phases[cand].groups, active_->request.group)) return cand;
+      const auto& groups = p.phases[cand].groups;
+      const bool wanted =
+          track ? std::ranges::all_of(model_->priority.preempt_track_groups,
+                                      [&](std::size_t t) { return Contains(groups, t); })
+                : Contains(groups, tsp ? r->group : *requests_.group());
+      if (wanted) return cand;
     }
+  }
+  if (requests_.exiting() && plan == plan_ && requests_.dwell_phase() == from) {
+    return NextServed(plan, from);
   }
   if (TargetMode(plan) == Mode::kActuated) {
     for (std::size_t k = 1; k <= n; ++k) {
@@ -514,7 +531,7 @@ void IntersectionController::StepGreen(MonoTime now, std::size_t wanted_plan) {
       UsePlan(wanted_plan, now);
       BeginClearance(std::nullopt, now);
     }
-  } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !active_ &&
+  } else if (wanted_plan != plan_ && now >= PhaseMinEnd() && !requests_.busy() &&
              !controls_.Active(PhaseControlKind::kHold, plan_, phase_)) {
     // A safe point: the new plan starts after this green's clearance.
     LogPhase(now, hires::kPhaseForceOff);
@@ -578,7 +595,7 @@ void IntersectionController::Step(MonoTime now, const std::vector<bool>& in_call
           const Mode target = TargetMode(plan_);
           if (target == Mode::kFlash || target == Mode::kDark) {
             EnterFlash(now, target == Mode::kDark);
-          } else if (active_) {
+          } else if (requests_.preempting() || requests_.priority_active()) {
             StartPhase(ChooseNext(plan_, calls_), now);  // a request first, cycle or not
           } else if (const Duration wait = CycleClearanceLeft(plan_, now); wait > Duration{0}) {
             stage_end_ = now + wait;  // stay red to the cycle's next green, so as to keep to it
@@ -648,10 +665,7 @@ MonoTime IntersectionController::ComputeNextWake(MonoTime now) const {
     if (t > now) next = std::min(next, t);
   };
   consider(controls_.next_expiry());
-  if (active_) {
-    consider(active_->request.end);
-    consider(active_->accepted + model_->priority.max_preemption);
-  }
+  consider(requests_.NextWake(now));
   switch (stage_) {
     case Stage::kStartupFlash:
     case Stage::kAllRed:
@@ -724,8 +738,8 @@ std::optional<MonoTime> IntersectionController::WalkToGreen(std::size_t g, F gre
       const Mode target = TargetMode(plan_);
       if (target == Mode::kFlash || target == Mode::kDark) return std::nullopt;
       t = stage_end_;
-      if (active_) return std::nullopt;   // a request is served first
-      t += CycleClearanceLeft(plan_, t);  // as Step leaves all red
+      if (requests_.busy()) return std::nullopt;  // a request is served first
+      t += CycleClearanceLeft(plan_, t);          // as Step leaves all red
       from = FirstPhase(plan_, t);
       if (Contains(p.phases[from].groups, g)) return t;
       t = green_end(from, t, false);
@@ -804,6 +818,7 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
   out.resize(aspects_.size());
   for (auto& s : out) s = GroupSignal{};
   const Mode mode = effective_mode();
+  const bool busy = requests_.busy();  // a request or pre-emption: the plan's walk does not hold
   const bool phased = stage_ == Stage::kGreen || stage_ == Stage::kYellow ||
                       stage_ == Stage::kRedClearance || stage_ == Stage::kAllRed;
   const Duration extension_allowance =
@@ -868,7 +883,7 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
         s.min_end = std::max(now, yellow_end_);
         s.max_end = s.likely_end = s.min_end;
         s.likely_confidence = 1.0f;
-        if (mode != Mode::kManual && !active_) {
+        if (mode != Mode::kManual && !busy) {
           s.next_green = WalkToGreen(g, green_end(Policy::kLikely));
         }
         break;
@@ -893,20 +908,19 @@ void IntersectionController::SignalsInto(MonoTime now, std::vector<GroupSignal>&
           s.likely_end = std::max(s.min_end, end_of_run(Policy::kLikely));
           s.max_end = std::max(*s.likely_end, end_of_run(Policy::kMax));
           s.likely_confidence = confidence;
-          if (!active_) s.next_green = WalkToGreen(g, green_end(Policy::kLikely), true);
+          if (!busy) s.next_green = WalkToGreen(g, green_end(Policy::kLikely), true);
         }
         break;
       }
       default: {  // red
         if (const auto earliest = EarliestGreen(g, now)) s.min_end = *earliest;
         if (mode == Mode::kManual) break;
-        s.next_green = active_ && active_->request.group == g
-                           ? EarliestGreen(g, now)
-                           : WalkToGreen(g, green_end(Policy::kLikely));
+        s.next_green = busy && requests_.group() == g ? EarliestGreen(g, now)
+                                                      : WalkToGreen(g, green_end(Policy::kLikely));
         if (s.next_green) {
           s.likely_end = std::max(s.min_end, *s.next_green);
           s.likely_confidence = confidence;
-          if (!active_) {
+          if (!busy) {
             if (const auto latest = WalkToGreen(g, green_end(Policy::kMax))) {
               s.max_end = std::max(*s.likely_end, *latest);
             }
@@ -1083,41 +1097,21 @@ void IntersectionController::FailSafe(MonoTime now, std::string reason) {
   EnterFlash(now, false);
 }
 
-void IntersectionController::Serve(MonoTime now, std::uint16_t code) {
-  active_->served = true;
-  active_->request.end = std::max(active_->request.end, now + active_->request.duration);
-  LogRequest(now, code);
-}
-
-void IntersectionController::LogRequest(MonoTime now, std::uint16_t code) {
-  log_.Log(now, code, hires::kV2iRequestNumber);
-}
-
-void IntersectionController::EndRequest(MonoTime now, RequestStatus status, std::string reason) {
-  if (!active_) return;
-  if (active_->request.preemption) {
-    if (active_->served) LogRequest(now, hires::kPreemptBeginExit);
-    LogRequest(now, hires::kPreemptCallInputOff);
-  } else {
-    LogRequest(now, hires::kTspCheckOut);
+RequestView IntersectionController::ViewForRequests() const {
+  RequestView v;
+  if (stage_ == Stage::kGreen) {
+    v.green_phase = phase_;
+    v.rests = NextServed(plan_, phase_) == phase_;
   }
-  updates_.push_back({active_->request.vehicle, active_->request.request_id, status,
-                      active_->request.group, std::nullopt, std::move(reason)});
-  active_.reset();
+  if (const auto g = requests_.group()) v.group_green = InPhase(*g);
+  const auto& track = model_->priority.preempt_track_groups;
+  v.track_green =
+      !track.empty() && std::ranges::all_of(track, [&](std::size_t t) { return InPhase(t); });
+  return v;
 }
 
 void IntersectionController::UpdateRequest(MonoTime now) {
-  if (!active_) return;
-  const bool green = InPhase(active_->request.group);
-  if (green && !active_->served) {
-    Serve(now, active_->request.preemption ? hires::kPreemptBeginDwell : hires::kTspEarlyGreen);
-  }
-  if (active_->served && (now >= active_->request.end || !green)) {
-    EndRequest(now, kCompleted, "served");
-  } else if (now >= active_->accepted + model_->priority.max_preemption) {
-    if (active_->request.preemption) LogRequest(now, hires::kPreemptMaxPresenceExceeded);
-    EndRequest(now, kCompleted, "expired: the request outlived the pre-emption limit");
-  }
+  if (!requests_.idle()) requests_.Update(now, ViewForRequests(), log_);
 }
 
 RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime now) {
@@ -1153,40 +1147,21 @@ RequestUpdate IntersectionController::Request(const ServiceRequest& r, MonoTime 
       return u;
     }
   }
-  bool fresh = false;  // a new request, not an update of the one served
-  if (active_ && active_->request.vehicle == r.vehicle &&
-      active_->request.request_id == r.request_id) {
-    active_->request.end = r.end;  // an update of the same request
-  } else if (active_) {
-    if (!(r.preemption && !active_->request.preemption)) {
-      u.reason =
-          fmt::format("another request is being served (vehicle {})", active_->request.vehicle);
-      return u;
-    }
-    EndRequest(now, kCancelled, fmt::format("pre-empted by an emergency vehicle ({})", r.vehicle));
-    active_ = Active{r, now, false};
-    fresh = true;
-  } else {
-    active_ = Active{r, now, false};
-    fresh = true;
+  if (auto refusal = requests_.Refusal(r)) {
+    u.reason = std::move(*refusal);
+    return u;
   }
-  if (fresh) {
-    if (r.preemption) {
-      LogRequest(now, hires::kPreemptCallInputOn);
-      LogRequest(now, hires::kPreemptEntryStarted);  // no preempt delay
-    } else {
-      LogRequest(now, hires::kTspCheckIn);
-    }
+  if (r.preemption && std::ranges::none_of(plan().phases, [&](const Phase& ph) {
+        return Contains(ph.groups, r.group);
+      })) {
+    u.reason = fmt::format("no phase of plan {} drives that group", plan().name);
+    return u;
   }
-  if (InPhase(r.group)) {
-    if (active_->served) {
-      active_->request.end = std::max(active_->request.end, now + r.duration);
-    } else {
-      Serve(now, r.preemption ? hires::kPreemptBeginDwell : hires::kTspExtendGreen);
-    }
-  }
+  const MonoTime entry = requests_.EntryAt(now, r.preemption);
+  requests_.Accept(r, now, ViewForRequests(), log_);
   u.status = kGranted;
-  u.expected_green = EarliestGreen(r.group, now);
+  // The soonest its green can come: from the end of the preempt delay for a pre-emption.
+  u.expected_green = InPhase(r.group) ? std::optional(now) : EarliestGreen(r.group, entry);
   return u;
 }
 
@@ -1194,23 +1169,19 @@ RequestUpdate IntersectionController::Cancel(std::string_view vehicle, std::uint
                                              MonoTime now) {
   next_wake_ = MonoTime::min();  // an input changed: step at once
   RequestUpdate u{std::string(vehicle), request_id, kRejected, std::nullopt, std::nullopt, ""};
-  if (!active_ || active_->request.vehicle != vehicle ||
-      active_->request.request_id != request_id) {
+  const std::optional<std::size_t> group = requests_.Cancel(vehicle, request_id, now, log_);
+  if (!group) {
     u.reason = "no such active request";
     return u;
   }
-  u.group = active_->request.group;
-  EndRequest(now, kCancelled, "cancelled by the vehicle");
-  updates_.pop_back();  // answered here, not among the later changes
+  u.group = group;
   u.status = kCancelled;
   u.reason = "cancelled by the vehicle";
   return u;
 }
 
 std::vector<RequestUpdate> IntersectionController::TakeRequestUpdates() {
-  std::vector<RequestUpdate> out;
-  out.swap(updates_);
-  return out;
+  return requests_.TakeUpdates();
 }
 
 }  // namespace autodrive::scm

@@ -20,6 +20,7 @@
 #include "scm/core/city.h"
 #include "scm/core/hires_log.h"
 #include "scm/core/phase_controls.h"
+#include "scm/core/requests.h"
 
 namespace autodrive::scm {
 
@@ -68,33 +69,6 @@ struct CommandResult {
   std::string message;
   static CommandResult Ok(std::string m) { return {true, std::move(m)}; }
   static CommandResult Refused(std::string m) { return {false, std::move(m)}; }
-};
-
-/// A V2I priority or pre-emption request for one group.
-struct ServiceRequest {
-  std::string vehicle;
-  std::uint32_t request_id = 0;
-  bool preemption = false;  ///< emergency: served as soon as safe and held
-  std::size_t group = 0;    ///< group index
-  MonoTime end{};           ///< when the vehicle expects to have cleared (eta + duration)
-  /// How long the vehicle needs the green to clear: a request served late still gets this
-  /// much green from when its green starts.
-  Duration duration{0};
-};
-
-/// The state of a V2I request (J2735 SSM semantics; wire numbers only at the DDS edge).
-enum class RequestStatus { kGranted, kRejected, kCompleted, kCancelled };
-/// "granted", "rejected", "completed", "cancelled".
-[[nodiscard]] std::string_view ToString(RequestStatus status);
-
-/// What happened to a request.
-struct RequestUpdate {
-  std::string vehicle;
-  std::uint32_t request_id = 0;
-  RequestStatus status = RequestStatus::kRejected;
-  std::optional<std::size_t> group;
-  std::optional<MonoTime> expected_green;
-  std::string reason;
 };
 
 /// The controller of one intersection. Borrows its model, which must outlive it. Copyable
@@ -151,7 +125,7 @@ class IntersectionController {
   /// Status changes since the last call (completions, cancellations).
   std::vector<RequestUpdate> TakeRequestUpdates();
   /// True when `TakeRequestUpdates` has something (checking allocates nothing).
-  [[nodiscard]] bool has_request_updates() const { return !updates_.empty(); }
+  [[nodiscard]] bool has_request_updates() const { return requests_.has_updates(); }
 
   /// Logs a detector channel's change (codes 82 on, 81 off; the channel is the group's number):
   /// what the group's detector zones call, as `Step` is given it.
@@ -200,8 +174,12 @@ class IntersectionController {
   [[nodiscard]] const std::string& latch_reason() const { return latch_reason_; }
   /// The phase index while a phase runs (green or its clearance).
   [[nodiscard]] std::optional<std::size_t> phase() const;
-  [[nodiscard]] bool preemption_active() const { return active_ && active_->request.preemption; }
-  [[nodiscard]] bool priority_active() const { return active_ && !active_->request.preemption; }
+  /// A pre-emption is called or under way (NTCIP preemptState from notActiveWithCall to
+  /// exitStarted).
+  [[nodiscard]] bool preemption_active() const { return requests_.preemption_active(); }
+  /// The pre-emption's NTCIP preemptState (docs/controller.md, "Pre-emption").
+  [[nodiscard]] PreemptState preempt_state() const { return requests_.preempt_state(); }
+  [[nodiscard]] bool priority_active() const { return requests_.priority_active(); }
 
  private:
   /// The timers of the green in service.
@@ -216,11 +194,6 @@ class IntersectionController {
     /// `green_rest: sumo`: the start SUMO's green rest slides along (now minus the min green at
     /// each step with no conflicting call once the min green has passed).
     MonoTime rest_start{};
-  };
-  struct Active {
-    ServiceRequest request;
-    MonoTime accepted{};
-    bool served = false;  ///< its group has been green since it was accepted
   };
   [[nodiscard]] Mode TargetMode(std::size_t plan) const;
   [[nodiscard]] bool InPhase(std::size_t group) const;
@@ -288,12 +261,17 @@ class IntersectionController {
   /// or dark or to `wanted_plan`, a request, or the plan's rules).
   void StepGreen(MonoTime now, std::size_t wanted_plan);
   void BeginClearance(std::optional<std::size_t> next, MonoTime now);
+  /// At a step and when a green starts: the request's timers, state and log
+  /// (`Requests::Update`).
   void UpdateRequest(MonoTime now);
-  void EndRequest(MonoTime now, RequestStatus status, std::string reason);
-  /// The request's group is green from now: it is served for its duration, logged as `code`.
-  void Serve(MonoTime now, std::uint16_t code);
-  /// Logs a pre-emption or TSP event of the request (codes 102-115, number 1).
-  void LogRequest(MonoTime now, std::uint16_t code);
+  /// What the request sees of the controller now.
+  [[nodiscard]] RequestView ViewForRequests() const;
+  /// Whether the green in service is the one the pre-emption wants at `now` (the track groups'
+  /// in its track clearance, its group's otherwise).
+  [[nodiscard]] bool PreemptGreen(MonoTime now) const;
+  /// When a pre-emption may end the green in service: each group's green shown for the lesser
+  /// of its min green and preemptMinimumGreen.
+  [[nodiscard]] MonoTime EntryMinEnd() const;
   [[nodiscard]] MonoTime ComputeNextWake(MonoTime now) const;
   /// Logs `code` for the current phase (its number in the plan).
   void LogPhase(MonoTime at, std::uint16_t code) {
@@ -325,8 +303,7 @@ class IntersectionController {
   bool devices_ready_ = true;
   bool latched_ = false;
   std::string latch_reason_;
-  std::optional<Active> active_;
-  std::vector<RequestUpdate> updates_;
+  Requests requests_;        ///< the V2I request served (pre-emption or TSP)
   std::vector<bool> calls_;  ///< the last calls seen, for predictions
   MonoTime next_wake_{};
 };

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <random>
 #include <set>
 
@@ -20,7 +21,8 @@ using ::testing::HasSubstr;
 /// A shipped city with the short clearances these tests' figures were written for (yellow 3 s,
 /// red clearance and start-up all red 2 s), made legal by declaring a clearing vehicle fast
 /// enough for them (docs/scm.md, "Clearances"); the shipped cities' own are 7 s.
-City WithTwoSecondClearances(const char* name) {
+City WithTwoSecondClearances(const char* name,
+                             const std::vector<std::pair<std::string, std::string>>& more = {}) {
   const auto dir = test::SourceDir() / "config/cities";
   std::string text = config::ReadFile(dir / name);
   const auto edit = [&](const std::string& from, const std::string& to) {
@@ -33,6 +35,7 @@ City WithTwoSecondClearances(const char* name) {
   edit("all_red_s: 7.0", "all_red_s: 2.0");
   edit("{name: nigel, length_m: 0.318, speed_mps: 0.2}",
        "{name: fast, length_m: 0.318, speed_mps: 1}");
+  for (const auto& [from, to] : more) edit(from, to);
   return LoadCityString(text, name, dir);
 }
 
@@ -665,19 +668,28 @@ TEST(Controller, ARequestServedAfterItsEndStillGetsItsDurationOfGreen) {
   Rig rig(DrivingSchool().intersections[0]);
   rig.RunTo(CycleStart() + seconds(6));
   ASSERT_EQ(rig.Of(0), Aspect::kGreen);
-  // The vehicle is already due (end = now) and needs 4 s of green; west turns green at 15 s.
-  ServiceRequest req{"nigel_3", 1, true, 2, rig.now, seconds(4)};
+  // The vehicle is already due (end = now) and needs 6 s of green (more than the 5 s minimum
+  // dwell); west turns green at 15 s.
+  ServiceRequest req{"nigel_3", 1, true, 2, rig.now, seconds(6)};
   ASSERT_EQ(rig.controller.Request(req, rig.now).status, RequestStatus::kGranted);
   rig.RunTo(CycleStart() + seconds(15));
   EXPECT_EQ(rig.Of(2), Aspect::kGreen);
-  EXPECT_TRUE(rig.controller.preemption_active());
-  rig.RunTo(CycleStart() + milliseconds(18900));
-  EXPECT_TRUE(rig.controller.preemption_active());
-  rig.RunTo(CycleStart() + milliseconds(19100));
-  EXPECT_FALSE(rig.controller.preemption_active());
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kDwell);
+  rig.RunTo(CycleStart() + milliseconds(20900));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_TRUE(rig.controller.TakeRequestUpdates().empty());
+  rig.RunTo(CycleStart() + milliseconds(21100));
+  EXPECT_EQ(rig.Of(2), Aspect::kYellow);
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kExitStarted);
   const auto updates = rig.controller.TakeRequestUpdates();
   ASSERT_EQ(updates.size(), 1u);
   EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
+  // The exit phase (the one after west in the sequence: phase 4, south) turns green after the
+  // clearance, and the pre-emption is over.
+  rig.RunTo(CycleStart() + milliseconds(26100));
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kNotActive);
+  EXPECT_FALSE(rig.controller.preemption_active());
 }
 
 TEST(Controller, RequestsAreRefusedInFlashAndManual) {
@@ -878,8 +890,9 @@ void RunRandomSequences(const City& city, int sequences, std::uint32_t seed) {
       if (trace.size() >= 40) trace.erase(trace.begin());
       std::string aspects;
       for (Aspect a : c.aspects()) aspects += std::string(ToString(a)) + " ";
-      trace.push_back(fmt::format("t={:.2f} {} -> stage {} [{}]", ToSeconds(now) - 1e6, what,
-                                  ToString(c.stage()), aspects));
+      trace.push_back(fmt::format("t={:.2f} {} -> stage {} [{}] preempt {} / lazy {}",
+                                  ToSeconds(now) - 1e6, what, ToString(c.stage()), aspects,
+                                  ToString(c.preempt_state()), ToString(lazy.preempt_state())));
     };
     auto dump = [&] {
       std::string out;
@@ -1096,6 +1109,398 @@ City AsSumosController(const City& city) {
 TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleAsSumosController) {
   RunRandomSequences(AsSumosController(DrivingSchool()), test::Cases(5'000), 5);
   RunRandomSequences(AsSumosController(SmallTown()), test::Cases(5'000), 6);
+}
+
+// --- Pre-emption as NTCIP 1202's preempt state machine (docs/controller.md, "Pre-emption") ---
+
+/// The Driving School (2 s clearances) with `priority` (a YAML flow map's contents) set at its
+/// intersection.
+City DrivingSchoolWithPriority(const std::string& priority) {
+  return WithTwoSecondClearances(
+      "driving_school.yaml", {{"    timing: {min_green_s: 5.0",
+                               "    priority: {" + priority + "}\n    timing: {min_green_s: 5.0"}});
+}
+
+/// The pre-emption of the acceptance tests: delay 2 s, minimum duration 12 s, minimum green 6 s
+/// (above the 5 s min greens: the lesser is the min green), dwell 8 s, and with `track` the
+/// north group green 6 s as track clearance.
+const City& PreemptSchool(bool track) {
+  static const City with_track = DrivingSchoolWithPriority(
+      "preempt_delay_s: 2.0, preempt_min_duration_s: 12.0, preempt_min_green_s: 6.0, "
+      "preempt_dwell_green_s: 8.0, preempt_track_green_s: 6.0, preempt_track_groups: [2]");
+  static const City without = DrivingSchoolWithPriority(
+      "preempt_delay_s: 1.5, preempt_dwell_green_s: 5.0, max_preemption_s: 40.0");
+  return track ? with_track : without;
+}
+
+/// The time of the first event with `code` (any parameter) at or after `from`, if any.
+std::optional<MonoTime> Find(const std::vector<HiresEvent>& events, std::uint16_t code,
+                             MonoTime from) {
+  for (const HiresEvent& e : events) {
+    if (e.code == code && e.at >= from) return e.at;
+  }
+  return std::nullopt;
+}
+
+/// The last event with `code` for phase `phase` at or before `at`, if any.
+std::optional<MonoTime> LastBefore(const std::vector<HiresEvent>& events, std::uint16_t code,
+                                   std::uint16_t phase, MonoTime at) {
+  std::optional<MonoTime> last;
+  for (const HiresEvent& e : events) {
+    if (e.at > at) break;
+    if (e.code == code && e.param == phase) last = e.at;
+  }
+  return last;
+}
+
+/// Every yellow and red clearance in `events` lasted at least its groups' (the Driving School:
+/// one group per phase).
+void ExpectNoClearanceShortened(const IntersectionModel& x, const std::vector<HiresEvent>& events) {
+  int seen = 0;
+  for (std::size_t i = 0; i < events.size(); ++i) {
+    const HiresEvent& e = events[i];
+    if (e.code != hires::kPhaseBeginYellow && e.code != hires::kPhaseBeginRedClearance) continue;
+    const bool yellow = e.code == hires::kPhaseBeginYellow;
+    const auto end =
+        Find(std::vector<HiresEvent>(events.begin() + static_cast<long>(i) + 1, events.end()),
+             yellow ? hires::kPhaseEndYellow : hires::kPhaseEndRedClearance, e.at);
+    if (!end) continue;  // still under way at the end of the run
+    const auto& t = x.groups[x.plans[0].phases[e.param - 1u].groups[0]].timing;
+    EXPECT_GE(*end - e.at, yellow ? t.yellow : t.red_clearance)
+        << (yellow ? "yellow" : "red clearance") << " of phase " << e.param << " at "
+        << ToSeconds(e.at - CycleStart()) << " s";
+    ++seen;
+  }
+  EXPECT_GT(seen, 0);
+}
+
+/// Places one emergency request at `offset` into a settled cycle of the day plan, for `group`,
+/// its input on for `input`, and checks the whole pre-emption against the NTCIP text from the
+/// high-resolution log, the aspects (monitor and rule checker at every tick) and the states.
+struct PreemptFigures {
+  double delay_s = 0;           ///< 105 - 102
+  double dwell_s = 0;           ///< 111 - 107
+  double entry_to_exit_s = 0;   ///< 111 - 105
+  double green_to_dwell_s = 0;  ///< 107 - 102
+};
+
+void CheckOnePreemption(const City& city, Duration offset, std::size_t group, Duration input,
+                        PreemptFigures& figures) {
+  const IntersectionModel& x = city.intersections[0];
+  const PriorityParams& pp = x.priority;
+  Rig rig(x);
+  RuleChecker checker(x, rig.now);
+  const MonoTime at = CycleStart() + seconds(52) + offset;
+  const auto run_to = [&](MonoTime until) {
+    while (rig.now < until) {
+      rig.RunTo(std::min(until, rig.now + milliseconds(100)));
+      ASSERT_EQ(checker.Check(rig.now, rig.controller.aspects()), "");
+    }
+  };
+  run_to(at);
+  const bool group_green_at = rig.Of(group) == Aspect::kGreen;
+  const ServiceRequest req{"nigel_9", 1, true, group, at + input, seconds(2)};
+  const RequestUpdate u = rig.controller.Request(req, rig.now);
+  ASSERT_EQ(u.status, RequestStatus::kGranted) << u.reason;
+  ASSERT_TRUE(u.expected_green);
+  if (!group_green_at) {
+    EXPECT_GE(*u.expected_green, at + pp.preempt_delay) << "the delay counts";
+  }
+  // Run a minute and a half, stepping as the daemon does, the monitor and the rules checked at
+  // every tick, and the states seen kept.
+  std::vector<PreemptState> states{rig.controller.preempt_state()};
+  while (rig.now < at + seconds(90)) {
+    run_to(rig.now + milliseconds(100));
+    if (rig.controller.preempt_state() != states.back()) {
+      states.push_back(rig.controller.preempt_state());
+    }
+  }
+  const std::vector<HiresEvent> all = rig.controller.TakeHiresEvents();
+  std::vector<HiresEvent> events;
+  for (const HiresEvent& e : all) {
+    if (e.at >= at) events.push_back(e);
+  }
+  const auto e102 = Find(events, hires::kPreemptCallInputOn, at);
+  const auto e105 = Find(events, hires::kPreemptEntryStarted, at);
+  const auto e106 = Find(events, hires::kPreemptBeginTrackClearance, at);
+  const auto e107 = Find(events, hires::kPreemptBeginDwell, at);
+  const auto e111 = Find(events, hires::kPreemptBeginExit, at);
+  const auto e104 = Find(events, hires::kPreemptCallInputOff, at);
+  ASSERT_TRUE(e102 && e105 && e107 && e111 && e104);
+  EXPECT_EQ(*e102, at);
+  // Entry starts preemptDelay after the input.
+  EXPECT_NEAR(ToSeconds(*e105 - *e102), ToSeconds(pp.preempt_delay), 0.1);
+  // A green in service at entry that the pre-emption does not want ends (code 20) at the lesser
+  // of its min green and preemptMinimumGreen, not before; a clearance under way runs out.
+  const std::uint16_t dwell_phase = static_cast<std::uint16_t>(group + 1);
+  const std::uint16_t first_wanted = pp.track() ? std::uint16_t{2} : dwell_phase;
+  for (std::uint16_t k = 1; k <= 4; ++k) {
+    const auto green = LastBefore(all, hires::kPhaseBeginGreen, k, *e105);
+    const auto yellow = LastBefore(all, hires::kPhaseBeginYellow, k, *e105);
+    if (!green || (yellow && *yellow >= *green && *yellow < *e105) || k == first_wanted) {
+      continue;  // not green at entry, or the green the pre-emption wants
+    }
+    const auto ended = Find(events, hires::kPhaseBeginYellow, *e105);
+    ASSERT_TRUE(ended);
+    const Duration lesser =
+        std::min(x.groups[k - 1u].timing.min_green, pp.preempt_min_green.value_or(Duration::max()));
+    EXPECT_GE(*ended, *green + lesser) << "phase " << k << " cut under its minimum";
+    EXPECT_NEAR(ToSeconds(*ended), ToSeconds(std::max(*e105, *green + lesser)), 0.1)
+        << "phase " << k << " kept past the entry's end of green";
+    EXPECT_EQ(Find(events, hires::kPreemptionForceOff, *e105), *ended);
+  }
+  ExpectNoClearanceShortened(x, all);
+  // Track clearance (106): the north phase green for preemptTrackGreen, then the dwell (107).
+  if (pp.track()) {
+    ASSERT_TRUE(e106);
+    EXPECT_GE(*e106, *e105);
+    EXPECT_LT(*e106, *e107);
+    const auto track_green = LastBefore(all, hires::kPhaseBeginGreen, 2, *e106);
+    ASSERT_TRUE(track_green);
+    if (dwell_phase != 2) {
+      const auto track_end = Find(events, hires::kPhaseBeginYellow, *e106);
+      ASSERT_TRUE(track_end);
+      EXPECT_NEAR(ToSeconds(*track_end - *e106), ToSeconds(pp.preempt_track_green), 0.1);
+    } else {
+      EXPECT_NEAR(ToSeconds(*e107 - *e106), ToSeconds(pp.preempt_track_green), 0.1);
+    }
+  } else {
+    EXPECT_FALSE(e106);
+  }
+  // The dwell: the request's group green from 107 (its phase's green began then, or was already
+  // in service), lasting at least preemptDwellGreen, preemptMinimumDuration from entry and while
+  // the input is on; then the exit (111) as the dwell phase goes to yellow.
+  const auto dwell_green = LastBefore(all, hires::kPhaseBeginGreen, dwell_phase, *e107);
+  ASSERT_TRUE(dwell_green);
+  EXPECT_GE(*e107, *e105);
+  const MonoTime input_end = std::max(at + input, *e107 + req.duration);
+  const MonoTime due =
+      std::max({*e107 + pp.preempt_dwell_green, *e105 + pp.preempt_min_duration, input_end});
+  EXPECT_GE(*e111, due - milliseconds(1));
+  EXPECT_NEAR(ToSeconds(*e111), ToSeconds(due), 0.1);
+  EXPECT_EQ(Find(events, hires::kPhaseBeginYellow, *e111), *e111);
+  EXPECT_NEAR(ToSeconds(*e104), ToSeconds(input_end), 0.1);
+  // The exit phase (the one after the dwell phase) is the next green.
+  const std::uint16_t exit_phase = static_cast<std::uint16_t>((group + 1) % 4 + 1);
+  for (const HiresEvent& e : events) {
+    if (e.code == hires::kPhaseBeginGreen && e.at > *e111) {
+      EXPECT_EQ(e.param, exit_phase);
+      break;
+    }
+  }
+  // The states, in NTCIP's order (a state passed within a step is not seen).
+  const std::vector<PreemptState> order{
+      PreemptState::kNotActive,    PreemptState::kNotActiveWithCall,
+      PreemptState::kEntryStarted, PreemptState::kTrackService,
+      PreemptState::kDwell,        PreemptState::kExitStarted,
+      PreemptState::kNotActive};
+  std::size_t next = 0;
+  std::string seen;
+  for (const PreemptState s : states) {
+    seen += std::string(ToString(s)) + " ";
+    while (next < order.size() && order[next] != s) ++next;
+    ASSERT_LT(next, order.size()) << "states out of order: " << seen;
+    ++next;
+  }
+  EXPECT_EQ(states.back(), PreemptState::kNotActive) << seen;
+  EXPECT_NE(std::ranges::find(states, PreemptState::kDwell), states.end()) << seen;
+  if (pp.track() && dwell_phase != 2) {
+    EXPECT_NE(std::ranges::find(states, PreemptState::kTrackService), states.end()) << seen;
+  }
+  const auto updates = rig.controller.TakeRequestUpdates();
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
+  figures = {ToSeconds(*e105 - *e102), ToSeconds(*e111 - *e107), ToSeconds(*e111 - *e105),
+             ToSeconds(*e107 - *e102)};
+}
+
+/// The acceptance's twenty seeded emergency requests: one in each interval of the day plan's
+/// cycle (each phase's green, yellow and red clearance), then eight anywhere.
+void RunTwentyPreemptions(bool track) {
+  const City& city = PreemptSchool(track);
+  std::mt19937 rng(track ? 37 : 38);
+  std::uniform_int_distribution<int> group(0, 3);
+  std::uniform_int_distribution<int> input_ms(2500, 25'000);
+  const std::array<int, 3> starts{0, 8, 11};  // green, yellow, red clearance (2 s clearances)
+  const std::array<int, 3> lengths{8, 3, 2};
+  for (int k = 0; k < 20; ++k) {
+    int offset_ms = 0;
+    if (k < 12) {
+      const auto kind = static_cast<std::size_t>(k % 3);
+      offset_ms = 13'000 * (k / 3) + 1000 * starts[kind] +
+                  100 * std::uniform_int_distribution<int>(0, 10 * lengths[kind] - 1)(rng);
+    } else {
+      offset_ms = 100 * std::uniform_int_distribution<int>(0, 519)(rng);
+    }
+    const auto g = static_cast<std::size_t>(group(rng));
+    const auto input = milliseconds(100 * (input_ms(rng) / 100));
+    SCOPED_TRACE(fmt::format("request {}: at {:.1f} s of the cycle, group {}, input {:.1f} s", k,
+                             offset_ms / 1000.0, g + 1, ToSeconds(input)));
+    PreemptFigures f;
+    CheckOnePreemption(city, milliseconds(offset_ms), g, input, f);
+    std::printf(
+        "%s request %2d at %4.1f s group %zu input %4.1f s: 105-102 %.1f s, 107-102 "
+        "%4.1f s, dwell %4.1f s, 111-105 %4.1f s\n",
+        track ? "track" : "no track", k, offset_ms / 1000.0, g + 1, ToSeconds(input), f.delay_s,
+        f.green_to_dwell_s, f.dwell_s, f.entry_to_exit_s);
+  }
+}
+
+TEST(ControllerPreempt, TwentyRequestsInEveryIntervalFollowTheNtcipSequenceWithTrackClearance) {
+  RunTwentyPreemptions(true);
+}
+
+TEST(ControllerPreempt, TwentyRequestsInEveryIntervalFollowTheNtcipSequenceWithoutTrack) {
+  RunTwentyPreemptions(false);
+}
+
+TEST(ControllerPreempt, AStuckInputIsReleasedByMaxPresenceAndGoesOffOnlyWhenItEnds) {
+  const City city = DrivingSchoolWithPriority("max_preemption_s: 20.0");
+  Rig rig(city.intersections[0]);
+  rig.RunTo(CycleStart() + seconds(6));
+  ASSERT_EQ(rig.Of(0), Aspect::kGreen);
+  (void)rig.controller.TakeHiresEvents();
+  // West, its input on for 1000 s (stuck).
+  const ServiceRequest stuck{"nigel_4", 3, true, 2, rig.now + seconds(1000)};
+  ASSERT_EQ(rig.controller.Request(stuck, rig.now).status, RequestStatus::kGranted);
+  rig.RunTo(CycleStart() + seconds(26) - milliseconds(100));
+  EXPECT_EQ(rig.Of(2), Aspect::kGreen);
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kDwell);
+  rig.RunTo(CycleStart() + seconds(26));  // 20 s after the input: released
+  EXPECT_EQ(rig.Of(2), Aspect::kYellow);
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kExitStarted);
+  auto updates = rig.controller.TakeRequestUpdates();
+  ASSERT_EQ(updates.size(), 1u);
+  EXPECT_EQ(updates[0].status, RequestStatus::kCompleted);
+  EXPECT_THAT(updates[0].reason, HasSubstr("expired"));
+  rig.RunTo(CycleStart() + seconds(31));  // the exit phase (south) after the clearance
+  EXPECT_EQ(rig.Of(3), Aspect::kGreen);
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kMaxPresence);
+  EXPECT_FALSE(rig.controller.preemption_active());
+  // The input stays on: it is not served again, the plan runs (every group green in a cycle).
+  std::vector<bool> green(4, false);
+  while (rig.now < CycleStart() + seconds(31 + 60)) {
+    rig.RunFor(milliseconds(100));
+    for (std::size_t g = 0; g < 4; ++g) green[g] = green[g] || rig.Of(g) == Aspect::kGreen;
+    ASSERT_EQ(rig.controller.preempt_state(), PreemptState::kMaxPresence);
+  }
+  EXPECT_EQ(green, std::vector<bool>(4, true));
+  const auto again = rig.controller.Request(stuck, rig.now);
+  EXPECT_EQ(again.status, RequestStatus::kRejected);
+  EXPECT_THAT(again.reason, HasSubstr("max presence"));
+  // The input goes off (the vehicle cancels): 104, and the preempt is free again.
+  EXPECT_EQ(rig.controller.Cancel("nigel_4", 3, rig.now).status, RequestStatus::kCancelled);
+  EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kNotActive);
+  std::vector<std::pair<std::uint16_t, double>> log;
+  for (const HiresEvent& e : rig.controller.TakeHiresEvents()) {
+    if ((e.code >= 100 && e.code < 112) || e.code == hires::kPreemptionForceOff) {
+      log.push_back({e.code, ToSeconds(e.at - CycleStart())});
+    }
+  }
+  const std::vector<std::pair<std::uint16_t, double>> expected{
+      {hires::kPreemptCallInputOn, 6.0},
+      {hires::kPreemptEntryStarted, 6.0},
+      {hires::kPreemptionForceOff, 10.0},
+      {hires::kPreemptBeginDwell, 15.0},
+      {hires::kPreemptMaxPresenceExceeded, 26.0},
+      {hires::kPreemptBeginExit, 26.0},
+      {hires::kPreemptCallInputOff, ToSeconds(rig.now - CycleStart())}};
+  EXPECT_EQ(log, expected);
+}
+
+TEST(ControllerPreempt, AnInputThatGoesOffInTheDelayStartsNoPreemption) {
+  const City& city = PreemptSchool(false);  // delay 1.5 s
+  for (const bool cancel : {true, false}) {
+    SCOPED_TRACE(cancel ? "cancelled" : "ended");
+    Rig rig(city.intersections[0]);
+    const MonoTime c = CycleStart() + seconds(52);  // a settled cycle
+    rig.RunTo(c + seconds(6));
+    (void)rig.controller.TakeHiresEvents();
+    const ServiceRequest r{"nigel_5", 4, true, 2, rig.now + seconds(1)};
+    ASSERT_EQ(rig.controller.Request(r, rig.now).status, RequestStatus::kGranted);
+    EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kNotActiveWithCall);
+    EXPECT_TRUE(rig.controller.preemption_active());
+    rig.RunFor(milliseconds(500));
+    if (cancel) {
+      EXPECT_EQ(rig.controller.Cancel("nigel_5", 4, rig.now).status, RequestStatus::kCancelled);
+    } else {
+      rig.RunFor(milliseconds(500));  // its end, 1 s after the call
+      const auto updates = rig.controller.TakeRequestUpdates();
+      ASSERT_EQ(updates.size(), 1u);
+      EXPECT_EQ(updates[0].status, RequestStatus::kCancelled);
+      EXPECT_THAT(updates[0].reason, HasSubstr("preempt delay"));
+    }
+    EXPECT_EQ(rig.controller.preempt_state(), PreemptState::kNotActive);
+    const MonoTime off = rig.now;
+    // The plan goes on as if nothing had come: east's green ends at 8 s of the cycle, north's
+    // follows at 13 s.
+    rig.RunTo(c + seconds(8) - milliseconds(100));
+    EXPECT_EQ(rig.Of(0), Aspect::kGreen);
+    rig.RunTo(c + seconds(8));
+    EXPECT_EQ(rig.Of(0), Aspect::kYellow);
+    rig.RunTo(c + seconds(13));
+    EXPECT_EQ(rig.Of(1), Aspect::kGreen);
+    std::vector<std::pair<std::uint16_t, MonoTime>> log;
+    for (const HiresEvent& e : rig.controller.TakeHiresEvents()) {
+      if (e.code >= 100 && e.code < 120) log.push_back({e.code, e.at});
+    }
+    const std::vector<std::pair<std::uint16_t, MonoTime>> expected{
+        {hires::kPreemptCallInputOn, c + seconds(6)}, {hires::kPreemptCallInputOff, off}};
+    EXPECT_EQ(log, expected);
+  }
+}
+
+TEST(ControllerPreempt, ConfigsThatWouldCutAGreenUnderItsMinimumAreRefused) {
+  const auto error = [](const std::string& priority) {
+    return test::ErrorMessage<ConfigError>([&] { (void)DrivingSchoolWithPriority(priority); });
+  };
+  EXPECT_THAT(error("preempt_min_green_s: 3.0"),
+              HasSubstr("priority: preempt_min_green_s 3 s is below group 1 (east)'s min green "
+                        "5 s; rule: the conflict monitor holds every green to its min green"));
+  EXPECT_THAT(error("preempt_track_green_s: 4.0, preempt_track_groups: [2]"),
+              HasSubstr("preempt_track_green_s 4 s is below track group 2 (north)'s min green"));
+  EXPECT_THAT(error("preempt_track_groups: [2]"),
+              HasSubstr("preempt_track_green_s and preempt_track_groups come together"));
+  EXPECT_THAT(error("preempt_track_green_s: 6.0, preempt_track_groups: [9]"), HasSubstr("9"));
+  EXPECT_THAT(error("preempt_exit: first"), HasSubstr("preempt_exit"));
+  EXPECT_EQ(PreemptSchool(true).intersections[0].priority.preempt_track_groups,
+            std::vector<std::size_t>{1});
+  EXPECT_EQ(PreemptSchool(true).intersections[0].priority.preempt_delay, seconds(2));
+}
+
+/// `city` with a pre-emption sequence at every intersection: delay 2 s, minimum duration 12 s,
+/// dwell 8 s, max presence 20 s (the random requests last up to 30 s), and a track clearance by
+/// the groups of the first plan's second phase where every plan with phases has a phase with
+/// them all.
+City WithPreemptSequence(const City& city) {
+  City out = city;
+  for (auto& x : out.intersections) {
+    PriorityParams& p = x.priority;
+    p.preempt_delay = seconds(2);
+    p.preempt_min_duration = seconds(12);
+    p.preempt_dwell_green = seconds(8);
+    p.max_preemption = seconds(20);
+    const auto& track = x.plans[0].phases.at(1).groups;
+    const bool everywhere = std::ranges::all_of(x.plans, [&](const Plan& plan) {
+      return plan.phases.empty() || std::ranges::any_of(plan.phases, [&](const Phase& ph) {
+               return std::ranges::all_of(track, [&](std::size_t t) {
+                 return std::ranges::find(ph.groups, t) != ph.groups.end();
+               });
+             });
+    });
+    if (!everywhere) continue;
+    p.preempt_track_groups = track;
+    p.preempt_track_green = seconds(6);
+    for (std::size_t t : track) {
+      p.preempt_track_green = std::max(p.preempt_track_green, x.groups[t].timing.min_green);
+    }
+  }
+  return out;
+}
+
+TEST(ControllerProperty, RandomSequencesNeverBreakASafetyRuleWithAPreemptSequence) {
+  RunRandomSequences(WithPreemptSequence(DrivingSchool()), test::Cases(5'000), 7);
+  RunRandomSequences(WithPreemptSequence(SmallTown()), test::Cases(5'000), 8);
 }
 
 }  // namespace

@@ -52,6 +52,7 @@ inline constexpr std::uint16_t kDetectorOff = 81;
 inline constexpr std::uint16_t kPreemptCallInputOn = 102;
 inline constexpr std::uint16_t kPreemptCallInputOff = 104;
 inline constexpr std::uint16_t kPreemptEntryStarted = 105;
+inline constexpr std::uint16_t kPreemptBeginTrackClearance = 106;
 inline constexpr std::uint16_t kPreemptBeginDwell = 107;
 inline constexpr std::uint16_t kPreemptMaxPresenceExceeded = 110;
 inline constexpr std::uint16_t kPreemptBeginExit = 111;

@@ -106,6 +106,18 @@ const std::map<std::string, std::string> kMibUnits{
     {"channelControlSource", "phase number"},
     {"patternCycleTime", "s"},
     {"patternOffsetTime", "s"},
+    // The preempt table (asc.6.2.1; research §2.6): delay, minimum duration, minimum green, track
+    // green, dwell green and maximum presence in seconds; the phases as phase numbers.
+    {"preemptDelay", "s"},
+    {"preemptMinimumDuration", "s"},
+    {"preemptMinimumGreen", "s"},
+    {"preemptTrackGreen", "s"},
+    {"preemptDwellGreen", "s"},
+    {"preemptMaximumPresence", "s"},
+    {"preemptTrackPhase", "phase numbers"},
+    {"preemptDwellPhase", "phase numbers"},
+    {"preemptExitPhase", "phase numbers"},
+    {"preemptState", "enumeration"},
 };
 
 TEST(NtcipNames, EveryObjectOfTheTableIsInTheMibWithItsOidAndUnit) {
@@ -147,8 +159,8 @@ TEST(NtcipNames, EveryTimingKeyOfTheCityFileIsInTheTable) {
   std::string keys_column;
   for (const Row& r : DocTable()) keys_column += r.key + " ";
   const std::string config = config::ReadFile(test::SourceDir() / "scm" / "core" / "city_config.h");
-  // The structs whose keys time or sequence a plan.
-  for (const std::string s : {"TimingConfig", "PhaseConfig", "PlanConfig"}) {
+  // The structs whose keys time or sequence a plan, or a pre-emption.
+  for (const std::string s : {"TimingConfig", "PhaseConfig", "PlanConfig", "PriorityConfig"}) {
     const auto begin = config.find("struct " + s + " {");
     ASSERT_NE(begin, std::string::npos) << s;
     const auto end = config.find("\n};", begin);
@@ -158,6 +170,8 @@ TEST(NtcipNames, EveryTimingKeyOfTheCityFileIsInTheTable) {
          it != std::sregex_iterator(); ++it) {
       const std::string k = (*it)[1];
       if (k == "name" || k == "type" || k == "phases" || k == "detectors") continue;
+      // V2I priority's switch and its bus (TSP) limit: no preempt object (NTCIP 1211's).
+      if (k == "enabled" || k == "max_extension_s") continue;
       EXPECT_NE(keys_column.find(k), std::string::npos)
           << s << "'s key " << k << " is not in docs/controller.md's NTCIP table";
     }
