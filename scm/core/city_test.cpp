@@ -8,6 +8,7 @@
 #include <regex>
 
 #include "common/test_support.h"
+#include "scm/core/runtime.h"
 
 namespace autodrive::scm {
 namespace {
@@ -431,6 +432,28 @@ TEST(Districts, RefusesWhatTwoSCMsWouldFightOverOrNoneWouldRun) {
               HasSubstr("1 to 64 letters, digits or '_'"));
   EXPECT_THAT(DistrictsError("  - {name: uptown, domain: 233, intersections: [north_t]}\n"),
               HasSubstr("233"));
+}
+
+// A city edited by hand between a save and a restart: a saved phase control whose plan or phase
+// the city no longer has, or whose time is up, is dropped; the rest come back with their time left.
+TEST(RuntimeRestore, SavedPhaseControlsComeBackWithTheirTimeLeftUnlessTheCityLostTheirPhase) {
+  CityRuntime runtime(
+      std::make_unique<City>(LoadCity(test::SourceDir() / "config/cities/driving_school.yaml")));
+  const ClockReading now{MonoTime(std::chrono::seconds(100)), Time(std::chrono::seconds(5000)), 0};
+  const Time later = now.wire + std::chrono::seconds(30);
+  IntersectionStateRecord saved{
+      runtime.intersections()[0].model->id, "auto", "auto", false, now.wire, {}};
+  saved.controls = {{"hold", "day", 1, later},
+                    {"omit", "rush", 2, later},    // no such plan
+                    {"omit", "day", 9, later},     // no such phase
+                    {"call", "day", 3, now.wire},  // its time is up
+                    {"stop", "day", 2, later}};    // no such control
+  runtime.Start(now, {saved});
+  const auto& controls = runtime.intersections()[0].controller->controls().all();
+  ASSERT_EQ(controls.size(), 1u);
+  EXPECT_EQ(controls[0].kind, PhaseControlKind::kHold);
+  EXPECT_EQ(controls[0].phase, 0u);
+  EXPECT_EQ(controls[0].until, now.mono + std::chrono::seconds(30));
 }
 
 }  // namespace
